@@ -1,0 +1,65 @@
+#pragma once
+// Factor: one measurement, a function of a few variables.
+//
+// A factor computes its error e(x) and, on request, the Jacobian of e with respect to each
+// variable's tangent perturbation (the box-plus delta of variable.h). The noise model
+// whitens both: the solver minimises sum |R e|^2 ("chi2", as g2o reports it).
+//
+// Evaluate receives the variables' raw parameters (layouts in variable.h) in key order, and
+// writes Jacobians row-major, residual_dim() x TangentDim(type of key k), into jacobians[k]
+// (a null jacobians, or a null jacobians[k], means "not needed").
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tether/core/key.h"
+#include "tether/core/sqrt_information.h"
+#include "tether/core/variable.h"
+
+namespace tether {
+
+class Values;
+
+class Factor {
+ public:
+  Factor(std::vector<Key> keys, SqrtInformation noise) : keys_(std::move(keys)), noise_(noise) {}
+  virtual ~Factor() = default;
+
+  /// The registered type name of this factor (for example "BetweenSE2").
+  virtual std::string type_name() const = 0;
+  /// Residual dimension.
+  int dim() const { return noise_.dim(); }
+  /// Type expected for each key, in key order.
+  virtual std::vector<VarType> variable_types() const = 0;
+  /// Error (not whitened) and its Jacobians; returns false if it cannot be evaluated.
+  virtual bool Evaluate(const double* const* params, double* error, double* const* jacobians) const = 0;
+  /// A copy of this factor (used to copy graphs).
+  virtual std::unique_ptr<Factor> Clone() const = 0;
+  /// The measurement in the type's file layout (empty for types without one).
+  virtual std::vector<double> Measurement() const { return {}; }
+  /// For initialisation: given the parameters of key index `known`, predicts those of key
+  /// index `unknown` from the measurement alone. Returns false where the factor cannot
+  /// (the default), e.g. for unary factors.
+  virtual bool Predict(std::size_t known, const double* known_params, std::size_t unknown,
+                       double* unknown_params) const {
+    (void)known, (void)known_params, (void)unknown, (void)unknown_params;
+    return false;
+  }
+
+  const std::vector<Key>& keys() const { return keys_; }
+  const SqrtInformation& noise() const { return noise_; }
+  void set_noise(const SqrtInformation& n) { noise_ = n; }
+
+  /// Whitened residual and Jacobians.
+  bool Linearize(const double* const* params, double* residual, double* const* jacobians) const;
+  /// chi2 = e^T Omega e at the given values; throws InvalidArgument for missing/mistyped keys.
+  double Chi2(const Values& values) const;
+  /// Gathers parameter pointers for this factor's keys, checking presence and types.
+  std::vector<const double*> GatherParams(const Values& values) const;
+
+ private:
+  std::vector<Key> keys_;
+  SqrtInformation noise_;
+};
+
+}  // namespace tether

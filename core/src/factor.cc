@@ -1,0 +1,49 @@
+#include "tether/core/factor.h"
+
+#include <limits>
+
+#include "tether/core/error.h"
+#include "tether/core/values.h"
+
+namespace tether {
+
+bool Factor::Linearize(const double* const* params, double* residual, double* const* jacobians) const {
+  if (!Evaluate(params, residual, jacobians)) return false;
+  noise_.WhitenVector(residual);
+  if (jacobians != nullptr) {
+    const std::vector<VarType> types = variable_types();
+    for (std::size_t k = 0; k < keys_.size(); ++k) {
+      if (jacobians[k] != nullptr) noise_.WhitenRowMajor(jacobians[k], TangentDim(types[k]));
+    }
+  }
+  return true;
+}
+
+std::vector<const double*> Factor::GatherParams(const Values& values) const {
+  const std::vector<VarType> types = variable_types();
+  std::vector<const double*> p(keys_.size());
+  for (std::size_t k = 0; k < keys_.size(); ++k) {
+    if (!values.Has(keys_[k])) {
+      throw InvalidArgument(type_name() + " factor refers to key " + KeyToString(keys_[k]) +
+                            ", which has no value; add the variable first");
+    }
+    const VarType t = values.TypeOf(keys_[k]);
+    if (t != types[k]) {
+      throw InvalidArgument(type_name() + " factor expects " + std::string(ToString(types[k])) + " for key " +
+                            KeyToString(keys_[k]) + " but it holds " + std::string(ToString(t)));
+    }
+    p[k] = values.Params(keys_[k]);
+  }
+  return p;
+}
+
+double Factor::Chi2(const Values& values) const {
+  const std::vector<const double*> p = GatherParams(values);
+  double r[kMaxResidualDim];
+  if (!Linearize(p.data(), r, nullptr)) return std::numeric_limits<double>::infinity();
+  double s = 0;
+  for (int i = 0; i < dim(); ++i) s += r[i] * r[i];
+  return s;
+}
+
+}  // namespace tether

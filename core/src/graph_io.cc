@@ -1,0 +1,520 @@
+#include "tether/core/graph_io.h"
+
+#include <unistd.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <istream>
+#include <ostream>
+#include <sstream>
+#include <string_view>
+#include <unordered_map>
+
+#include "tether/core/error.h"
+#include "tether/core/fields.h"
+
+namespace tether {
+
+namespace {
+
+// The tags this file reads itself; every other edge tag comes from the registry.
+constexpr std::string_view kVertexSE2 = "VERTEX_SE2";
+constexpr std::string_view kVertexSE3 = "VERTEX_SE3:QUAT";
+constexpr std::string_view kVertexXY = "VERTEX_XY";
+constexpr std::string_view kVertexXYZ = "VERTEX_TRACKXYZ";
+constexpr std::string_view kFix = "FIX";
+constexpr std::string_view kToroVertex = "VERTEX2";
+constexpr std::string_view kToroEdge = "EDGE2";
+constexpr std::string_view kToroEquiv = "EQUIV";
+
+// Quaternions further than this from unit length are normalised with a warning.
+constexpr double kQuaternionNormWarning = 1e-3;
+// At most this many pieces are described in the "disconnected" message.
+constexpr std::size_t kPiecesListed = 5;
+
+bool EndsWith(const std::string& s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string Plural(std::size_t n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+void IdentityParams(VarType t, double* p) {
+  std::fill(p, p + AmbientDim(t), 0.0);
+  if (t == VarType::kSE3) p[6] = 1.0;  // qw
+}
+
+// What the reader knows about one id of the file.
+struct IdInfo {
+  VarType type = VarType::kSE2;
+  long type_line = 0;             // the line that gave the id its type
+  std::string_view type_tag;      // that line's tag (static or registry-owned storage)
+  long vertex_line = 0;           // 0: no vertex line (yet)
+  long first_edge_line = 0;       // 0: no edge uses it (yet)
+  std::string_view first_edge_tag;
+};
+
+class Reader {
+ public:
+  Reader(const std::string& name, const Registry& registry, const ReadOptions& options)
+      : name_(name), registry_(registry), options_(options) {
+    ctx_.repair = options.repair;
+    toro_by_name_ = options.format == FileFormat::kToro || (options.format == FileFormat::kAuto && EndsWith(name, ".graph"));
+  }
+
+  void Line(long number, std::string_view text) {
+    const Fields f(name_, number, text);
+    if (f.size() == 0 || f.tag()[0] == '#') return;
+    const std::string_view tag = f.tag();
+    if (tag == kVertexSE2) {
+      f.ExpectCount(4, "id x y theta");
+      const double p[3] = {f.Double(2), f.Double(3), SE2d(0, 0, f.Double(4)).theta()};
+      Vertex(f, kVertexSE2, VarType::kSE2, p);
+    } else if (tag == kVertexSE3) {
+      VertexSE3(f);
+    } else if (tag == kVertexXY) {
+      f.ExpectCount(3, "id x y");
+      const double p[2] = {f.Double(2), f.Double(3)};
+      Vertex(f, kVertexXY, VarType::kPoint2, p);
+    } else if (tag == kVertexXYZ) {
+      f.ExpectCount(4, "id x y z");
+      const double p[3] = {f.Double(2), f.Double(3), f.Double(4)};
+      Vertex(f, kVertexXYZ, VarType::kPoint3, p);
+    } else if (tag == kFix) {
+      if (f.size() < 2) f.Fail("FIX needs at least one id after the tag (FIX id [id ...]); fix or remove the line");
+      for (std::size_t i = 1; i < f.size(); ++i) fixes_.push_back({f.Id(i), number});
+    } else if (IsToroTag(tag)) {
+      ToroLine(f);
+    } else if (const FactorType* type = registry_.FindByTag(std::string(tag))) {
+      Edge(f, type->tag, registry_.Read(*type, f, ctx_));
+    } else {
+      UnknownTag(f);
+    }
+  }
+
+  GraphFile Finish() {
+    GraphFile out;
+    if (out_values_.empty() && graph_.empty()) {
+      throw ParseError(name_ + ": no vertices or edges found; is this a g2o or TORO graph file?");
+    }
+    CheckMissingVertices();
+    CheckConnected();
+    const bool complete =
+        std::all_of(ids_.begin(), ids_.end(), [](const auto& kv) { return kv.second.vertex_line != 0; });
+    if (!complete) {
+      try {
+        out.initialised_by_spanning_tree = InitializeSpanningTree(graph_, &out_values_);
+      } catch (const InvalidArgument& e) {
+        throw ParseError(name_ + ": " + e.what());
+      }
+    }
+    for (const auto& [key, line] : fixes_) {
+      if (ids_.count(key) == 0) {
+        throw ParseError(name_ + ":" + std::to_string(line) + ": FIX names id " + std::to_string(key) +
+                         ", which no vertex or edge uses; remove it from the FIX line or add its vertex");
+      }
+      graph_.Fix(key);
+    }
+    if (equiv_lines_ > 0) {
+      out.warnings.push_back(name_ + ": ignored " + Plural(equiv_lines_, "EQUIV line", "EQUIV lines") +
+                             " (first at line " + std::to_string(first_equiv_line_) +
+                             "): TORO's EQUIV says two ids are the same pose; tether does not merge them, so each "
+                             "id stays a separate variable linked only by its edges");
+    }
+    if (odd_quaternions_ > 0) {
+      out.warnings.push_back(name_ + ": normalised " + Plural(odd_quaternions_, "quaternion", "quaternions") +
+                             " of VERTEX_SE3:QUAT lines that were far from unit length (first at line " +
+                             std::to_string(first_odd_quaternion_line_) + ")");
+    }
+    if (ctx_.repaired_informations > 0) {
+      out.warnings.push_back(name_ + ": repaired " +
+                             Plural(ctx_.repaired_informations, "information matrix", "information matrices") +
+                             " that were not positive definite (first at line " +
+                             std::to_string(ctx_.first_repaired_line) + ") with '" + ToString(ctx_.repair) + "'");
+    }
+    out.repaired_informations = ctx_.repaired_informations;
+    out.values = std::move(out_values_);
+    out.graph = std::move(graph_);
+    return out;
+  }
+
+ private:
+  bool IsToroTag(std::string_view tag) const {
+    if (tag != kToroVertex && tag != kToroEdge && tag != kToroEquiv) return false;
+    if (options_.format == FileFormat::kG2o) return false;
+    // A plugin may define a g2o edge with a TORO name; in auto mode only a .graph name
+    // gives the TORO meaning precedence.
+    return toro_by_name_ || registry_.FindByTag(std::string(tag)) == nullptr;
+  }
+
+  void ToroLine(const Fields& f) {
+    const std::string_view tag = f.tag();
+    if (tag == kToroVertex) {
+      f.ExpectCount(4, "id x y theta");
+      const double p[3] = {f.Double(2), f.Double(3), SE2d(0, 0, f.Double(4)).theta()};
+      Vertex(f, kToroVertex, VarType::kSE2, p);
+    } else if (tag == kToroEdge) {
+      f.ExpectCount(11, "id1 id2 dx dy dtheta I11 I12 I22 I33 I13 I23, TORO's order");
+      const FactorType* type = registry_.FindByName("BetweenSE2");
+      if (!type || !type->make) {
+        f.Fail("EDGE2 needs the factor type 'BetweenSE2', which is not registered; call RegisterBuiltinFactors");
+      }
+      const std::vector<Key> keys = {f.Id(1), f.Id(2)};
+      const double z[3] = {f.Double(3), f.Double(4), f.Double(5)};
+      // TORO stores the upper triangle as I11 I12 I22 I33 I13 I23.
+      Eigen::MatrixXd omega(3, 3);
+      omega(0, 0) = f.Double(6);
+      omega(0, 1) = omega(1, 0) = f.Double(7);
+      omega(1, 1) = f.Double(8);
+      omega(2, 2) = f.Double(9);
+      omega(0, 2) = omega(2, 0) = f.Double(10);
+      omega(1, 2) = omega(2, 1) = f.Double(11);
+      const SqrtInformation noise = ctx_.FromInformation(f, std::move(omega));
+      Edge(f, kToroEdge, type->make(keys, z, noise));
+    } else {
+      if (equiv_lines_++ == 0) first_equiv_line_ = f.line_number();
+    }
+  }
+
+  void UnknownTag(const Fields& f) const {
+    std::string known = std::string(kVertexSE2) + " " + std::string(kVertexSE3) + " " + std::string(kVertexXY) +
+                        " " + std::string(kVertexXYZ) + " " + std::string(kFix);
+    for (const auto& [name, type] : registry_.types())
+      if (!type.tag.empty()) known += " " + type.tag;
+    if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV";
+    std::string hint = "if it is a factor type, load the plugin that defines it";
+    const std::string_view tag = f.tag();
+    if (options_.format == FileFormat::kG2o && (tag == kToroVertex || tag == kToroEdge || tag == kToroEquiv)) {
+      hint = "it is a TORO tag: read the file as TORO (a .graph name or FileFormat::kToro)";
+    }
+    f.Fail("unknown tag '" + std::string(tag) + "'; known tags: " + known + "; " + hint +
+           ", or remove the line");
+  }
+
+  // Records that line f uses `key` as a variable of type t; checks the type agrees.
+  IdInfo& UseId(const Fields& f, std::string_view stable_tag, Key key, VarType t) {
+    const auto [it, inserted] = ids_.try_emplace(key);
+    IdInfo& info = it->second;
+    if (inserted) {
+      info.type = t;
+      info.type_line = f.line_number();
+      info.type_tag = stable_tag;
+    }
+    if (!inserted && info.type != t) {
+      f.Fail("id " + std::to_string(key) + " is used here as " + std::string(ToString(t)) + " (" +
+             std::string(stable_tag) + "), but line " + std::to_string(info.type_line) + " (" +
+             std::string(info.type_tag) + ") made it " + std::string(ToString(info.type)) +
+             "; one id names one variable of one type, renumber one of them");
+    }
+    return info;
+  }
+
+  void Vertex(const Fields& f, std::string_view stable_tag, VarType t, const double* params) {
+    const Key key = f.Id(1);
+    IdInfo& info = UseId(f, stable_tag, key, t);
+    if (info.vertex_line != 0) {
+      f.Fail("duplicate vertex id " + std::to_string(key) + ": line " + std::to_string(info.vertex_line) +
+             " defines it already; remove one of the two lines");
+    }
+    info.vertex_line = f.line_number();
+    ++vertex_lines_;
+    out_values_.InsertParams(key, t, params);
+  }
+
+  void VertexSE3(const Fields& f) {
+    f.ExpectCount(8, "id x y z qx qy qz qw");
+    double p[7];
+    for (int i = 0; i < 7; ++i) p[i] = f.Double(2 + i);
+    const double norm = std::sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5] + p[6] * p[6]);
+    if (!(norm > 1e-12)) {
+      f.Fail("VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion, fix the line");
+    }
+    if (std::abs(norm - 1.0) > kQuaternionNormWarning && odd_quaternions_++ == 0) {
+      first_odd_quaternion_line_ = f.line_number();
+    }
+    for (int i = 3; i < 7; ++i) p[i] /= norm;
+    Vertex(f, kVertexSE3, VarType::kSE3, p);
+  }
+
+  void Edge(const Fields& f, std::string_view stable_tag, std::unique_ptr<Factor> factor) {
+    const std::vector<Key>& keys = factor->keys();
+    const std::vector<VarType> types = factor->variable_types();
+    if (types.size() != keys.size()) {
+      f.Fail("factor type '" + factor->type_name() + "' made a factor with " + std::to_string(keys.size()) +
+             " keys but " + std::to_string(types.size()) + " variable types; this is a bug in its plugin");
+    }
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      for (std::size_t j = 0; j < i; ++j) {
+        if (keys[i] == keys[j]) {
+          f.Fail(std::string(f.tag()) + " connects id " + std::to_string(keys[i]) +
+                 " to itself; fix or remove the line");
+        }
+      }
+    }
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      IdInfo& info = UseId(f, stable_tag, keys[i], types[i]);
+      if (info.first_edge_line == 0) {
+        info.first_edge_line = f.line_number();
+        info.first_edge_tag = stable_tag;
+      }
+    }
+    graph_.Add(std::move(factor));
+  }
+
+  // Where the file has vertex lines, every id an edge uses needs one.
+  void CheckMissingVertices() const {
+    if (vertex_lines_ == 0 || options_.allow_partial_vertices) return;
+    std::size_t missing = 0;
+    const std::pair<const Key, IdInfo>* first = nullptr;
+    for (const auto& kv : ids_) {
+      if (kv.second.vertex_line != 0) continue;
+      ++missing;
+      if (!first || kv.second.first_edge_line < first->second.first_edge_line) first = &kv;
+    }
+    if (!first) return;
+    std::string m = name_ + ":" + std::to_string(first->second.first_edge_line) + ": " +
+                    std::string(first->second.first_edge_tag) + " uses id " + std::to_string(first->first) +
+                    ", which has no vertex line, though the file has " +
+                    Plural(vertex_lines_, "vertex line", "vertex lines");
+    if (missing > 1) m += " (" + std::to_string(missing) + " ids lack one)";
+    m += "; add the missing vertices, or set ReadOptions::allow_partial_vertices to initialise them from the edges";
+    throw ParseError(m);
+  }
+
+  void CheckConnected() const {
+    std::vector<std::vector<Key>> pieces = ConnectedPieces(out_values_, graph_);
+    if (pieces.size() <= 1) return;
+    std::stable_sort(pieces.begin(), pieces.end(),
+                     [](const std::vector<Key>& a, const std::vector<Key>& b) { return a.size() > b.size(); });
+    std::string m = name_ + ": the graph falls into " + std::to_string(pieces.size()) + " disconnected pieces: ";
+    for (std::size_t i = 0; i < pieces.size() && i < kPiecesListed; ++i) {
+      if (i > 0) m += ", ";
+      m += Plural(pieces[i].size(), "variable", "variables") + " from id " + std::to_string(pieces[i].front());
+    }
+    if (pieces.size() > kPiecesListed) m += ", and " + std::to_string(pieces.size() - kPiecesListed) + " more";
+    m += "; nothing ties the pieces to each other, so their relative placement is undetermined. Add edges that "
+         "link them, or split the file into one graph per piece";
+    if (equiv_lines_ > 0) {
+      m += " (the file's " + Plural(equiv_lines_, "EQUIV line was", "EQUIV lines were") + " ignored)";
+    }
+    throw ParseError(m);
+  }
+
+  const std::string& name_;
+  const Registry& registry_;
+  const ReadOptions& options_;
+  bool toro_by_name_ = false;
+  ReadContext ctx_;
+  Values out_values_;
+  FactorGraph graph_;
+  std::unordered_map<Key, IdInfo> ids_;
+  std::vector<std::pair<Key, long>> fixes_;
+  std::size_t vertex_lines_ = 0;
+  std::size_t equiv_lines_ = 0;
+  long first_equiv_line_ = 0;
+  std::size_t odd_quaternions_ = 0;
+  long first_odd_quaternion_line_ = 0;
+};
+
+void WriteVertex(std::ostream& out, Key k, VarType t, const double* p) {
+  switch (t) {
+    case VarType::kSE2:
+      out << kVertexSE2;
+      break;
+    case VarType::kSE3:
+      out << kVertexSE3;
+      break;
+    case VarType::kPoint2:
+      out << kVertexXY;
+      break;
+    case VarType::kPoint3:
+      out << kVertexXYZ;
+      break;
+  }
+  out << ' ' << k;
+  for (int i = 0; i < AmbientDim(t); ++i) out << ' ' << FormatDouble(p[i]);
+  out << '\n';
+}
+
+std::string ErrnoText() { return std::strerror(errno); }
+
+}  // namespace
+
+GraphFile ReadGraph(std::istream& in, const std::string& name, const Registry& registry, const ReadOptions& options) {
+  Reader reader(name, registry, options);
+  std::string line;
+  long number = 0;
+  while (std::getline(in, line)) reader.Line(++number, line);
+  if (in.bad()) throw IoError(name + ": read error after line " + std::to_string(number) + "; check the file");
+  return reader.Finish();
+}
+
+GraphFile ReadGraphFile(const std::string& path, const Registry& registry, const ReadOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw IoError(path + ": is a directory, not a graph file; give the path of a .g2o or .graph file");
+  }
+  std::ifstream in(path);
+  if (!in) throw IoError(path + ": cannot open: " + ErrnoText() + "; check the path and its permissions");
+  return ReadGraph(in, path, registry, options);
+}
+
+void WriteG2o(std::ostream& out, const Values& values, const FactorGraph& graph, const Registry& registry) {
+  for (Key k : values.keys()) WriteVertex(out, k, values.TypeOf(k), values.Params(k));
+  for (Key k : graph.fixed()) out << kFix << ' ' << k << '\n';
+  for (std::size_t i = 0; i < graph.size(); ++i) {
+    try {
+      out << registry.Write(graph.at(i)) << '\n';
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument("factor #" + std::to_string(i) + ": " + e.what());
+    }
+  }
+  if (!out) throw IoError("writing the g2o graph failed (stream error); check the disk space and the output");
+}
+
+void WriteG2oFile(const std::string& path, const Values& values, const FactorGraph& graph, const Registry& registry) {
+  const std::string tmp = path + ".tmp." + std::to_string(static_cast<long>(::getpid()));
+  {
+    std::ofstream out(tmp, std::ios::out | std::ios::trunc);
+    if (!out) {
+      throw IoError("cannot write " + path + ": cannot create " + tmp + ": " + ErrnoText() +
+                    "; check that the folder exists and is writable");
+    }
+    try {
+      WriteG2o(out, values, graph, registry);
+      out.close();
+      if (!out) throw IoError("cannot write " + path + ": writing " + tmp + " failed; check the disk space");
+    } catch (...) {
+      out.close();
+      std::remove(tmp.c_str());
+      throw;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string why = ErrnoText();
+    std::remove(tmp.c_str());
+    throw IoError("cannot write " + path + ": renaming " + tmp + " to it failed: " + why +
+                  "; check that the path is not a folder and is writable");
+  }
+}
+
+std::vector<std::vector<Key>> ConnectedPieces(const Values& values, const FactorGraph& graph) {
+  // Union-find over dense indices; a hash map turns keys (which may be huge) into indices.
+  std::unordered_map<Key, std::uint32_t> index;
+  std::vector<Key> keys;
+  const auto add = [&](Key k) {
+    if (index.emplace(k, static_cast<std::uint32_t>(keys.size())).second) keys.push_back(k);
+  };
+  for (Key k : values.keys()) add(k);
+  for (const auto& f : graph.factors())
+    for (Key k : f->keys()) add(k);
+  std::vector<std::uint32_t> parent(keys.size());
+  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  const auto find = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (const auto& f : graph.factors()) {
+    const std::vector<Key>& fk = f->keys();
+    for (std::size_t j = 1; j < fk.size(); ++j) {
+      const std::uint32_t a = find(index.at(fk[0])), b = find(index.at(fk[j]));
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::unordered_map<std::uint32_t, std::size_t> piece_of_root;
+  std::vector<std::vector<Key>> pieces;
+  for (std::uint32_t i = 0; i < keys.size(); ++i) {
+    const auto [it, inserted] = piece_of_root.emplace(find(i), pieces.size());
+    if (inserted) pieces.emplace_back();
+    pieces[it->second].push_back(keys[i]);
+  }
+  for (auto& p : pieces) std::sort(p.begin(), p.end());
+  std::sort(pieces.begin(), pieces.end(),
+            [](const std::vector<Key>& a, const std::vector<Key>& b) { return a.front() < b.front(); });
+  return pieces;
+}
+
+int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
+  struct Node {
+    VarType type;
+    std::vector<std::uint32_t> factors;  // factors with two or more keys that use this key
+  };
+  std::unordered_map<Key, Node> nodes;
+  for (std::uint32_t i = 0; i < graph.size(); ++i) {
+    const Factor& f = graph.at(i);
+    const std::vector<VarType> types = f.variable_types();
+    for (std::size_t j = 0; j < f.keys().size() && j < types.size(); ++j) {
+      Node& n = nodes.try_emplace(f.keys()[j], Node{types[j], {}}).first->second;
+      if (f.keys().size() >= 2) n.factors.push_back(i);
+    }
+  }
+  std::vector<Key> missing;
+  for (const auto& kv : nodes)
+    if (!values->Has(kv.first)) missing.push_back(kv.first);
+  if (missing.empty()) return 0;
+  std::sort(missing.begin(), missing.end());
+
+  // New values are collected aside and inserted at the end, in key order, so that a failure
+  // leaves `values` untouched.
+  std::unordered_map<Key, std::array<double, 7>> fresh;
+  const auto known = [&](Key k) -> const double* {
+    if (values->Has(k)) return values->Params(k);
+    const auto it = fresh.find(k);
+    return it == fresh.end() ? nullptr : it->second.data();
+  };
+  std::deque<Key> queue;
+  for (Key k : values->keys())
+    if (nodes.count(k)) queue.push_back(k);
+  if (queue.empty()) {
+    const Key anchor = missing.front();
+    IdentityParams(nodes.at(anchor).type, fresh[anchor].data());
+    queue.push_back(anchor);
+  }
+  while (!queue.empty()) {
+    const Key k = queue.front();
+    queue.pop_front();
+    std::array<double, 7> kp;
+    const VarType kt = nodes.at(k).type;
+    std::copy(known(k), known(k) + AmbientDim(kt), kp.begin());
+    for (std::uint32_t fi : nodes.at(k).factors) {
+      const Factor& f = graph.at(fi);
+      const std::vector<Key>& fk = f.keys();
+      const std::size_t at = static_cast<std::size_t>(std::find(fk.begin(), fk.end(), k) - fk.begin());
+      for (std::size_t u = 0; u < fk.size(); ++u) {
+        if (u == at || known(fk[u])) continue;
+        std::array<double, 7> out;
+        if (!f.Predict(at, kp.data(), u, out.data())) continue;
+        const int n = AmbientDim(nodes.at(fk[u]).type);
+        if (!std::all_of(out.begin(), out.begin() + n, [](double v) { return std::isfinite(v); })) continue;
+        fresh[fk[u]] = out;
+        queue.push_back(fk[u]);
+      }
+    }
+  }
+  std::size_t unreached = 0;
+  Key first_unreached = 0;
+  for (Key k : missing) {
+    if (fresh.count(k)) continue;
+    if (unreached++ == 0) first_unreached = k;
+  }
+  if (unreached > 0) {
+    std::string m = "cannot give id " + std::to_string(first_unreached) + " an initial value";
+    if (unreached > 1) m += " (nor " + std::to_string(unreached - 1) + " other ids)";
+    m += ": no chain of factors that can predict one variable from another links it to a variable with a "
+         "value; give it an initial value (a vertex line) or add edges that link it";
+    throw InvalidArgument(m);
+  }
+  for (Key k : missing) values->InsertParams(k, nodes.at(k).type, fresh.at(k).data());
+  return static_cast<int>(missing.size());
+}
+
+}  // namespace tether

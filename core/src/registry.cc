@@ -1,0 +1,215 @@
+#include "tether/core/registry.h"
+
+#include <Eigen/Eigenvalues>
+#include <charconv>
+#include <cstdio>
+#include <sstream>
+
+#include "tether/core/error.h"
+
+namespace tether {
+
+namespace {
+
+// Names of a variable type's parameters, as g2o's vertex lines list them.
+const char* ParameterNames(VarType t) {
+  switch (t) {
+    case VarType::kSE2:
+      return "x y theta";
+    case VarType::kSE3:
+      return "x y z qx qy qz qw";
+    case VarType::kPoint2:
+      return "x y";
+    case VarType::kPoint3:
+      return "x y z";
+  }
+  return "";
+}
+
+// "id1 id2 x y theta I11 I12 I13 I22 I23 I33": the standard layout, for messages.
+std::string StandardLayout(const FactorType& t) {
+  std::string s;
+  const std::size_t n = t.variable_types.size();
+  for (std::size_t i = 0; i < n; ++i) s += (i ? " id" : "id") + std::to_string(i + 1);
+  std::string m = t.measurement_layout;
+  if (m.empty() && n > 0 && AmbientDim(t.variable_types.back()) == t.measurement_size) {
+    m = ParameterNames(t.variable_types.back());
+  }
+  if (m.empty()) {
+    for (int i = 0; i < t.measurement_size; ++i) m += (i ? " m" : "m") + std::to_string(i + 1);
+  }
+  if (!m.empty()) s += " " + m;
+  for (int i = 0; i < t.dim; ++i)
+    for (int j = i; j < t.dim; ++j) s += " I" + std::to_string(i + 1) + std::to_string(j + 1);
+  return s;
+}
+
+std::string Owned(const FactorType& t) { return "'" + t.name + "' (owner '" + t.owner + "')"; }
+
+double SmallestEigenvalue(const Eigen::MatrixXd& m) {
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(m, Eigen::EigenvaluesOnly);
+  return es.eigenvalues()(0);
+}
+
+std::string Short(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::string FormatDouble(double v) {
+  // std::to_chars without a format gives the shortest text that reads back as the same double.
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+SqrtInformation ReadContext::FromInformation(const Fields& f, Eigen::MatrixXd omega) {
+  SqrtInformation out;
+  std::string why;
+  if (SqrtInformation::TryFromInformation(omega, &out, &why)) return out;
+  if (repair == InformationRepair::kNone) {
+    const double smallest = omega.allFinite() ? SmallestEigenvalue(0.5 * (omega + omega.transpose())) : 0.0;
+    f.Fail("information matrix of " + std::string(f.tag()) + " is not positive definite (smallest eigenvalue " +
+           Short(smallest) + "); fix the file or pass --repair-information nearest-pd|isotropic");
+  }
+  if (RepairInformation(repair, &omega)) {
+    if (repaired_informations++ == 0) first_repaired_line = f.line_number();
+  }
+  if (!SqrtInformation::TryFromInformation(omega, &out, &why)) {
+    f.Fail("information matrix of " + std::string(f.tag()) + " is not positive definite even after repair '" +
+           ToString(repair) + "' (" + why + "); fix the file");
+  }
+  return out;
+}
+
+SqrtInformation ReadContext::ReadUpperInformation(const Fields& f, std::size_t first, int dim) {
+  Eigen::MatrixXd omega(dim, dim);
+  std::size_t k = first;
+  for (int i = 0; i < dim; ++i) {
+    for (int j = i; j < dim; ++j) {
+      omega(i, j) = f.Double(k++);
+      omega(j, i) = omega(i, j);
+    }
+  }
+  return FromInformation(f, std::move(omega));
+}
+
+void Registry::Register(FactorType type) {
+  const auto incomplete = [&](const std::string& what) {
+    throw InvalidArgument("cannot register factor type " + Owned(type) + ": " + what);
+  };
+  if (type.name.empty()) incomplete("the name is empty; give the type a unique name");
+  const auto same_name = by_name_.find(type.name);
+  if (same_name != by_name_.end()) {
+    throw InvalidArgument("cannot register factor type " + Owned(type) + ": the name is taken already by " +
+                          Owned(same_name->second) + "; choose another name or unload '" + same_name->second.owner +
+                          "' first");
+  }
+  if (!type.tag.empty()) {
+    const auto same_tag = tag_to_name_.find(type.tag);
+    if (same_tag != tag_to_name_.end()) {
+      throw InvalidArgument("cannot register factor type " + Owned(type) + ": the g2o tag '" + type.tag +
+                            "' is taken already by " + Owned(by_name_.at(same_tag->second)) +
+                            "; choose another tag or unload '" + by_name_.at(same_tag->second).owner + "' first");
+    }
+    if (type.tag.find_first_of(" \t\r\n") != std::string::npos || type.tag[0] == '#') {
+      incomplete("the g2o tag '" + type.tag + "' contains blanks or starts with '#'; use one word");
+    }
+  }
+  if (type.dim < 1 || type.dim > kMaxResidualDim) {
+    incomplete("its residual dimension is " + std::to_string(type.dim) + "; it must be 1 to " +
+               std::to_string(kMaxResidualDim));
+  }
+  if (type.variable_types.empty()) incomplete("it lists no variable types; a factor needs at least one key");
+  if (type.measurement_size < 0) incomplete("its measurement_size is negative");
+  if (!type.tag.empty()) {
+    if (!type.read && !type.make) {
+      incomplete("it has a g2o tag but neither `make` (standard layout) nor `read`; give one of them");
+    }
+    if (!type.write && !type.measurement) {
+      incomplete("it has a g2o tag but neither `measurement` (standard layout) nor `write`; give one of them");
+    }
+  }
+  if (!type.tag.empty()) tag_to_name_[type.tag] = type.name;
+  const std::string name = type.name;
+  by_name_.emplace(name, std::move(type));
+}
+
+int Registry::RemoveOwner(const std::string& owner) {
+  int removed = 0;
+  for (auto it = by_name_.begin(); it != by_name_.end();) {
+    if (it->second.owner == owner) {
+      if (!it->second.tag.empty()) tag_to_name_.erase(it->second.tag);
+      it = by_name_.erase(it);
+      ++removed;
+    } else {
+      ++it;
+    }
+  }
+  return removed;
+}
+
+const FactorType* Registry::FindByTag(const std::string& tag) const {
+  const auto it = tag_to_name_.find(tag);
+  return it == tag_to_name_.end() ? nullptr : FindByName(it->second);
+}
+
+const FactorType* Registry::FindByName(const std::string& name) const {
+  const auto it = by_name_.find(name);
+  return it == by_name_.end() ? nullptr : &it->second;
+}
+
+std::unique_ptr<Factor> Registry::Read(const FactorType& type, const Fields& f, ReadContext& ctx) const {
+  std::unique_ptr<Factor> factor;
+  try {
+    if (type.read) {
+      factor = type.read(f, ctx);
+    } else {
+      if (!type.make) f.Fail("factor type '" + type.name + "' has no reader; its plugin must give `make` or `read`");
+      f.ExpectCount(type.StandardFieldCount(), StandardLayout(type));
+      std::vector<Key> keys;
+      std::size_t i = 1;
+      for (std::size_t k = 0; k < type.variable_types.size(); ++k) keys.push_back(f.Id(i++));
+      std::vector<double> measurement;
+      for (int k = 0; k < type.measurement_size; ++k) measurement.push_back(f.Double(i++));
+      const SqrtInformation noise = ctx.ReadUpperInformation(f, i, type.dim);
+      factor = type.make(std::move(keys), measurement.data(), noise);
+    }
+  } catch (const InvalidArgument& e) {
+    // A factory rejected the values (for example a zero quaternion): say where.
+    f.Fail(std::string(f.tag()) + ": " + e.what() + "; fix or remove the line");
+  }
+  if (!factor) f.Fail("the reader of factor type '" + type.name + "' returned no factor; this is a bug in its plugin");
+  return factor;
+}
+
+std::string Registry::Write(const Factor& factor) const {
+  const FactorType* type = FindByName(factor.type_name());
+  if (!type) {
+    throw InvalidArgument("cannot write a factor of type '" + factor.type_name() +
+                          "': the type is not registered; load the plugin that defines it");
+  }
+  if (type->tag.empty()) {
+    throw InvalidArgument("cannot write a factor of type '" + type->name +
+                          "': it has no g2o tag, so g2o files cannot hold it");
+  }
+  if (type->write) return type->write(factor);
+  const std::vector<double> m = type->measurement ? type->measurement(factor) : factor.Measurement();
+  if (static_cast<int>(m.size()) != type->measurement_size) {
+    throw InvalidArgument("cannot write a factor of type '" + type->name + "': its measurement has " +
+                          std::to_string(m.size()) + " numbers, the type declares " +
+                          std::to_string(type->measurement_size));
+  }
+  std::string s = type->tag;
+  for (Key k : factor.keys()) s += " " + std::to_string(k);
+  for (double v : m) s += " " + FormatDouble(v);
+  const Eigen::MatrixXd info = factor.noise().Information();
+  for (int i = 0; i < info.rows(); ++i)
+    for (int j = i; j < info.cols(); ++j) s += " " + FormatDouble(info(i, j));
+  return s;
+}
+
+}  // namespace tether

@@ -1,0 +1,149 @@
+#include "tether/core/sqrt_information.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <sstream>
+
+#include "tether/core/error.h"
+
+namespace tether {
+
+bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why) {
+  const int n = static_cast<int>(omega.rows());
+  if (n < 1 || n > kMaxResidualDim || omega.cols() != n) {
+    if (why) *why = "information matrix must be square with 1 to 6 rows, got " + std::to_string(omega.rows()) + "x" +
+                    std::to_string(omega.cols());
+    return false;
+  }
+  if (!omega.allFinite()) {
+    if (why) *why = "information matrix holds NaN or inf";
+    return false;
+  }
+  const double scale = omega.cwiseAbs().maxCoeff();
+  if ((omega - omega.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(1.0, scale)) {
+    if (why) *why = "information matrix is not symmetric";
+    return false;
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(omega);
+  bool ok = llt.info() == Eigen::Success;
+  if (ok) {
+    // LLT succeeds on matrices that are only semidefinite up to rounding; insist on a
+    // strictly positive pivot relative to the scale.
+    const Eigen::MatrixXd L = llt.matrixL();
+    for (int i = 0; i < n; ++i) ok = ok && L(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
+  }
+  if (!ok) {
+    if (why) {
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(omega, Eigen::EigenvaluesOnly);
+      std::ostringstream s;
+      s << "information matrix is not positive definite (smallest eigenvalue " << es.eigenvalues()(0) << ")";
+      *why = s.str();
+    }
+    return false;
+  }
+  SqrtInformation r;
+  r.dim_ = n;
+  const Eigen::MatrixXd U = llt.matrixU();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) r.r_[i * n + j] = j >= i ? U(i, j) : 0.0;
+  *out = r;
+  return true;
+}
+
+SqrtInformation SqrtInformation::FromInformation(const Eigen::MatrixXd& omega) {
+  SqrtInformation r;
+  std::string why;
+  if (!TryFromInformation(omega, &r, &why)) throw InvalidArgument(why);
+  return r;
+}
+
+SqrtInformation SqrtInformation::Identity(int dim) { return Isotropic(dim, 1.0); }
+
+SqrtInformation SqrtInformation::Isotropic(int dim, double sigma) {
+  if (dim < 1 || dim > kMaxResidualDim || !(sigma > 0) || !std::isfinite(sigma)) {
+    throw InvalidArgument("SqrtInformation::Isotropic: need 1 <= dim <= 6 and a finite sigma > 0");
+  }
+  SqrtInformation r;
+  r.dim_ = dim;
+  for (int i = 0; i < dim; ++i) r.r_[i * dim + i] = 1.0 / sigma;
+  return r;
+}
+
+Eigen::MatrixXd SqrtInformation::R() const {
+  Eigen::MatrixXd m(dim_, dim_);
+  for (int i = 0; i < dim_; ++i)
+    for (int j = 0; j < dim_; ++j) m(i, j) = r_[i * dim_ + j];
+  return m;
+}
+
+Eigen::MatrixXd SqrtInformation::Information() const {
+  const Eigen::MatrixXd r = R();
+  return r.transpose() * r;
+}
+
+void SqrtInformation::WhitenVector(double* v) const {
+  // R is upper triangular: row i only reads entries i..n-1, so in-place works top-down.
+  for (int i = 0; i < dim_; ++i) {
+    double s = 0;
+    for (int j = i; j < dim_; ++j) s += r_[i * dim_ + j] * v[j];
+    v[i] = s;
+  }
+}
+
+void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
+  for (int i = 0; i < dim_; ++i) {
+    for (int c = 0; c < cols; ++c) {
+      double s = 0;
+      for (int j = i; j < dim_; ++j) s += r_[i * dim_ + j] * m[j * cols + c];
+      m[i * cols + c] = s;
+    }
+  }
+}
+
+const char* ToString(InformationRepair r) {
+  switch (r) {
+    case InformationRepair::kNone:
+      return "none";
+    case InformationRepair::kNearestPD:
+      return "nearest-pd";
+    case InformationRepair::kIsotropic:
+      return "isotropic";
+  }
+  return "none";
+}
+
+bool FromString(const std::string& s, InformationRepair* r) {
+  for (InformationRepair v : {InformationRepair::kNone, InformationRepair::kNearestPD, InformationRepair::kIsotropic}) {
+    if (s == ToString(v)) {
+      *r = v;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool RepairInformation(InformationRepair mode, Eigen::MatrixXd* omega) {
+  SqrtInformation tmp;
+  if (SqrtInformation::TryFromInformation(*omega, &tmp, nullptr)) return false;
+  if (mode == InformationRepair::kNone || !omega->allFinite()) return false;
+  const int n = static_cast<int>(omega->rows());
+  const Eigen::MatrixXd sym = 0.5 * (*omega + omega->transpose());
+  if (mode == InformationRepair::kIsotropic) {
+    const double mean = sym.trace() / n;
+    *omega = (mean > 0 ? mean : 1.0) * Eigen::MatrixXd::Identity(n, n);
+    return true;
+  }
+  // Nearest symmetric positive definite matrix in the Frobenius norm: keep the eigenvectors
+  // and raise every eigenvalue to a floor relative to the largest one.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(sym);
+  Eigen::VectorXd ev = es.eigenvalues();
+  const double top = ev.cwiseAbs().maxCoeff();
+  const double floor = std::max(top, 1.0) * 1e-9;
+  for (int i = 0; i < n; ++i) ev(i) = std::max(ev(i), floor);
+  *omega = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
+  *omega = 0.5 * (*omega + omega->transpose());
+  return true;
+}
+
+}  // namespace tether

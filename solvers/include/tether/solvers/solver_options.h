@@ -1,0 +1,100 @@
+#pragma once
+// Options and results of the nonlinear solvers, in the spirit of Ceres' Solver::Options and
+// Solver::Summary: plain structs with documented defaults, validated by IsValid.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tether/core/key.h"
+
+namespace tether {
+
+enum class Algorithm { kGaussNewton, kLevenbergMarquardt };
+enum class LinearSolverType {
+  kCholmod,     ///< CHOLMOD supernodal Cholesky of H = J^T J (default)
+  kEigenLDLT,   ///< Eigen SimplicialLDLT of H (no SuiteSparse needed at run time)
+  kQR,          ///< SuiteSparseQR on the Jacobian J itself (better conditioned, slower)
+};
+enum class SolverStatus {
+  kConverged,         ///< a tolerance was met
+  kMaxIterations,     ///< max_iterations reached first
+  kTimeLimit,         ///< max_seconds reached first
+  kDiverged,          ///< chi2 became non-finite or grew without bound; last good values kept
+  kRankDeficient,     ///< the linear system is singular (gauge not fixed, disconnected graph)
+  kInvalidInput,      ///< options or graph invalid (message says why); values untouched
+};
+
+// Names used by the CLI and reports: "gn", "lm"; "cholmod", "ldlt", "qr"; "converged", ...
+const char* ToString(Algorithm a);
+const char* ToString(LinearSolverType t);
+const char* ToString(SolverStatus s);
+bool FromString(const std::string& s, Algorithm* a);
+bool FromString(const std::string& s, LinearSolverType* t);
+bool FromString(const std::string& s, SolverStatus* st);
+
+/// One row of the iteration log.
+struct IterationSummary {
+  int iteration = 0;              ///< 0 is the initial state
+  double chi2 = 0;                ///< chi2 after this iteration (of the accepted state)
+  double relative_decrease = 0;   ///< (chi2_before - chi2_after) / chi2_before of the tried step
+  double lambda = 0;              ///< LM damping used for the step (0 for GN)
+  double step_norm = 0;           ///< |delta| of the tried step
+  double seconds = 0;             ///< since the solve started
+  bool accepted = true;           ///< LM: whether the step was kept
+};
+
+struct SolverOptions {
+  Algorithm algorithm = Algorithm::kLevenbergMarquardt;
+  LinearSolverType linear_solver = LinearSolverType::kCholmod;
+  int max_iterations = 100;
+  /// Stop when an accepted step lowers chi2 by less than this fraction.
+  double function_tolerance = 1e-9;
+  /// Stop when max |g_i| (gradient of chi2 / 2 in tangent coordinates) is below this.
+  double gradient_tolerance = 1e-10;
+  /// Stop when |delta| <= parameter_tolerance * (|x| + parameter_tolerance).
+  double parameter_tolerance = 1e-10;
+  /// Wall-clock limit in seconds (0: none).
+  double max_seconds = 0;
+  /// LM: initial damping, relative to the diagonal of H (Marquardt scaling).
+  double initial_lambda = 1e-5;
+  /// LM: give up (converged: no step lowers chi2) when lambda exceeds this.
+  double max_lambda = 1e16;
+  /// Called after every iteration (and once for iteration 0).
+  std::function<void(const IterationSummary&)> callback;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct SolverSummary {
+  SolverStatus status = SolverStatus::kInvalidInput;
+  std::string message;                 ///< why it stopped, in words
+  Algorithm algorithm = Algorithm::kLevenbergMarquardt;
+  LinearSolverType linear_solver = LinearSolverType::kCholmod;
+  double initial_chi2 = 0;
+  double final_chi2 = 0;
+  int iterations = 0;                  ///< iterations tried (accepted or not)
+  int accepted_iterations = 0;
+  double total_seconds = 0;
+  double setup_seconds = 0;            ///< symbolic analysis and structure
+  double linearize_seconds = 0;        ///< evaluating factors and assembling
+  double solve_seconds = 0;            ///< numeric factorisation and solves
+  int num_variables = 0;               ///< free variables
+  int num_fixed = 0;                   ///< variables held constant
+  int num_factors = 0;
+  int num_residuals = 0;
+  int tangent_dim = 0;                 ///< columns of J
+  bool gauge_fixed_automatically = false;
+  Key gauge_key = 0;                   ///< the variable fixed automatically, if any
+  std::vector<IterationSummary> log;
+
+  bool IsSolutionUsable() const {
+    return status == SolverStatus::kConverged || status == SolverStatus::kMaxIterations ||
+           status == SolverStatus::kTimeLimit;
+  }
+  /// One line: status, chi2 before and after, iterations, time.
+  std::string BriefReport() const;
+  /// Several lines: problem size, settings, timings and why it stopped.
+  std::string FullReport() const;
+};
+
+}  // namespace tether

@@ -1,0 +1,139 @@
+// CHOLMOD supernodal Cholesky (and SuiteSparseQR) wrappers.
+#include <SuiteSparseQR.hpp>
+#include <cholmod.h>
+
+#include <cstring>
+
+#include "linear_solver.h"
+#include "tether/core/error.h"
+
+namespace tether {
+namespace internal {
+
+namespace {
+
+// A cholmod_sparse header that borrows the arrays of a Csc (no copy).
+cholmod_sparse View(const Csc& a, int stype) {
+  cholmod_sparse s;
+  std::memset(&s, 0, sizeof(s));
+  s.nrow = a.rows;
+  s.ncol = a.cols;
+  s.nzmax = a.values.size();
+  s.p = const_cast<int*>(a.colptr.data());
+  s.i = const_cast<int*>(a.rowind.data());
+  s.x = const_cast<double*>(a.values.data());
+  s.stype = stype;
+  s.itype = CHOLMOD_INT;
+  s.xtype = CHOLMOD_REAL;
+  s.dtype = CHOLMOD_DOUBLE;
+  s.sorted = 1;
+  s.packed = 1;
+  return s;
+}
+
+cholmod_dense DenseView(double* x, int n) {
+  cholmod_dense d;
+  std::memset(&d, 0, sizeof(d));
+  d.nrow = n;
+  d.ncol = 1;
+  d.nzmax = n;
+  d.d = n;
+  d.x = x;
+  d.xtype = CHOLMOD_REAL;
+  d.dtype = CHOLMOD_DOUBLE;
+  return d;
+}
+
+class Cholmod : public SparseCholesky {
+ public:
+  Cholmod() {
+    cholmod_start(&cc_);
+    cc_.supernodal = CHOLMOD_SUPERNODAL;
+    cc_.print = 0;
+    cc_.error_handler = nullptr;
+    cc_.quick_return_if_not_posdef = 1;
+  }
+  ~Cholmod() override {
+    if (L_) cholmod_free_factor(&L_, &cc_);
+    if (X_) cholmod_free_dense(&X_, &cc_);
+    if (Y_) cholmod_free_dense(&Y_, &cc_);
+    if (E_) cholmod_free_dense(&E_, &cc_);
+    cholmod_finish(&cc_);
+  }
+  void Analyze(const Csc& h) override {
+    cholmod_sparse a = View(h, 1);
+    if (L_) cholmod_free_factor(&L_, &cc_);
+    L_ = cholmod_analyze(&a, &cc_);
+    if (L_ == nullptr || cc_.status < CHOLMOD_OK) {
+      throw Error("CHOLMOD could not analyse the normal equations (status " + std::to_string(cc_.status) +
+                  "); try --linear ldlt");
+    }
+    n_ = h.cols;
+  }
+  FactorResult Factorize(const Csc& h) override {
+    cholmod_sparse a = View(h, 1);
+    cholmod_factorize(&a, L_, &cc_);
+    if (cc_.status == CHOLMOD_NOT_POSDEF || L_->minor < L_->n) return FactorResult::kNotPositiveDefinite;
+    if (cc_.status < CHOLMOD_OK) return FactorResult::kFailed;
+    return FactorResult::kOk;
+  }
+  void Solve(const double* b, double* x) override {
+    cholmod_dense bd = DenseView(const_cast<double*>(b), n_);
+    cholmod_solve2(CHOLMOD_A, L_, &bd, nullptr, &X_, nullptr, &Y_, &E_, &cc_);
+    std::memcpy(x, X_->x, sizeof(double) * n_);
+  }
+  std::string Description() const override { return "CHOLMOD supernodal"; }
+
+ private:
+  cholmod_common cc_;
+  cholmod_factor* L_ = nullptr;
+  cholmod_dense *X_ = nullptr, *Y_ = nullptr, *E_ = nullptr;
+  int n_ = 0;
+};
+
+class Spqr : public SparseQR {
+ public:
+  Spqr() {
+    cholmod_start(&cc_);
+    cc_.print = 0;
+    cc_.error_handler = nullptr;
+  }
+  ~Spqr() override {
+    if (qr_) SuiteSparseQR_free<double>(&qr_, &cc_);
+    cholmod_finish(&cc_);
+  }
+  void Analyze(const Csc& j) override {
+    cholmod_sparse a = View(j, 0);
+    qr_ = SuiteSparseQR_symbolic<double>(SPQR_ORDERING_DEFAULT, 0, &a, &cc_);
+    if (qr_ == nullptr) throw Error("SuiteSparseQR could not analyse the Jacobian; try --linear cholmod");
+    rows_ = j.rows;
+    cols_ = j.cols;
+  }
+  FactorResult Factorize(const Csc& j) override {
+    cholmod_sparse a = View(j, 0);
+    if (!SuiteSparseQR_numeric<double>(SPQR_DEFAULT_TOL, &a, qr_, &cc_)) return FactorResult::kFailed;
+    if (qr_->rank < cols_) return FactorResult::kRankDeficient;
+    return FactorResult::kOk;
+  }
+  void Solve(const double* b, double* x) override {
+    cholmod_dense bd = DenseView(const_cast<double*>(b), rows_);
+    cholmod_dense* y = SuiteSparseQR_qmult<double>(SPQR_QTX, qr_, &bd, &cc_);
+    cholmod_dense* sol = SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_);
+    std::memcpy(x, sol->x, sizeof(double) * cols_);
+    cholmod_free_dense(&y, &cc_);
+    cholmod_free_dense(&sol, &cc_);
+  }
+
+ private:
+  cholmod_common cc_;
+  SuiteSparseQR_factorization<double>* qr_ = nullptr;
+  int rows_ = 0, cols_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<SparseCholesky> MakeCholmod() { return std::make_unique<Cholmod>(); }
+std::unique_ptr<SparseQR> MakeSpqr() { return std::make_unique<Spqr>(); }
+
+}  // namespace internal
+}  // namespace tether

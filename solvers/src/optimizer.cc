@@ -1,0 +1,326 @@
+#include "tether/solvers/optimizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "linear_solver.h"
+#include "problem.h"
+#include "tether/core/error.h"
+
+namespace tether {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+double Dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];
+  return s;
+}
+
+double MaxAbs(const std::vector<double>& a) {
+  double m = 0;
+  for (double v : a) m = std::max(m, std::abs(v));
+  return m;
+}
+
+// Chooses what to hold fixed: the graph's own fixed set, or (where it fixes nothing and no
+// unary factor anchors the problem) the pose with the lowest key.
+std::set<Key> ChooseFixed(const FactorGraph& graph, const Values& values, SolverSummary* s) {
+  std::set<Key> fixed = graph.fixed();
+  if (!fixed.empty()) return fixed;
+  for (const auto& f : graph.factors()) {
+    if (f->keys().size() == 1) return fixed;
+  }
+  bool found = false;
+  Key best = 0;
+  for (Key k : values.keys()) {
+    if (IsPose(values.TypeOf(k)) && (!found || k < best)) {
+      best = k;
+      found = true;
+    }
+  }
+  if (found) {
+    fixed.insert(best);
+    s->gauge_fixed_automatically = true;
+    s->gauge_key = best;
+  }
+  return fixed;
+}
+
+// One linear solve of the damped system, whichever back-end is in use.
+class StepSolver {
+ public:
+  StepSolver(internal::Problem* p, LinearSolverType type) : p_(p), type_(type) {
+    const int n = p->tangent_dim();
+    g_.assign(n, 0.0);
+    diag_.assign(n, 0.0);
+    if (type == LinearSolverType::kQR) {
+      p->BuildJacobianStructure(&mat_, &damping_pos_);
+      rhs_.assign(mat_.rows, 0.0);
+      qr_ = internal::MakeSpqr();
+      qr_->Analyze(mat_);
+    } else {
+      p->BuildNormalStructure(&mat_, &damping_pos_);
+      chol_ = type == LinearSolverType::kCholmod ? internal::MakeCholmod() : internal::MakeEigenLDLT();
+      chol_->Analyze(mat_);
+      undamped_diag_.assign(n, 0.0);
+      neg_g_.assign(n, 0.0);
+    }
+  }
+
+  /// After Problem::Linearize: builds H (or J) and the gradient for the current point.
+  void Assemble() {
+    if (type_ == LinearSolverType::kQR) {
+      p_->Gradient(g_.data(), diag_.data());
+      p_->AssembleJacobian(&mat_, rhs_.data());
+    } else {
+      p_->AssembleNormal(&mat_, g_.data());
+      for (std::size_t i = 0; i < damping_pos_.size(); ++i) {
+        undamped_diag_[i] = mat_.values[damping_pos_[i]];
+        diag_[i] = undamped_diag_[i];
+        neg_g_[i] = -g_[i];
+      }
+    }
+  }
+
+  /// delta solving (H + lambda D) delta = -g with D = clamp(diag(H)).
+  internal::FactorResult Solve(double lambda, std::vector<double>* delta) {
+    const std::size_t n = damping_pos_.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double d = std::clamp(diag_[i], 1e-6, 1e32);
+      if (type_ == LinearSolverType::kQR) {
+        mat_.values[damping_pos_[i]] = std::sqrt(lambda * d);
+      } else {
+        mat_.values[damping_pos_[i]] = undamped_diag_[i] + lambda * d;
+      }
+    }
+    internal::FactorResult r;
+    if (type_ == LinearSolverType::kQR) {
+      r = qr_->Factorize(mat_);
+      if (r == internal::FactorResult::kOk) qr_->Solve(rhs_.data(), delta->data());
+    } else {
+      r = chol_->Factorize(mat_);
+      if (r == internal::FactorResult::kOk) chol_->Solve(neg_g_.data(), delta->data());
+    }
+    return r;
+  }
+
+  const std::vector<double>& gradient() const { return g_; }
+  double ClampedDiag(std::size_t i) const { return std::clamp(diag_[i], 1e-6, 1e32); }
+
+ private:
+  internal::Problem* p_;
+  LinearSolverType type_;
+  internal::Csc mat_;
+  std::vector<int> damping_pos_;
+  std::vector<double> g_, neg_g_, diag_, undamped_diag_, rhs_;
+  std::unique_ptr<internal::SparseCholesky> chol_;
+  std::unique_ptr<internal::SparseQR> qr_;
+};
+
+}  // namespace
+
+SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+  const Clock::time_point t0 = Clock::now();
+  SolverSummary s;
+  s.algorithm = options.algorithm;
+  s.linear_solver = options.linear_solver;
+  s.num_factors = static_cast<int>(graph.size());
+  if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
+  std::string why;
+  if (!options.IsValid(&why)) {
+    s.status = SolverStatus::kInvalidInput;
+    s.message = "invalid options: " + why;
+    return s;
+  }
+  const std::set<Key> fixed = ChooseFixed(graph, *values, &s);
+  std::unique_ptr<internal::Problem> problem;
+  try {
+    problem = std::make_unique<internal::Problem>(graph, values, fixed);
+  } catch (const Error& e) {
+    s.status = SolverStatus::kInvalidInput;
+    s.message = e.what();
+    return s;
+  }
+  internal::Problem& p = *problem;
+  s.num_variables = p.num_free();
+  s.num_fixed = static_cast<int>(values->size()) - p.num_free();
+  s.num_residuals = p.num_residuals();
+  s.tangent_dim = p.tangent_dim();
+
+  double chi2 = p.Linearize();
+  s.initial_chi2 = s.final_chi2 = chi2;
+  if (!std::isfinite(chi2)) {
+    s.status = SolverStatus::kInvalidInput;
+    s.message = "chi2 at the initial values is not finite; check the initial values and measurements";
+    return s;
+  }
+  auto report = [&](const IterationSummary& it) {
+    s.log.push_back(it);
+    if (options.callback) options.callback(it);
+  };
+  IterationSummary it0;
+  it0.chi2 = chi2;
+  it0.lambda = options.algorithm == Algorithm::kLevenbergMarquardt ? options.initial_lambda : 0.0;
+  if (p.tangent_dim() == 0) {
+    s.status = SolverStatus::kConverged;
+    s.message = "nothing to optimise: every variable is fixed";
+    s.total_seconds = SecondsSince(t0);
+    it0.seconds = s.total_seconds;
+    report(it0);
+    return s;
+  }
+
+  std::unique_ptr<StepSolver> solver;
+  try {
+    solver = std::make_unique<StepSolver>(&p, options.linear_solver);
+  } catch (const Error& e) {
+    s.status = SolverStatus::kInvalidInput;
+    s.message = e.what();
+    return s;
+  }
+  s.setup_seconds = SecondsSince(t0);
+  const bool lm = options.algorithm == Algorithm::kLevenbergMarquardt;
+  const int n = p.tangent_dim();
+  std::vector<double> delta(n, 0.0);
+  double lambda = options.initial_lambda, nu = 2.0;
+  double best_chi2 = chi2;  // GN: the best state seen is kept in the Problem's save slot
+  p.Save();
+
+  Clock::time_point tl = Clock::now();
+  solver->Assemble();
+  s.linearize_seconds += SecondsSince(tl);
+  it0.seconds = SecondsSince(t0);
+  report(it0);
+
+  s.status = SolverStatus::kMaxIterations;
+  s.message = "reached the maximum number of iterations (" + std::to_string(options.max_iterations) + ")";
+  if (MaxAbs(solver->gradient()) < options.gradient_tolerance) {
+    s.status = SolverStatus::kConverged;
+    s.message = "gradient below gradient_tolerance at the start";
+  }
+  while (s.status == SolverStatus::kMaxIterations && s.iterations < options.max_iterations) {
+    if (options.max_seconds > 0 && SecondsSince(t0) > options.max_seconds) {
+      s.status = SolverStatus::kTimeLimit;
+      s.message = "reached the time limit";
+      break;
+    }
+    ++s.iterations;
+    IterationSummary it;
+    it.iteration = s.iterations;
+    it.lambda = lm ? lambda : 0.0;
+    const Clock::time_point ts = Clock::now();
+    const internal::FactorResult fr = solver->Solve(lm ? lambda : 0.0, &delta);
+    s.solve_seconds += SecondsSince(ts);
+    if (fr != internal::FactorResult::kOk) {
+      if (lm && lambda < options.max_lambda) {
+        it.accepted = false;
+        it.chi2 = chi2;
+        it.seconds = SecondsSince(t0);
+        report(it);
+        lambda *= nu;
+        nu *= 2;
+        continue;
+      }
+      s.status = SolverStatus::kRankDeficient;
+      s.message = std::string("the linear system is singular (") +
+                  (fr == internal::FactorResult::kNotPositiveDefinite ? "not positive definite" : "rank deficient") +
+                  "): some variables are not constrained; fix a pose, add a prior, or check that the graph "
+                  "is connected";
+      break;
+    }
+    double step2 = 0;
+    for (double d : delta) step2 += d * d;
+    it.step_norm = std::sqrt(step2);
+    if (!std::isfinite(it.step_norm)) {
+      s.status = SolverStatus::kDiverged;
+      s.message = "the linear solve produced a non-finite step";
+      break;
+    }
+    // Predicted decrease of the linear model: -2 g.d - d^T H d = -g.d + lambda d^T D d.
+    double dDd = 0;
+    for (int i = 0; i < n; ++i) dDd += delta[i] * delta[i] * solver->ClampedDiag(i);
+    const double predicted = -Dot(solver->gradient(), delta) + lambda * dDd;
+    const double x_norm = p.ParameterNorm();
+    if (lm) p.Save();
+    p.Retract(delta.data());
+    tl = Clock::now();
+    const double new_chi2 = p.Chi2();
+    s.linearize_seconds += SecondsSince(tl);
+    it.relative_decrease = (chi2 - new_chi2) / chi2;
+
+    if (lm) {
+      if (std::isfinite(new_chi2) && new_chi2 < chi2) {
+        const double rho = predicted > 0 ? (chi2 - new_chi2) / predicted : 0.0;
+        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        lambda = std::max(lambda, 1e-15);
+        nu = 2.0;
+      } else {
+        p.Restore();
+        it.accepted = false;
+        it.chi2 = chi2;
+        it.seconds = SecondsSince(t0);
+        report(it);
+        lambda *= nu;
+        nu *= 2.0;
+        if (lambda > options.max_lambda) {
+          s.status = SolverStatus::kConverged;
+          s.message = "no step lowers chi2 any further (damping reached max_lambda)";
+        }
+        continue;
+      }
+    } else if (!std::isfinite(new_chi2)) {
+      s.status = SolverStatus::kDiverged;
+      s.message = "chi2 became non-finite after a Gauss-Newton step; try --solver lm";
+      it.accepted = false;
+      it.chi2 = chi2;
+      it.seconds = SecondsSince(t0);
+      report(it);
+      break;
+    }
+    ++s.accepted_iterations;
+    const double old_chi2 = chi2;
+    tl = Clock::now();
+    chi2 = p.Linearize();
+    solver->Assemble();
+    s.linearize_seconds += SecondsSince(tl);
+    if (!lm && chi2 < best_chi2) {
+      best_chi2 = chi2;
+      p.Save();
+    }
+    it.chi2 = chi2;
+    it.seconds = SecondsSince(t0);
+    report(it);
+    if (std::abs(old_chi2 - chi2) <= options.function_tolerance * old_chi2) {
+      s.status = SolverStatus::kConverged;
+      s.message = "relative decrease of chi2 below function_tolerance";
+    } else if (MaxAbs(solver->gradient()) < options.gradient_tolerance) {
+      s.status = SolverStatus::kConverged;
+      s.message = "gradient below gradient_tolerance";
+    } else if (it.step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance)) {
+      s.status = SolverStatus::kConverged;
+      s.message = "step below parameter_tolerance";
+    }
+  }
+  if (!lm && chi2 > best_chi2) {
+    // Gauss-Newton wandered uphill: hand back the best state it visited.
+    p.Restore();
+    chi2 = best_chi2;
+    if (s.status != SolverStatus::kConverged) s.message += "; returned the best values visited";
+  }
+  if (!lm && s.status == SolverStatus::kDiverged) {
+    p.Restore();
+    chi2 = best_chi2;
+  }
+  s.final_chi2 = chi2;
+  s.total_seconds = SecondsSince(t0);
+  return s;
+}
+
+}  // namespace tether

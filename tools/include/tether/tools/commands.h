@@ -1,0 +1,34 @@
+#pragma once
+// The commands of the `tether` program, callable from tests. Each returns the process exit
+// code and writes its report to `out` and errors to `err`.
+#include <iosfwd>
+#include <string>
+
+namespace tether {
+
+struct OptimizeCommand {
+  std::string input;
+  std::string output;            ///< g2o file with the optimised values (optional)
+  std::string plot;              ///< SVG with the trajectory before and after (optional)
+  std::string solver = "lm";     ///< gn | lm
+  std::string linear = "cholmod";  ///< cholmod | ldlt | qr
+  int max_iterations = 100;
+  double time_limit = 0;         ///< seconds, 0 for none
+  std::string repair_information = "none";  ///< none | nearest-pd | isotropic
+  bool quiet = false;            ///< no iteration table
+};
+
+struct SimulateCommand {
+  std::string world = "manhattan";  ///< manhattan | sphere | landmarks
+  int poses = 500;
+  unsigned long long seed = 1;
+  std::string output;
+  std::string ground_truth;  ///< optional g2o file with the true values
+};
+
+/// Exit codes: 0 solved; 1 bad input (nothing written); 2 bad usage; 3 the solver failed
+/// (status says why; nothing written).
+int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err);
+int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err);
+
+}  // namespace tether

@@ -1,0 +1,51 @@
+#pragma once
+// SVG plots of a graph's trajectory before and after optimisation.
+//
+// What is drawn (3D variables as their x-y projection, y axis up, equal scale on both axes,
+// bounds fitted to everything drawn with a small margin):
+// - the `before` trajectory in light grey and the `after` trajectory in blue, each one <path>:
+//   poses (SE2/SE3 variables) in key order, pose k joined to pose k+1 wherever a two-key
+//   factor links them (odometry); a pose with no such neighbour is drawn as a dot;
+// - loop closures, in thin red, one <path> of segments: two-key factors between poses whose
+//   keys are not consecutive, at the positions of `after` (of `before` when `after` is null);
+// - landmarks (Point2/Point3 variables) as small squares, orange for `after`, grey for
+//   `before`, one <path> each;
+// - a green circle at the first pose, a legend of what is present, and a scale bar.
+// Either Values pointer may be null (then only the other is drawn). Variables whose
+// coordinates are not finite are left out. Coordinates are written in pixels rounded to 0.01,
+// as relative path commands, so 100k poses make a file of a few megabytes with a few elements.
+#include <string>
+
+#include "tether/core/factor_graph.h"
+#include "tether/core/values.h"
+
+namespace tether {
+
+struct PlotOptions {
+  /// Drawn above the plot (nothing when empty).
+  std::string title;
+  /// Width of the picture in pixels, in [200, 20000].
+  int width_px = 900;
+  /// Height in pixels, in [150, 20000]; 0 chooses it from the data's aspect ratio.
+  int height_px = 0;
+  /// Legend labels.
+  std::string before_label = "before";
+  std::string after_label = "after";
+  bool draw_loop_closures = true;
+  bool draw_landmarks = true;
+
+  /// True when the options can be used; otherwise says why (when `why` is not null).
+  bool IsValid(std::string* why) const;
+};
+
+/// The SVG document (starting "<svg", ending "</svg>\n"). Throws InvalidArgument for invalid
+/// options.
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after,
+                      const PlotOptions& options = {});
+
+/// Writes RenderSvg's output to `path`, through a temporary file renamed into place, so a
+/// failure never leaves half a file. Throws IoError naming `path` when it cannot be written.
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before,
+                  const Values* after, const PlotOptions& options = {});
+
+}  // namespace tether

@@ -1,0 +1,42 @@
+// tether: the command-line program. `tether --help` lists the commands.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "tether/tools/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"tether: factor-graph optimisation for SLAM"};
+  app.require_subcommand(1);
+
+  tether::OptimizeCommand opt;
+  CLI::App* optimize = app.add_subcommand("optimize", "Optimise a g2o or TORO graph file");
+  optimize->add_option("input", opt.input, "Graph file (.g2o, or TORO .graph)")->required();
+  optimize->add_option("-o,--output", opt.output, "Write the optimised graph (g2o)");
+  optimize->add_option("--solver", opt.solver, "gn | lm")->capture_default_str();
+  optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr")->capture_default_str();
+  optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
+  optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
+  optimize->add_option("--repair-information", opt.repair_information,
+                       "none | nearest-pd | isotropic: what to do with information matrices that are not "
+                       "positive definite")
+      ->capture_default_str();
+  optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
+  optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
+
+  tether::SimulateCommand sim;
+  CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");
+  simulate->add_option("world", sim.world, "manhattan | sphere | landmarks")->required();
+  simulate->add_option("--poses", sim.poses, "Number of poses")->capture_default_str();
+  simulate->add_option("--seed", sim.seed, "Random seed")->capture_default_str();
+  simulate->add_option("-o,--output", sim.output, "Output g2o file (initial values: composed odometry)")->required();
+  simulate->add_option("--ground-truth", sim.ground_truth, "Also write the true values to this g2o file");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
+  if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
+  return 2;
+}

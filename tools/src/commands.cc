@@ -1,0 +1,160 @@
+#include "tether/tools/commands.h"
+
+#include <cstdio>
+#include <ostream>
+
+#include "tether/core/error.h"
+#include "tether/core/graph_io.h"
+#include "tether/factors/builtin.h"
+#include "tether/solvers/optimizer.h"
+#include "tether/tools/simulate.h"
+#include "tether/tools/svg_plot.h"
+
+namespace tether {
+
+namespace {
+
+std::string Row(const IterationSummary& it) {
+  char buf[160];
+  char rel[32], lam[32], step[32];
+  if (it.iteration == 0) {
+    std::snprintf(rel, sizeof(rel), "%11s", "-");
+    std::snprintf(step, sizeof(step), "%10s", "-");
+  } else {
+    std::snprintf(rel, sizeof(rel), "%11.3e", it.relative_decrease);
+    std::snprintf(step, sizeof(step), "%10.3e", it.step_norm);
+  }
+  if (it.lambda > 0) {
+    std::snprintf(lam, sizeof(lam), "%9.2e", it.lambda);
+  } else {
+    std::snprintf(lam, sizeof(lam), "%9s", "-");
+  }
+  std::snprintf(buf, sizeof(buf), "%5d  %16.9g  %s  %s  %s  %9.3f%s", it.iteration, it.chi2, rel, lam, step,
+                it.seconds, it.accepted ? "" : "  rejected");
+  return buf;
+}
+
+struct GraphCounts {
+  std::size_t poses = 0, landmarks = 0;
+};
+
+GraphCounts Count(const Values& v) {
+  GraphCounts c;
+  c.poses = v.Count(VarType::kSE2) + v.Count(VarType::kSE3);
+  c.landmarks = v.Count(VarType::kPoint2) + v.Count(VarType::kPoint3);
+  return c;
+}
+
+}  // namespace
+
+int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
+  SolverOptions options;
+  InformationRepair repair;
+  if (!FromString(cmd.solver, &options.algorithm)) {
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn or lm\n";
+    return 2;
+  }
+  if (!FromString(cmd.linear, &options.linear_solver)) {
+    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
+    return 2;
+  }
+  if (!FromString(cmd.repair_information, &repair)) {
+    err << "tether optimize: unknown --repair-information '" << cmd.repair_information
+        << "'; use none, nearest-pd or isotropic\n";
+    return 2;
+  }
+  options.max_iterations = cmd.max_iterations;
+  options.max_seconds = cmd.time_limit;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    err << "tether optimize: " << why << "\n";
+    return 2;
+  }
+  const Registry& registry = DefaultRegistry();
+  GraphFile file;
+  try {
+    ReadOptions ro;
+    ro.repair = repair;
+    file = ReadGraphFile(cmd.input, registry, ro);
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 1;
+  }
+  for (const std::string& w : file.warnings) err << "warning: " << w << "\n";
+  const GraphCounts counts = Count(file.values);
+  out << "read " << cmd.input << ": " << counts.poses << " poses, " << counts.landmarks << " landmarks, "
+      << file.graph.size() << " factors";
+  if (!file.graph.fixed().empty()) out << ", " << file.graph.fixed().size() << " fixed";
+  out << "\n";
+  if (file.initialised_by_spanning_tree > 0) {
+    out << "initial values: " << file.initialised_by_spanning_tree
+        << " variables composed along a spanning tree from the lowest id\n";
+  }
+  if (file.repaired_informations > 0) {
+    out << "repaired " << file.repaired_informations << " information matrices that were not positive definite ("
+        << cmd.repair_information << ")\n";
+  }
+  const Values before = file.values;
+  if (!cmd.quiet) {
+    out << "iter              chi2    rel.decr     lambda   step norm   time [s]\n";
+    options.callback = [&out](const IterationSummary& it) { out << Row(it) << std::endl; };
+  }
+  const SolverSummary summary = Optimize(file.graph, &file.values, options);
+  out << summary.FullReport();
+  if (!summary.IsSolutionUsable()) {
+    err << "error: the solve failed (" << ToString(summary.status) << "): " << summary.message
+        << "; no output written\n";
+    return 3;
+  }
+  try {
+    if (!cmd.output.empty()) {
+      WriteG2oFile(cmd.output, file.values, file.graph, registry);
+      out << "wrote " << cmd.output << "\n";
+    }
+    if (!cmd.plot.empty()) {
+      PlotOptions po;
+      po.title = cmd.input;
+      WriteSvgFile(cmd.plot, file.graph, &before, &file.values, po);
+      out << "wrote " << cmd.plot << "\n";
+    }
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err) {
+  SimulateOptions so;
+  if (!FromString(cmd.world, &so.world)) {
+    err << "tether simulate: unknown world '" << cmd.world << "'; use manhattan, sphere or landmarks\n";
+    return 2;
+  }
+  so.poses = cmd.poses;
+  so.seed = cmd.seed;
+  std::string why;
+  if (!so.IsValid(&why)) {
+    err << "tether simulate: " << why << "\n";
+    return 2;
+  }
+  if (cmd.output.empty()) {
+    err << "tether simulate: -o FILE is required\n";
+    return 2;
+  }
+  const SimulatedGraph sim = Simulate(so);
+  try {
+    WriteG2oFile(cmd.output, sim.initial, sim.graph, DefaultRegistry());
+    if (!cmd.ground_truth.empty()) WriteG2oFile(cmd.ground_truth, sim.ground_truth, sim.graph, DefaultRegistry());
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 1;
+  }
+  const GraphCounts counts = Count(sim.ground_truth);
+  out << "wrote " << cmd.output << ": " << cmd.world << ", " << counts.poses << " poses, " << counts.landmarks
+      << " landmarks, " << sim.graph.size() << " factors (" << sim.odometry_factors << " odometry, "
+      << sim.loop_closures << " loop closures, " << sim.observations << " observations), seed " << cmd.seed << "\n";
+  if (!cmd.ground_truth.empty()) out << "wrote ground truth " << cmd.ground_truth << "\n";
+  return 0;
+}
+
+}  // namespace tether

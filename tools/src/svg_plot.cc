@@ -1,0 +1,410 @@
+#include "tether/tools/svg_plot.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <locale>
+#include <sstream>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "tether/core/error.h"
+
+namespace tether {
+namespace {
+
+// Colours and sizes.
+constexpr const char* kBeforeColour = "#b4b4b4";
+constexpr const char* kAfterColour = "#1f5fbf";
+constexpr const char* kLoopColour = "#d62728";
+constexpr const char* kLandmarkColour = "#ff7f0e";
+constexpr const char* kStartColour = "#2ca02c";
+constexpr double kMargin = 16.0;        // around the plot area
+constexpr double kTitleHeight = 28.0;   // band above the plot when there is a title
+constexpr double kLegendHeight = 30.0;  // band below the plot
+constexpr double kLandmarkSize = 4.0;   // side of a landmark square, pixels
+/// Coordinates beyond this are treated like NaN (their differences would overflow).
+constexpr double kHuge = 1e150;
+
+struct Pt {
+  double x = 0.0, y = 0.0;
+};
+
+bool Usable(const Pt& p) { return std::abs(p.x) < kHuge && std::abs(p.y) < kHuge; }  // false for NaN
+
+/// Appends v / 100 in decimal with up to two decimals, trailing zeros dropped: 1250 -> "12.5".
+void AppendHundredths(long long v, std::string* out) {
+  if (v < 0) {
+    out->push_back('-');
+    v = -v;
+  }
+  out->append(std::to_string(v / 100));
+  const int frac = static_cast<int>(v % 100);
+  if (frac != 0) {
+    out->push_back('.');
+    out->push_back(static_cast<char>('0' + frac / 10));
+    if (frac % 10 != 0) out->push_back(static_cast<char>('0' + frac % 10));
+  }
+}
+
+long long ToHundredths(double v) { return std::llround(v * 100.0); }
+
+/// A number for an attribute, rounded to 0.01 (locale-independent).
+std::string Num(double v) {
+  std::string s;
+  AppendHundredths(ToHundredths(v), &s);
+  return s;
+}
+
+std::string Escape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out.push_back(c);
+    }
+  }
+  return out;
+}
+
+/// SVG path data in relative commands on a 0.01 pixel grid. Deltas are taken between rounded
+/// points, so rounding never accumulates; command letters are left out where SVG implies them.
+class PathData {
+ public:
+  void MoveTo(const Pt& p) {
+    const long long x = ToHundredths(p.x), y = ToHundredths(p.y);
+    if (!started_) {
+      Command('M', x, y);
+      implicit_ = 'L';
+      started_ = true;
+    } else {
+      Command('m', x - cx_, y - cy_);
+      implicit_ = 'l';
+    }
+    cx_ = sx_ = x;
+    cy_ = sy_ = y;
+  }
+  void LineTo(const Pt& p) {
+    const long long x = ToHundredths(p.x), y = ToHundredths(p.y);
+    Command('l', x - cx_, y - cy_);
+    implicit_ = 'l';
+    cx_ = x;
+    cy_ = y;
+  }
+  void Close() {
+    out_.push_back('z');
+    implicit_ = 0;
+    cx_ = sx_;
+    cy_ = sy_;
+  }
+  bool empty() const { return out_.empty(); }
+  const std::string& str() const { return out_; }
+
+ private:
+  void Command(char c, long long a, long long b) {
+    if (c == implicit_) {
+      if (a >= 0) out_.push_back(' ');  // a minus sign separates by itself
+    } else {
+      out_.push_back(c);
+    }
+    AppendHundredths(a, &out_);
+    if (b >= 0) out_.push_back(' ');
+    AppendHundredths(b, &out_);
+  }
+
+  std::string out_;
+  bool started_ = false;
+  char implicit_ = 0;  // the command a coordinate pair without a letter would continue
+  long long cx_ = 0, cy_ = 0, sx_ = 0, sy_ = 0;
+};
+
+/// What one Values contributes to the picture, in world coordinates.
+struct Layer {
+  std::vector<std::vector<Pt>> runs;  // trajectory pieces
+  std::vector<Pt> landmarks;
+  std::vector<std::pair<Pt, Pt>> loops;
+  bool present = false;
+};
+
+bool Consecutive(Key a, Key b) { return (a > b ? a - b : b - a) == 1; }
+
+/// Every variable layout starts with x, y (variable.h), so the projection is the first two.
+Pt XY(const double* p) { return Pt{p[0], p[1]}; }
+
+Layer Extract(const Values& values, const FactorGraph& graph, const std::unordered_set<Key>& linked,
+              bool with_loops) {
+  Layer layer;
+  layer.present = true;
+  std::vector<std::pair<Key, Pt>> poses;
+  poses.reserve(values.size());
+  for (Key k : values.keys()) {
+    const Pt p = XY(values.Params(k));
+    if (!Usable(p)) continue;
+    if (IsPose(values.TypeOf(k))) {
+      poses.emplace_back(k, p);
+    } else {
+      layer.landmarks.push_back(p);
+    }
+  }
+  std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const bool joined =
+        i > 0 && poses[i].first == poses[i - 1].first + 1 && linked.count(poses[i - 1].first) != 0;
+    if (!joined) layer.runs.emplace_back();
+    layer.runs.back().push_back(poses[i].second);
+  }
+  if (with_loops) {
+    for (const auto& f : graph.factors()) {
+      const std::vector<Key>& keys = f->keys();
+      if (keys.size() != 2 || keys[0] == keys[1] || Consecutive(keys[0], keys[1])) continue;
+      if (!values.Has(keys[0]) || !values.Has(keys[1])) continue;
+      if (!IsPose(values.TypeOf(keys[0])) || !IsPose(values.TypeOf(keys[1]))) continue;
+      const Pt a = XY(values.Params(keys[0])), b = XY(values.Params(keys[1]));
+      if (Usable(a) && Usable(b)) layer.loops.emplace_back(a, b);
+    }
+  }
+  return layer;
+}
+
+/// World-to-pixel mapping with equal scale on both axes, y up.
+struct Frame {
+  double min_x = -1.0, max_y = 1.0;  // world corner drawn at (ox, oy)
+  double scale = 1.0;                // pixels per metre
+  double ox = 0.0, oy = 0.0;
+  Pt operator()(const Pt& p) const { return Pt{ox + (p.x - min_x) * scale, oy + (max_y - p.y) * scale}; }
+};
+
+/// The largest of 1, 2, 5 times a power of ten not above `v` (v > 0).
+double NiceLength(double v) {
+  const double p = std::pow(10.0, std::floor(std::log10(v)));
+  for (double m : {5.0, 2.0, 1.0})
+    if (m * p <= v) return m * p;
+  return p;
+}
+
+std::string LengthLabel(double metres) {
+  std::ostringstream s;
+  s.imbue(std::locale::classic());
+  s << metres << " m";
+  return s.str();
+}
+
+void AppendPath(const PathData& d, const std::string& cls, const std::string& style, std::string* svg) {
+  if (d.empty()) return;
+  *svg += "<path class=\"" + cls + "\" " + style + " d=\"";
+  *svg += d.str();
+  *svg += "\"/>\n";
+}
+
+}  // namespace
+
+bool PlotOptions::IsValid(std::string* why) const {
+  std::string reason;
+  if (width_px < 200 || width_px > 20000) {
+    reason = "PlotOptions.width_px must be in [200, 20000] (got " + std::to_string(width_px) + ")";
+  } else if (height_px != 0 && (height_px < 150 || height_px > 20000)) {
+    reason = "PlotOptions.height_px must be 0 (automatic) or in [150, 20000] (got " +
+             std::to_string(height_px) + ")";
+  }
+  if (why != nullptr) *why = reason;
+  return reason.empty();
+}
+
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after,
+                      const PlotOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("RenderSvg: " + why);
+
+  // Pairs (k, k+1) joined by a factor: the odometry that the trajectories follow.
+  std::unordered_set<Key> linked;
+  for (const auto& f : graph.factors()) {
+    const std::vector<Key>& keys = f->keys();
+    if (keys.size() == 2 && Consecutive(keys[0], keys[1])) linked.insert(std::min(keys[0], keys[1]));
+  }
+  const bool loops_from_after = after != nullptr;
+  Layer lb, la;
+  if (before != nullptr)
+    lb = Extract(*before, graph, linked, options.draw_loop_closures && !loops_from_after);
+  if (after != nullptr) la = Extract(*after, graph, linked, options.draw_loop_closures);
+  if (!options.draw_landmarks) {
+    lb.landmarks.clear();
+    la.landmarks.clear();
+  }
+  const std::vector<std::pair<Pt, Pt>>& loops = loops_from_after ? la.loops : lb.loops;
+
+  // Bounds of everything drawn.
+  double min_x = HUGE_VAL, max_x = -HUGE_VAL, min_y = HUGE_VAL, max_y = -HUGE_VAL;
+  auto grow = [&](const Pt& p) {
+    min_x = std::min(min_x, p.x);
+    max_x = std::max(max_x, p.x);
+    min_y = std::min(min_y, p.y);
+    max_y = std::max(max_y, p.y);
+  };
+  for (const Layer* l : {&lb, &la}) {
+    for (const auto& run : l->runs)
+      for (const Pt& p : run) grow(p);
+    for (const Pt& p : l->landmarks) grow(p);
+  }
+  if (!(min_x <= max_x)) min_x = max_x = min_y = max_y = 0.0;  // nothing to draw
+  double extent = std::max(max_x - min_x, max_y - min_y), pad = 0.04 * extent;
+  if (!(extent > 0.0)) extent = 1.0, pad = 0.5;  // a single point: one metre around it
+  min_x -= pad;
+  max_x += pad;
+  min_y -= pad;
+  max_y += pad;
+  const double dx = std::max(max_x - min_x, 1e-6 * extent), dy = std::max(max_y - min_y, 1e-6 * extent);
+
+  // Layout: title band, plot area, legend band.
+  const double width = options.width_px;
+  const double top = kMargin + (options.title.empty() ? 0.0 : kTitleHeight);
+  const double plot_w = width - 2.0 * kMargin;
+  double plot_h;
+  if (options.height_px > 0) {
+    plot_h = std::max(10.0, options.height_px - top - kMargin - kLegendHeight);
+  } else {
+    plot_h = std::round(std::clamp(plot_w * dy / dx, 0.25 * plot_w, 1.5 * plot_w));
+  }
+  const double height = options.height_px > 0 ? options.height_px : top + plot_h + kMargin + kLegendHeight;
+
+  Frame frame;
+  frame.min_x = min_x;
+  frame.max_y = max_y;
+  frame.scale = std::min(plot_w / dx, plot_h / dy);
+  frame.ox = kMargin + 0.5 * (plot_w - dx * frame.scale);
+  frame.oy = top + 0.5 * (plot_h - dy * frame.scale);
+
+  auto trajectory = [&](const Layer& l) {
+    PathData d;
+    for (const auto& run : l.runs) {
+      d.MoveTo(frame(run[0]));
+      if (run.size() == 1) d.LineTo(frame(run[0]));  // zero length: a dot with round caps
+      for (std::size_t i = 1; i < run.size(); ++i) d.LineTo(frame(run[i]));
+    }
+    return d;
+  };
+  auto squares = [&](const Layer& l) {
+    PathData d;
+    for (const Pt& w : l.landmarks) {
+      const Pt p = frame(w);
+      d.MoveTo(Pt{p.x - 0.5 * kLandmarkSize, p.y - 0.5 * kLandmarkSize});
+      d.LineTo(Pt{p.x + 0.5 * kLandmarkSize, p.y - 0.5 * kLandmarkSize});
+      d.LineTo(Pt{p.x + 0.5 * kLandmarkSize, p.y + 0.5 * kLandmarkSize});
+      d.LineTo(Pt{p.x - 0.5 * kLandmarkSize, p.y + 0.5 * kLandmarkSize});
+      d.Close();
+    }
+    return d;
+  };
+  PathData loop_path;
+  for (const auto& [a, b] : loops) {
+    loop_path.MoveTo(frame(a));
+    loop_path.LineTo(frame(b));
+  }
+
+  std::string svg;
+  svg.reserve(4096);
+  svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + Num(width) + "\" height=\"" + Num(height) +
+         "\" viewBox=\"0 0 " + Num(width) + " " + Num(height) + "\" font-family=\"sans-serif\">\n";
+  if (!options.title.empty()) svg += "<title>" + Escape(options.title) + "</title>\n";
+  svg += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  svg += "<rect x=\"" + Num(kMargin) + "\" y=\"" + Num(top) + "\" width=\"" + Num(plot_w) + "\" height=\"" +
+         Num(plot_h) + "\" fill=\"none\" stroke=\"#dddddd\"/>\n";
+  if (!options.title.empty()) {
+    svg += "<text x=\"" + Num(0.5 * width) + "\" y=\"" + Num(kMargin + 0.6 * kTitleHeight) +
+           "\" text-anchor=\"middle\" font-size=\"15\">" + Escape(options.title) + "</text>\n";
+  }
+  const std::string line_style =
+      "fill=\"none\" stroke-width=\"1.2\" stroke-linecap=\"round\" stroke-linejoin=\"round\"";
+  AppendPath(trajectory(lb), "before", "stroke=\"" + std::string(kBeforeColour) + "\" " + line_style, &svg);
+  AppendPath(trajectory(la), "after", "stroke=\"" + std::string(kAfterColour) + "\" " + line_style, &svg);
+  AppendPath(
+      loop_path, "loop-closures",
+      "fill=\"none\" stroke=\"" + std::string(kLoopColour) + "\" stroke-width=\"0.5\" stroke-opacity=\"0.6\"",
+      &svg);
+  AppendPath(squares(lb), "landmarks-before", "fill=\"" + std::string(kBeforeColour) + "\"", &svg);
+  AppendPath(squares(la), "landmarks", "fill=\"" + std::string(kLandmarkColour) + "\"", &svg);
+  const Layer& first = !la.runs.empty() ? la : lb;
+  if (!first.runs.empty()) {
+    const Pt s = frame(first.runs[0][0]);
+    svg += "<circle class=\"start\" cx=\"" + Num(s.x) + "\" cy=\"" + Num(s.y) +
+           "\" r=\"3.5\" fill=\"none\" stroke=\"" + kStartColour + "\" stroke-width=\"1.5\"/>\n";
+  }
+
+  // Legend: a swatch and a label for each thing present, left to right.
+  const double legend_y = top + plot_h + kMargin + 0.5 * kLegendHeight;
+  double x = kMargin;
+  svg += "<g class=\"legend\" font-size=\"12\">\n";
+  auto label = [&](const std::string& text) {
+    svg +=
+        "<text x=\"" + Num(x + 28.0) + "\" y=\"" + Num(legend_y + 4.0) + "\">" + Escape(text) + "</text>\n";
+    x += 28.0 + 7.0 * static_cast<double>(text.size()) + 18.0;
+  };
+  auto line_item = [&](const char* colour, double stroke_width, const std::string& text) {
+    svg += "<line x1=\"" + Num(x) + "\" y1=\"" + Num(legend_y) + "\" x2=\"" + Num(x + 22.0) + "\" y2=\"" +
+           Num(legend_y) + "\" stroke=\"" + colour + "\" stroke-width=\"" + Num(stroke_width) + "\"/>\n";
+    label(text);
+  };
+  if (lb.present) line_item(kBeforeColour, 2.0, options.before_label);
+  if (la.present) line_item(kAfterColour, 2.0, options.after_label);
+  if (!loops.empty()) line_item(kLoopColour, 1.0, "loop closures");
+  if (!la.landmarks.empty() || !lb.landmarks.empty()) {
+    svg += "<rect x=\"" + Num(x + 9.0) + "\" y=\"" + Num(legend_y - 2.0) +
+           "\" width=\"4\" height=\"4\" fill=\"" + (la.landmarks.empty() ? kBeforeColour : kLandmarkColour) +
+           "\"/>\n";
+    label("landmarks");
+  }
+  svg += "</g>\n";
+
+  // Scale bar at the right of the legend band: a round length near a fifth of the plot width.
+  const double bar_m = NiceLength(0.2 * plot_w / frame.scale);
+  const double bar_px = bar_m * frame.scale;
+  const double x1 = width - kMargin, x0 = x1 - bar_px;
+  svg += "<g class=\"scale-bar\" stroke=\"black\" stroke-width=\"1\">\n";
+  svg += "<path d=\"M" + Num(x0) + " " + Num(legend_y - 4.0) + "v8M" + Num(x0) + " " + Num(legend_y) + "H" +
+         Num(x1) + "M" + Num(x1) + " " + Num(legend_y - 4.0) + "v8\"/>\n";
+  svg += "<text x=\"" + Num(x0 - 6.0) + "\" y=\"" + Num(legend_y + 4.0) +
+         "\" text-anchor=\"end\" font-size=\"12\" stroke=\"none\">" + LengthLabel(bar_m) + "</text>\n";
+  svg += "</g>\n";
+  svg += "</svg>\n";
+  return svg;
+}
+
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before,
+                  const Values* after, const PlotOptions& options) {
+  const std::string svg = RenderSvg(graph, before, after, options);
+  const std::string tmp = path + ".tmp";
+  auto fail = [&](const std::string& what, int err) {
+    std::remove(tmp.c_str());
+    throw IoError("cannot write SVG plot '" + path + "': " + what +
+                  (err != 0 ? std::string(": ") + std::strerror(err) : "") +
+                  "; check that the directory exists and is writable");
+  };
+  errno = 0;
+  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+  if (!out) fail("cannot create '" + tmp + "'", errno);
+  out.write(svg.data(), static_cast<std::streamsize>(svg.size()));
+  out.close();
+  if (!out) fail("writing '" + tmp + "' failed", errno);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("cannot rename '" + tmp + "' to it", errno);
+}
+
+}  // namespace tether
