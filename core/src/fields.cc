@@ -47,14 +47,17 @@ double Fields::Double(std::size_t i) const {
          std::to_string(fields_.empty() ? 0 : fields_.size() - 1) + " fields after the tag); fix or remove the line");
   }
   std::string_view s = fields_[i];
-  const auto describe = [&] { return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')"; };
+  const auto describe = [&] {
+    return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')";
+  };
   // std::from_chars accepts neither a leading '+' nor leading blanks; tolerate the former.
   std::string_view digits = s;
   if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-' && digits[1] != '+') digits.remove_prefix(1);
   double v = 0;
   const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
   if (ec == std::errc::result_out_of_range) {
-    Fail(describe() + " is out of the range of a double (about 2.2e-308 to 1.8e308 in magnitude); fix or remove the line");
+    Fail(describe() +
+         " is out of the range of a double (about 2.2e-308 to 1.8e308 in magnitude); fix or remove the line");
   }
   if (ec != std::errc() || end != digits.data() + digits.size()) {
     Fail(describe() + " is not a number; fix or remove the line");
@@ -70,7 +73,9 @@ std::uint64_t Fields::Id(std::size_t i) const {
          std::to_string(fields_.empty() ? 0 : fields_.size() - 1) + " fields after the tag); fix or remove the line");
   }
   const std::string_view s = fields_[i];
-  const auto describe = [&] { return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')"; };
+  const auto describe = [&] {
+    return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')";
+  };
   if (!s.empty() && s[0] == '-') {
     Fail(describe() + " is a negative id; ids must be integers from 0 to 18446744073709551615, fix the line");
   }

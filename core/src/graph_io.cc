@@ -56,10 +56,10 @@ void IdentityParams(VarType t, double* p) {
 // What the reader knows about one id of the file.
 struct IdInfo {
   VarType type = VarType::kSE2;
-  long type_line = 0;             // the line that gave the id its type
-  std::string_view type_tag;      // that line's tag (static or registry-owned storage)
-  long vertex_line = 0;           // 0: no vertex line (yet)
-  long first_edge_line = 0;       // 0: no edge uses it (yet)
+  long type_line = 0;         // the line that gave the id its type
+  std::string_view type_tag;  // that line's tag (static or registry-owned storage)
+  long vertex_line = 0;       // 0: no vertex line (yet)
+  long first_edge_line = 0;   // 0: no edge uses it (yet)
   std::string_view first_edge_tag;
 };
 
@@ -68,7 +68,8 @@ class Reader {
   Reader(const std::string& name, const Registry& registry, const ReadOptions& options)
       : name_(name), registry_(registry), options_(options) {
     ctx_.repair = options.repair;
-    toro_by_name_ = options.format == FileFormat::kToro || (options.format == FileFormat::kAuto && EndsWith(name, ".graph"));
+    toro_by_name_ =
+        options.format == FileFormat::kToro || (options.format == FileFormat::kAuto && EndsWith(name, ".graph"));
   }
 
   void Line(long number, std::string_view text) {
@@ -186,8 +187,8 @@ class Reader {
   }
 
   void UnknownTag(const Fields& f) const {
-    std::string known = std::string(kVertexSE2) + " " + std::string(kVertexSE3) + " " + std::string(kVertexXY) +
-                        " " + std::string(kVertexXYZ) + " " + std::string(kFix);
+    std::string known = std::string(kVertexSE2) + " " + std::string(kVertexSE3) + " " + std::string(kVertexXY) + " " +
+                        std::string(kVertexXYZ) + " " + std::string(kFix);
     for (const auto& [name, type] : registry_.types())
       if (!type.tag.empty()) known += " " + type.tag;
     if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV";
@@ -196,8 +197,7 @@ class Reader {
     if (options_.format == FileFormat::kG2o && (tag == kToroVertex || tag == kToroEdge || tag == kToroEquiv)) {
       hint = "it is a TORO tag: read the file as TORO (a .graph name or FileFormat::kToro)";
     }
-    f.Fail("unknown tag '" + std::string(tag) + "'; known tags: " + known + "; " + hint +
-           ", or remove the line");
+    f.Fail("unknown tag '" + std::string(tag) + "'; known tags: " + known + "; " + hint + ", or remove the line");
   }
 
   // Records that line f uses `key` as a variable of type t; checks the type agrees.
@@ -236,7 +236,9 @@ class Reader {
     for (int i = 0; i < 7; ++i) p[i] = f.Double(2 + i);
     const double norm = std::sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5] + p[6] * p[6]);
     if (!(norm > 1e-12)) {
-      f.Fail("VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion, fix the line");
+      f.Fail(
+          "VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion, fix the "
+          "line");
     }
     if (std::abs(norm - 1.0) > kQuaternionNormWarning && odd_quaternions_++ == 0) {
       first_odd_quaternion_line_ = f.line_number();
@@ -286,7 +288,8 @@ class Reader {
                     ", which has no vertex line, though the file has " +
                     Plural(vertex_lines_, "vertex line", "vertex lines");
     if (missing > 1) m += " (" + std::to_string(missing) + " ids lack one)";
-    m += "; add the missing vertices, or set ReadOptions::allow_partial_vertices to initialise them from the edges";
+    m += "; add the missing vertices, or set ReadOptions::allow_partial_vertices to initialise them from the "
+         "edges";
     throw ParseError(m);
   }
 
@@ -301,7 +304,8 @@ class Reader {
       m += Plural(pieces[i].size(), "variable", "variables") + " from id " + std::to_string(pieces[i].front());
     }
     if (pieces.size() > kPiecesListed) m += ", and " + std::to_string(pieces.size() - kPiecesListed) + " more";
-    m += "; nothing ties the pieces to each other, so their relative placement is undetermined. Add edges that "
+    m += "; nothing ties the pieces to each other, so their relative placement is undetermined. Add edges "
+         "that "
          "link them, or split the file into one graph per piece";
     if (equiv_lines_ > 0) {
       m += " (the file's " + Plural(equiv_lines_, "EQUIV line was", "EQUIV lines were") + " ignored)";

@@ -91,26 +91,33 @@ class Cholmod : public SparseCholesky {
   int n_ = 0;
 };
 
+// SuiteSparseQR's C++ interface works on 64-bit indices (cholmod_l_*): the pattern is
+// copied to long once at Analyze, the values are borrowed every time.
 class Spqr : public SparseQR {
  public:
   Spqr() {
-    cholmod_start(&cc_);
+    cholmod_l_start(&cc_);
     cc_.print = 0;
     cc_.error_handler = nullptr;
   }
   ~Spqr() override {
     if (qr_) SuiteSparseQR_free<double>(&qr_, &cc_);
-    cholmod_finish(&cc_);
+    cholmod_l_finish(&cc_);
   }
   void Analyze(const Csc& j) override {
-    cholmod_sparse a = View(j, 0);
+    colptr_.assign(j.colptr.begin(), j.colptr.end());
+    rowind_.assign(j.rowind.begin(), j.rowind.end());
+    cholmod_sparse a = View(j);
     qr_ = SuiteSparseQR_symbolic<double>(SPQR_ORDERING_DEFAULT, 0, &a, &cc_);
-    if (qr_ == nullptr) throw Error("SuiteSparseQR could not analyse the Jacobian; try --linear cholmod");
+    if (qr_ == nullptr) {
+      throw Error("SuiteSparseQR could not analyse the Jacobian (status " + std::to_string(cc_.status) +
+                  "); try --linear cholmod");
+    }
     rows_ = j.rows;
     cols_ = j.cols;
   }
   FactorResult Factorize(const Csc& j) override {
-    cholmod_sparse a = View(j, 0);
+    cholmod_sparse a = View(j);
     if (!SuiteSparseQR_numeric<double>(SPQR_DEFAULT_TOL, &a, qr_, &cc_)) return FactorResult::kFailed;
     if (qr_->rank < cols_) return FactorResult::kRankDeficient;
     return FactorResult::kOk;
@@ -120,13 +127,21 @@ class Spqr : public SparseQR {
     cholmod_dense* y = SuiteSparseQR_qmult<double>(SPQR_QTX, qr_, &bd, &cc_);
     cholmod_dense* sol = SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_);
     std::memcpy(x, sol->x, sizeof(double) * cols_);
-    cholmod_free_dense(&y, &cc_);
-    cholmod_free_dense(&sol, &cc_);
+    cholmod_l_free_dense(&y, &cc_);
+    cholmod_l_free_dense(&sol, &cc_);
   }
 
  private:
+  cholmod_sparse View(const Csc& j) {
+    cholmod_sparse a = internal::View(j, 0);
+    a.p = colptr_.data();
+    a.i = rowind_.data();
+    a.itype = CHOLMOD_LONG;
+    return a;
+  }
   cholmod_common cc_;
   SuiteSparseQR_factorization<double>* qr_ = nullptr;
+  std::vector<SuiteSparse_long> colptr_, rowind_;
   int rows_ = 0, cols_ = 0;
 };
 

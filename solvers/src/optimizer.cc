@@ -216,8 +216,14 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
     it.iteration = s.iterations;
     it.lambda = lm ? lambda : 0.0;
     const Clock::time_point ts = Clock::now();
-    const internal::FactorResult fr = solver->Solve(lm ? lambda : 0.0, &delta);
+    internal::FactorResult fr = solver->Solve(lm ? lambda : 0.0, &delta);
     s.solve_seconds += SecondsSince(ts);
+    double step2 = 0;
+    if (fr == internal::FactorResult::kOk) {
+      for (double d : delta) step2 += d * d;
+      // A numerically singular system can factorise and still give a non-finite step.
+      if (!std::isfinite(step2)) fr = internal::FactorResult::kRankDeficient;
+    }
     if (fr != internal::FactorResult::kOk) {
       if (lm && lambda < options.max_lambda) {
         it.accepted = false;
@@ -235,14 +241,7 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
                   "is connected";
       break;
     }
-    double step2 = 0;
-    for (double d : delta) step2 += d * d;
     it.step_norm = std::sqrt(step2);
-    if (!std::isfinite(it.step_norm)) {
-      s.status = SolverStatus::kDiverged;
-      s.message = "the linear solve produced a non-finite step";
-      break;
-    }
     // Predicted decrease of the linear model: -2 g.d - d^T H d = -g.d + lambda d^T D d.
     double dDd = 0;
     for (int i = 0; i < n; ++i) dDd += delta[i] * delta[i] * solver->ClampedDiag(i);

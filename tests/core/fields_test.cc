@@ -131,8 +131,9 @@ TEST(FieldsTest, ExpectCountAcceptsTheRightCount) {
 TEST(FieldsTest, ExpectCountTooFew) {
   const Fields f("f.g2o", 12, "EDGE_SE2 1 2 0.5 0 0 1 0 0 1");
   EXPECT_EQ(ParseErrorOf([&] { f.ExpectCount(11, "id1 id2 x y theta I11 I12 I13 I22 I23 I33"); }),
-            "f.g2o:12: too few fields: EDGE_SE2 needs 11 after the tag (id1 id2 x y theta I11 I12 I13 I22 I23 I33), "
-            "found 8; fix or remove the line");
+            "f.g2o:12: too few fields: EDGE_SE2 needs 11 after the tag (id1 id2 x y theta I11 I12 I13 I22 "
+            "I23 I33), "
+            "found 9; fix or remove the line");
 }
 
 TEST(FieldsTest, ExpectCountTooMany) {

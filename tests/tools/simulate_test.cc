@@ -9,6 +9,7 @@
 #include <string>
 
 #include "tether/core/error.h"
+#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {
@@ -73,8 +74,9 @@ bool IsConsecutive(const Factor& f) {
   return b == a + 1;
 }
 
-// Ground-truth grid positions of the first 20 manhattan poses for seed 1.
-constexpr const char* kPinnedWalk = "";
+// Ground-truth grid positions of the first 20 of 400 manhattan poses for seed 1.
+constexpr const char* kPinnedWalk =
+    "(0,0)(1,0)(2,0)(3,0)(4,0)(4,-1)(3,-1)(3,0)(3,1)(4,1)(5,1)(5,0)(4,0)(3,0)(2,0)(2,1)(2,2)(2,3)(1,3)(0,3)";
 
 const SimWorld kWorlds[] = {SimWorld::kManhattan, SimWorld::kSphere, SimWorld::kLandmarks};
 
@@ -110,6 +112,7 @@ TEST(SimulateOptionsTest, InvalidOptionsAreRejectedWithTheFieldNamed) {
     void (*change)(SimulateOptions*, double);
     double value;
   };
+  auto set_probability = [](SimulateOptions* o, double v) { o->loop_closure_probability = v; };
   const Case cases[] = {
       {"poses", [](SimulateOptions* o, double v) { o->poses = static_cast<int>(v); }, 0},
       {"poses", [](SimulateOptions* o, double v) { o->poses = static_cast<int>(v); }, -5},
@@ -119,9 +122,9 @@ TEST(SimulateOptionsTest, InvalidOptionsAreRejectedWithTheFieldNamed) {
       {"rotation_sigma", [](SimulateOptions* o, double v) { o->rotation_sigma = v; }, 0.0},
       {"rotation_sigma", [](SimulateOptions* o, double v) { o->rotation_sigma = v; }, 0.7},
       {"rotation_sigma", [](SimulateOptions* o, double v) { o->rotation_sigma = v; }, nan},
-      {"loop_closure_probability", [](SimulateOptions* o, double v) { o->loop_closure_probability = v; }, 1.5},
-      {"loop_closure_probability", [](SimulateOptions* o, double v) { o->loop_closure_probability = v; }, -0.1},
-      {"loop_closure_probability", [](SimulateOptions* o, double v) { o->loop_closure_probability = v; }, nan},
+      {"loop_closure_probability", set_probability, 1.5},
+      {"loop_closure_probability", set_probability, -0.1},
+      {"loop_closure_probability", set_probability, nan},
   };
   for (const Case& c : cases) {
     SimulateOptions o;
@@ -169,7 +172,7 @@ TEST(SimulateTest, SameSeedGivesIdenticalOutputDifferentSeedDifferent) {
 // The grid walk only depends on std::mt19937_64 (specified by the standard) and exact
 // comparisons, so it is the same on every platform: a change here changes every manhattan graph.
 TEST(SimulateTest, ManhattanWalkIsPinned) {
-  const SimulatedGraph g = Simulate(Options(SimWorld::kManhattan, 20, 1));
+  const SimulatedGraph g = Simulate(Options(SimWorld::kManhattan, 400, 1));
   std::string walk;
   for (Key k = 0; k < 20; ++k) {
     const SE2d p = g.ground_truth.AtSE2(k);
@@ -237,9 +240,9 @@ TEST(SimulateTest, SphereHasSE3PosesAndLoopClosuresToThePreviousRing) {
   for (const auto& f : g.graph.factors()) {
     ASSERT_EQ(f->type_name(), "BetweenSE3");
     if (IsConsecutive(*f)) continue;
-    const double gap = (g.ground_truth.AtSE3(f->keys()[0]).translation() -
-                        g.ground_truth.AtSE3(f->keys()[1]).translation())
-                           .norm();
+    const double gap =
+        (g.ground_truth.AtSE3(f->keys()[0]).translation() - g.ground_truth.AtSE3(f->keys()[1]).translation())
+            .norm();
     EXPECT_LT(gap, 2.0);  // neighbours on the previous ring
   }
 }
@@ -342,11 +345,34 @@ TEST(SimulateTest, InitialComposesOdometryFromTheTrueFirstPose) {
     for (const auto& f : g.graph.factors()) {
       const bool odometry = f->type_name() != "PosePoint2" && IsConsecutive(*f);
       const bool first_sighting = f->type_name() == "PosePoint2" && seen.insert(f->keys()[1]).second;
-      if (odometry || first_sighting) EXPECT_NEAR(f->Chi2(g.initial), 0.0, 1e-12) << ToString(w);
+      if (odometry || first_sighting) {
+        EXPECT_NEAR(f->Chi2(g.initial), 0.0, 1e-12) << ToString(w);
+      }
     }
     // ... and drifts away from the truth.
     EXPECT_GT(MaxPositionDifference(g.ground_truth, g.initial), 0.25) << ToString(w);
     EXPECT_GT(g.graph.Chi2(g.initial), 2.0 * g.graph.Chi2(g.ground_truth)) << ToString(w);
+  }
+}
+
+// End to end: optimising from `initial` lands at a minimum whose chi2 follows a chi-square
+// distribution with (residual dimensions - free tangent dimensions) degrees of freedom, below
+// the ground truth's chi2, with the trajectory much closer to the truth than the initial one.
+TEST(SimulateTest, OptimisingRecoversTheGroundTruth) {
+  for (SimWorld w : kWorlds) {
+    const SimulatedGraph g = Simulate(Options(w, 200, 2));
+    Values v = g.initial;
+    const SolverSummary summary = Optimize(g.graph, &v);
+    ASSERT_TRUE(summary.IsSolutionUsable()) << ToString(w) << ": " << summary.FullReport();
+    int free_dims = -TangentDim(g.initial.TypeOf(0));  // the solver holds pose 0 fixed
+    for (Key k : g.initial.keys()) free_dims += TangentDim(g.initial.TypeOf(k));
+    const int dof = ResidualDims(g.graph) - free_dims;
+    const double chi2 = g.graph.Chi2(v);
+    EXPECT_LE(chi2, g.graph.Chi2(g.ground_truth)) << ToString(w);
+    EXPECT_NEAR(chi2 / dof, 1.0, 0.3) << ToString(w) << ": chi2 " << chi2 << " with " << dof << " dof";
+    EXPECT_LT(MaxPositionDifference(g.ground_truth, v),
+              0.5 * MaxPositionDifference(g.ground_truth, g.initial))
+        << ToString(w);
   }
 }
 

@@ -32,12 +32,12 @@ struct ReadContext {
 };
 
 struct FactorType {
-  std::string name;                  ///< unique type name, e.g. "BetweenSE2"
-  std::string tag;                   ///< g2o tag, e.g. "EDGE_SE2" (may be empty: no file form)
-  std::string owner = "builtin";     ///< who registered it (plugin name for plugins)
-  int dim = 0;                       ///< residual dimension
+  std::string name;               ///< unique type name, e.g. "BetweenSE2"
+  std::string tag;                ///< g2o tag, e.g. "EDGE_SE2" (may be empty: no file form)
+  std::string owner = "builtin";  ///< who registered it (plugin name for plugins)
+  int dim = 0;                    ///< residual dimension
   std::vector<VarType> variable_types;
-  int measurement_size = 0;          ///< number of measurement fields in the standard layout
+  int measurement_size = 0;  ///< number of measurement fields in the standard layout
   /// Optional names of the measurement fields for messages, e.g. "x y theta". Where empty,
   /// the parameter names of the last variable type are used when the sizes agree, else m1..mk.
   std::string measurement_layout;
@@ -50,9 +50,7 @@ struct FactorType {
   std::function<std::string(const Factor&)> write;
 
   /// Fields after the tag in the standard layout.
-  std::size_t StandardFieldCount() const {
-    return variable_types.size() + measurement_size + dim * (dim + 1) / 2;
-  }
+  std::size_t StandardFieldCount() const { return variable_types.size() + measurement_size + dim * (dim + 1) / 2; }
 };
 
 class Registry {

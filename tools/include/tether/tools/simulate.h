@@ -36,11 +36,15 @@
 // each landmark starts where its first observation (in pose order) puts it. No variable is
 // fixed: the solver chooses the gauge.
 //
-// Determinism: the same options give the same output on every platform. Random numbers come
-// from std::mt19937_64 (whose sequence the C++ standard specifies) with hand-written uniform,
-// integer and Box-Muller normal sampling (the standard distributions differ between library
-// implementations). The trajectory and the landmark positions come from one stream and the
-// noise from another, so changing a sigma changes the measurements but not the world.
+// Determinism: the same options give the same graph on every platform, up to the last bits
+// of floating-point results. Random numbers come from std::mt19937_64 (whose sequence the C++
+// standard specifies) with hand-written uniform, integer and Box-Muller normal sampling (the
+// standard distributions differ between library implementations). The manhattan grid walk and
+// the loop-closure choices use exact arithmetic only; noise, landmark positions and the
+// sphere's poses also go through std::log, sin and cos, whose rounding a C library (or a
+// compiler fusing multiply-adds) may change in the last bit. The trajectory and landmarks come
+// from one random stream and the noise from another, so changing a sigma changes the
+// measurements but not the world or the graph's structure.
 #include <cstdint>
 #include <string>
 
