@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Installs the Debian packages tether needs to build and test (only those missing).
+set -euo pipefail
+packages=(
+  build-essential cmake git
+  libeigen3-dev libsuitesparse-dev libceres-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  libopenblas0-pthread zlib1g-dev
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update
+  apt-get install -y --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,126 @@
+// The tether program end to end: exit codes, the iteration table and summary, files written
+// only on success, simulate's determinism.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int code;
+  std::string output;  // stdout and stderr together
+};
+
+CliRun Tether(const std::string& args) {
+  const std::string cmd = std::string(TETHER_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string ReadAll(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("tether_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string P(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+TEST_F(CliTest, SimulateThenOptimizeWritesGraphAndPlot) {
+  CliRun sim = Tether("simulate manhattan --poses 400 --seed 5 -o " + P("m.g2o") + " --ground-truth " + P("gt.g2o"));
+  ASSERT_EQ(sim.code, 0) << sim.output;
+  ASSERT_TRUE(fs::exists(P("m.g2o")));
+  ASSERT_TRUE(fs::exists(P("gt.g2o")));
+  CliRun opt = Tether("optimize " + P("m.g2o") + " -o " + P("out.g2o") + " --plot " + P("out.svg"));
+  ASSERT_EQ(opt.code, 0) << opt.output;
+  // The live table's header and rows, then the summary.
+  EXPECT_NE(opt.output.find("iter              chi2    rel.decr     lambda   step norm   time [s]"), std::string::npos);
+  EXPECT_NE(opt.output.find("    0  "), std::string::npos);
+  EXPECT_NE(opt.output.find("initial chi2"), std::string::npos);
+  EXPECT_NE(opt.output.find("final chi2"), std::string::npos);
+  EXPECT_NE(opt.output.find("status             converged"), std::string::npos);
+  EXPECT_NE(opt.output.find("held 0 fixed"), std::string::npos);
+  const std::string svg = ReadAll(P("out.svg"));
+  EXPECT_NE(svg.find("<svg"), std::string::npos);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  // The optimised file re-reads and is already at the optimum: another run stops at once.
+  CliRun again = Tether("optimize " + P("out.g2o") + " -q");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("iterations         1 "), std::string::npos) << again.output;
+}
+
+TEST_F(CliTest, SimulateIsDeterministic) {
+  ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 9 -o " + P("a.g2o")).code, 0);
+  ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 9 -o " + P("b.g2o")).code, 0);
+  ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 10 -o " + P("c.g2o")).code, 0);
+  EXPECT_EQ(ReadAll(P("a.g2o")), ReadAll(P("b.g2o")));
+  EXPECT_NE(ReadAll(P("a.g2o")), ReadAll(P("c.g2o")));
+  ASSERT_EQ(Tether("simulate landmarks --poses 100 --seed 1 -o " + P("l.g2o")).code, 0);
+  const std::string l = ReadAll(P("l.g2o"));
+  EXPECT_NE(l.find("VERTEX_XY"), std::string::npos);
+  EXPECT_NE(l.find("EDGE_SE2_XY"), std::string::npos);
+}
+
+TEST_F(CliTest, BadInputNamesFileAndLineAndWritesNothing) {
+  {
+    std::ofstream f(P("bad.g2o"));
+    f << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 nan 1 0 0 1 0 1\n";
+  }
+  CliRun r = Tether("optimize " + P("bad.g2o") + " -o " + P("out.g2o") + " --plot " + P("out.svg"));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find(P("bad.g2o") + ":3"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(P("out.g2o")));
+  EXPECT_FALSE(fs::exists(P("out.svg")));
+  CliRun missing = Tether("optimize " + P("nope.g2o") + " -o " + P("out.g2o"));
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_NE(missing.output.find("nope.g2o"), std::string::npos) << missing.output;
+  EXPECT_FALSE(fs::exists(P("out.g2o")));
+}
+
+TEST_F(CliTest, UsageErrorsExitTwo) {
+  ASSERT_EQ(Tether("simulate manhattan --poses 50 -o " + P("m.g2o")).code, 0);
+  CliRun r = Tether("optimize " + P("m.g2o") + " --solver newton");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("newton"), std::string::npos);
+  EXPECT_EQ(Tether("optimize " + P("m.g2o") + " --linear magic").code, 2);
+  EXPECT_EQ(Tether("simulate moon -o " + P("x.g2o")).code, 2);
+  EXPECT_EQ(Tether("frobnicate").code, 2);
+}
+
+TEST_F(CliTest, EveryLinearSolverAndAlgorithmRuns) {
+  ASSERT_EQ(Tether("simulate landmarks --poses 150 --seed 2 -o " + P("l.g2o")).code, 0);
+  std::string reference;
+  for (const char* lin : {"cholmod", "ldlt", "qr"}) {
+    for (const char* alg : {"gn", "lm"}) {
+      CliRun r = Tether("optimize " + P("l.g2o") + " -q --solver " + alg + " --linear " + lin);
+      ASSERT_EQ(r.code, 0) << lin << " " << alg << "\n" << r.output;
+      EXPECT_NE(r.output.find(std::string(alg) + " / " + lin), std::string::npos);
+      EXPECT_EQ(r.output.find("iter     "), std::string::npos);  // -q: no table
+    }
+  }
+}
+
+}  // namespace
