@@ -57,6 +57,16 @@ std::string Short(double v) {
   return buf;
 }
 
+// An information entry. The factor keeps the information as its square root, so R^T R
+// differs from the file's numbers by a few units in the last place; 15 significant digits
+// give those numbers back (10, not 10.000000000000002) and lose nothing the square root kept.
+std::string FormatInformation(double v) {
+  if (v == 0) return "0";  // also turns -0 into 0
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.15g", v);
+  return buf;
+}
+
 }  // namespace
 
 std::string FormatDouble(double v) {
@@ -208,7 +218,7 @@ std::string Registry::Write(const Factor& factor) const {
   for (double v : m) s += " " + FormatDouble(v);
   const Eigen::MatrixXd info = factor.noise().Information();
   for (int i = 0; i < info.rows(); ++i)
-    for (int j = i; j < info.cols(); ++j) s += " " + FormatDouble(info(i, j));
+    for (int j = i; j < info.cols(); ++j) s += " " + FormatInformation(info(i, j));
   return s;
 }
 
