@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
+  optimize->add_flag("--allow-partial-vertices", opt.allow_partial_vertices,
+                     "Give vertices without a VERTEX line initial values composed from edges");
 
   tether::SimulateCommand sim;
   CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");

@@ -107,6 +107,13 @@ class Reader {
     if (out_values_.empty() && graph_.empty()) {
       throw ParseError(name_ + ": no vertices or edges found; is this a g2o or TORO graph file?");
     }
+    for (const auto& [key, line] : fixes_) {
+      if (ids_.count(key) == 0) {
+        throw ParseError(name_ + ":" + std::to_string(line) + ": FIX names id " + std::to_string(key) +
+                         ", which no vertex or edge uses; remove it from the FIX line or add its vertex");
+      }
+      graph_.Fix(key);
+    }
     CheckMissingVertices();
     CheckConnected();
     const bool complete =
@@ -117,13 +124,6 @@ class Reader {
       } catch (const InvalidArgument& e) {
         throw ParseError(name_ + ": " + e.what());
       }
-    }
-    for (const auto& [key, line] : fixes_) {
-      if (ids_.count(key) == 0) {
-        throw ParseError(name_ + ":" + std::to_string(line) + ": FIX names id " + std::to_string(key) +
-                         ", which no vertex or edge uses; remove it from the FIX line or add its vertex");
-      }
-      graph_.Fix(key);
     }
     if (equiv_lines_ > 0) {
       out.warnings.push_back(name_ + ": ignored " + Plural(equiv_lines_, "EQUIV line", "EQUIV lines") +
@@ -288,8 +288,8 @@ class Reader {
                     ", which has no vertex line, though the file has " +
                     Plural(vertex_lines_, "vertex line", "vertex lines");
     if (missing > 1) m += " (" + std::to_string(missing) + " ids lack one)";
-    m += "; add the missing vertices, or set ReadOptions::allow_partial_vertices to initialise them from the "
-         "edges";
+    m += "; add the missing vertices, or initialise them from the edges (tether optimize "
+         "--allow-partial-vertices, ReadOptions::allow_partial_vertices)";
     throw ParseError(m);
   }
 
@@ -357,7 +357,11 @@ GraphFile ReadGraph(std::istream& in, const std::string& name, const Registry& r
   Reader reader(name, registry, options);
   std::string line;
   long number = 0;
-  while (std::getline(in, line)) reader.Line(++number, line);
+  while (std::getline(in, line)) {
+    std::string_view text = line;
+    if (number == 0 && text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 byte order mark
+    reader.Line(++number, text);
+  }
   if (in.bad()) throw IoError(name + ": read error after line " + std::to_string(number) + "; check the file");
   return reader.Finish();
 }

@@ -1,7 +1,9 @@
 #include "tether/core/registry.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -57,13 +59,16 @@ std::string Short(double v) {
   return buf;
 }
 
-// An information entry. The factor keeps the information as its square root, so R^T R
-// differs from the file's numbers by a few units in the last place; 15 significant digits
-// give those numbers back (10, not 10.000000000000002) and lose nothing the square root kept.
-std::string FormatInformation(double v) {
-  if (v == 0) return "0";  // also turns -0 into 0
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.15g", v);
+// An information entry, given the scale of its row and column, sqrt(|I_ii I_jj|). The factor
+// keeps the information as its square root, so R^T R differs from the file's numbers by a few
+// units in the 16th digit of that scale; printing to 15 digits of it gives the file's numbers
+// back (10 rather than 10.000000000000002, 0.050542 rather than 0.0505420000000001) and loses
+// nothing the square root kept.
+std::string FormatInformation(double v, double scale) {
+  if (!(std::abs(v) > 1e-15 * scale)) return "0";  // also turns -0 into 0
+  const int digits = std::clamp(15 - static_cast<int>(std::ceil(std::log10(scale / std::abs(v)) - 1e-9)), 1, 17);
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;
 }
 
@@ -218,7 +223,8 @@ std::string Registry::Write(const Factor& factor) const {
   for (double v : m) s += " " + FormatDouble(v);
   const Eigen::MatrixXd info = factor.noise().Information();
   for (int i = 0; i < info.rows(); ++i)
-    for (int j = i; j < info.cols(); ++j) s += " " + FormatInformation(info(i, j));
+    for (int j = i; j < info.cols(); ++j)
+      s += " " + FormatInformation(info(i, j), std::sqrt(std::abs(info(i, i) * info(j, j))));
   return s;
 }
 

@@ -166,6 +166,11 @@ TEST(GraphIoTest, ReadsA2DGraphWithCommentsBlankLinesFixAndCarriageReturns) {
   EXPECT_EQ(g.initialised_by_spanning_tree, 0);
 }
 
+TEST(GraphIoTest, IgnoresAByteOrderMark) {
+  const GraphFile g = Read("\xEF\xBB\xBFVERTEX_SE2 0 0 0 0\n");
+  EXPECT_EQ(g.values.size(), 1u);
+}
+
 TEST(GraphIoTest, FixLinesMayNameSeveralIdsAndComeBeforeTheVertices) {
   const GraphFile g = Read("FIX 2 0\nVERTEX_SE2 0 0 0 0\nVERTEX_SE2 2 1 0 0\n" + Edge(0, 2, 1, 0, 0));
   EXPECT_EQ(g.graph.fixed(), (std::set<Key>{0, 2}));
@@ -313,7 +318,8 @@ TEST(GraphIoTest, EdgeToAnIdWithoutVertexLineIsAnErrorWhenTheFileHasVertices) {
   const std::string text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n" + Edge(0, 1, 1, 0, 0) + Edge(1, 7, 1, 0, 0);
   EXPECT_EQ(ReadError(text),
             "t.g2o:4: EDGE_SE2 uses id 7, which has no vertex line, though the file has 2 vertex lines; add the "
-            "missing vertices, or set ReadOptions::allow_partial_vertices to initialise them from the edges");
+            "missing vertices, or initialise them from the edges (tether optimize --allow-partial-vertices, "
+            "ReadOptions::allow_partial_vertices)");
   // Several missing: the first edge line is named, and the count.
   const std::string m = ReadError("VERTEX_SE2 0 0 0 0\n" + Edge(0, 1, 1, 0, 0) + Edge(1, 2, 1, 0, 0));
   EXPECT_CONTAINS(m,
@@ -756,6 +762,27 @@ TEST(G2oDatasetFolderTest, ReadWriteReadKeepsIntel) {
   TempDir dir;
   WriteG2oFile(dir.File("intel.g2o"), a.values, a.graph, DefaultRegistry());
   ExpectSameGraph(a, ReadGraphFile(dir.File("intel.g2o"), DefaultRegistry()), 1e-9);
+  // Line for line, every number written is the number of the original file (intel has no
+  // angle outside (-pi, pi] and no quaternion to normalise).
+  std::ifstream original(path), written(dir.File("intel.g2o"));
+  std::string x, y;
+  long line = 0;
+  while (std::getline(original, x)) {
+    ++line;
+    if (x.find_first_not_of(" \t\r") == std::string::npos) continue;
+    ASSERT_TRUE(std::getline(written, y)) << "written file ends before line " << line;
+    std::istringstream sx(x), sy(y);
+    std::string tx, ty;
+    sx >> tx;
+    sy >> ty;
+    ASSERT_EQ(tx, ty) << "line " << line;
+    for (double u, v; sx >> u;) {
+      ASSERT_TRUE(sy >> v) << "line " << line;
+      EXPECT_EQ(u, v) << "line " << line << ": " << x << " / " << y;
+    }
+    EXPECT_FALSE(sy >> ty) << "line " << line;
+  }
+  EXPECT_FALSE(std::getline(written, y));
 }
 
 TEST(ToroDatasetTest, ReadsW100) {

@@ -407,6 +407,22 @@ TEST(RegistryTest, WritesStandardLayout) {
   for (int i = 0; i < 6; ++i) EXPECT_NEAR(std::stod(w[6 + i]), upper[i], 1e-12 * 30) << w[6 + i];
 }
 
+TEST(RegistryTest, WritesTheInformationAsTheFileHadIt) {
+  // The factor keeps the square root; R^T R is printed without its round-off noise.
+  const Registry r = Builtins();
+  const std::string lines[] = {
+      "EDGE_SE2 0 1 0.144012 -0.004462 -0.017453 115.187 -9.86523 -7.085 347.418 185.36 224.616",
+      "EDGE_SE2 28 29 0.32555 0.002219 0.042036 127.269 22.1589 7.81407 147.245 0.050542 119.561",
+      "EDGE_SE3:QUAT 0 1 0.341895 -0.0416997 0.0330394 0 0 0 1 10 0 0 0 0 0 10 0 0 0 0 10 0 0 0 400.021 0.00193512 "
+      "2.06612 399.993 0.496977 99.203",
+      "EDGE_SE2_XY 4 5 -1.5 2.25 0.3333 -0.1 7"};
+  for (const std::string& line : lines) {
+    const Fields f("g.g2o", 1, line);
+    ReadContext ctx;
+    EXPECT_EQ(r.Write(*r.Read(*r.FindByTag(std::string(f.tag())), f, ctx)), line);
+  }
+}
+
 TEST(RegistryTest, WriteThenReadGivesTheSameFactor) {
   const Registry r = Builtins();
   Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Random();

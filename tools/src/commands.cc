@@ -75,6 +75,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   try {
     ReadOptions ro;
     ro.repair = repair;
+    ro.allow_partial_vertices = cmd.allow_partial_vertices;
     file = ReadGraphFile(cmd.input, registry, ro);
   } catch (const Error& e) {
     err << "error: " << e.what() << "\n";
@@ -89,10 +90,6 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   if (file.initialised_by_spanning_tree > 0) {
     out << "initial values: " << file.initialised_by_spanning_tree
         << " variables composed along a spanning tree from the lowest id\n";
-  }
-  if (file.repaired_informations > 0) {
-    out << "repaired " << file.repaired_informations << " information matrices that were not positive definite ("
-        << cmd.repair_information << ")\n";
   }
   const Values before = file.values;
   if (!cmd.quiet) {

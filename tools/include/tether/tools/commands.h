@@ -16,6 +16,7 @@ struct OptimizeCommand {
   double time_limit = 0;         ///< seconds, 0 for none
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
   bool quiet = false;            ///< no iteration table
+  bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
 };
 
 struct SimulateCommand {
