@@ -16,9 +16,10 @@ int main(int argc, char** argv) {
   optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
-  optimize->add_option("--repair-information", opt.repair_information,
-                       "none | nearest-pd | isotropic: what to do with information matrices that are not "
-                       "positive definite")
+  optimize
+      ->add_option("--repair-information", opt.repair_information,
+                   "none | nearest-pd | isotropic: what to do with information matrices that are not "
+                   "positive definite")
       ->capture_default_str();
   optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");

@@ -12,8 +12,9 @@ namespace tether {
 bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why) {
   const int n = static_cast<int>(omega.rows());
   if (n < 1 || n > kMaxResidualDim || omega.cols() != n) {
-    if (why) *why = "information matrix must be square with 1 to 6 rows, got " + std::to_string(omega.rows()) + "x" +
-                    std::to_string(omega.cols());
+    if (why)
+      *why = "information matrix must be square with 1 to 6 rows, got " + std::to_string(omega.rows()) + "x" +
+             std::to_string(omega.cols());
     return false;
   }
   if (!omega.allFinite()) {

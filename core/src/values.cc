@@ -51,8 +51,8 @@ namespace {
 void ExpectType(const Values& v, Key k, VarType want) {
   const VarType got = v.TypeOf(k);
   if (got != want) {
-    throw InvalidArgument("Values: key " + KeyToString(k) + " holds " + std::string(ToString(got)) +
-                          ", not " + std::string(ToString(want)));
+    throw InvalidArgument("Values: key " + KeyToString(k) + " holds " + std::string(ToString(got)) + ", not " +
+                          std::string(ToString(want)));
   }
 }
 }  // namespace

@@ -36,31 +36,29 @@ FactorType Describe(std::string name, std::string tag, int dim, std::vector<VarT
 
 void RegisterBuiltinFactors(Registry& r) {
   const VarType se2 = VarType::kSE2, se3 = VarType::kSE3;
-  r.Register(Describe("BetweenSE2", "EDGE_SE2", 3, {se2, se2}, 3,
-                                  [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                    return std::make_unique<BetweenSE2>(k[0], k[1], SE2d(m[0], m[1], m[2]), n);
-                                  }));
+  r.Register(
+      Describe("BetweenSE2", "EDGE_SE2", 3, {se2, se2}, 3, [](std::vector<Key> k, const double* m, SqrtInformation n) {
+        return std::make_unique<BetweenSE2>(k[0], k[1], SE2d(m[0], m[1], m[2]), n);
+      }));
   r.Register(Describe("BetweenSE3", "EDGE_SE3:QUAT", 6, {se3, se3}, 7,
-                                  [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                    return std::make_unique<BetweenSE3>(k[0], k[1], SE3FromMeasurement(m), n);
-                                  }));
+                      [](std::vector<Key> k, const double* m, SqrtInformation n) {
+                        return std::make_unique<BetweenSE3>(k[0], k[1], SE3FromMeasurement(m), n);
+                      }));
   r.Register(Describe("PosePoint2", "EDGE_SE2_XY", 2, {se2, VarType::kPoint2}, 2,
-                                  [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                    return std::make_unique<PosePoint2>(k[0], k[1], Eigen::Vector2d(m[0], m[1]), n);
-                                  }));
-  r.Register(Describe("PriorSE2", "EDGE_PRIOR_SE2", 3, {se2}, 3,
-                                [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                  return std::make_unique<PriorSE2>(k[0], SE2d(m[0], m[1], m[2]), n);
-                                }));
+                      [](std::vector<Key> k, const double* m, SqrtInformation n) {
+                        return std::make_unique<PosePoint2>(k[0], k[1], Eigen::Vector2d(m[0], m[1]), n);
+                      }));
+  r.Register(
+      Describe("PriorSE2", "EDGE_PRIOR_SE2", 3, {se2}, 3, [](std::vector<Key> k, const double* m, SqrtInformation n) {
+        return std::make_unique<PriorSE2>(k[0], SE2d(m[0], m[1], m[2]), n);
+      }));
   r.Register(Describe("PosePoint3", "", 3, {se3, VarType::kPoint3}, 3,
-                                  [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                    return std::make_unique<PosePoint3>(k[0], k[1], Eigen::Vector3d(m[0], m[1], m[2]),
-                                                                        n);
-                                  }));
-  r.Register(Describe("PriorSE3", "", 6, {se3}, 7,
-                                [](std::vector<Key> k, const double* m, SqrtInformation n) {
-                                  return std::make_unique<PriorSE3>(k[0], SE3FromMeasurement(m), n);
-                                }));
+                      [](std::vector<Key> k, const double* m, SqrtInformation n) {
+                        return std::make_unique<PosePoint3>(k[0], k[1], Eigen::Vector3d(m[0], m[1], m[2]), n);
+                      }));
+  r.Register(Describe("PriorSE3", "", 6, {se3}, 7, [](std::vector<Key> k, const double* m, SqrtInformation n) {
+    return std::make_unique<PriorSE3>(k[0], SE3FromMeasurement(m), n);
+  }));
 }
 
 Registry& DefaultRegistry() {

@@ -1,7 +1,7 @@
 // CHOLMOD supernodal Cholesky (and SuiteSparseQR) wrappers.
-#include <SuiteSparseQR.hpp>
 #include <cholmod.h>
 
+#include <SuiteSparseQR.hpp>
 #include <cstring>
 
 #include "linear_solver.h"

@@ -28,8 +28,7 @@ class EigenLDLT : public SparseCholesky {
 
  private:
   static Map View(const Csc& h) {
-    return Map(h.rows, h.cols, static_cast<int>(h.values.size()), h.colptr.data(), h.rowind.data(),
-               h.values.data());
+    return Map(h.rows, h.cols, static_cast<int>(h.values.size()), h.colptr.data(), h.rowind.data(), h.values.data());
   }
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double, Eigen::ColMajor, int>, Eigen::Upper> solver_;
 };

@@ -70,7 +70,7 @@ class Problem {
     int first;  // first index into entries_/params_
     int count;
   };
-  struct Pair {  // one block of H touched by one factor
+  struct Pair {                // one block of H touched by one factor
     int row_entry, col_entry;  // entries giving the block's rows and columns
     int pos, ld;               // position of the block's (0,0) in the CSC values; column stride
   };

@@ -1,8 +1,8 @@
+#include "tether/solvers/solver_options.h"
+
 #include <cmath>
 #include <cstdio>
 #include <sstream>
-
-#include "tether/solvers/solver_options.h"
 
 namespace tether {
 
@@ -95,8 +95,7 @@ std::string SolverSummary::FullReport() const {
     << " unknowns)\n";
   o << "  factors            " << num_factors << " (" << num_residuals << " residuals)\n";
   if (gauge_fixed_automatically) {
-    o << "  gauge              nothing was fixed and no prior exists: held " << KeyToString(gauge_key)
-      << " fixed\n";
+    o << "  gauge              nothing was fixed and no prior exists: held " << KeyToString(gauge_key) << " fixed\n";
   }
   std::snprintf(buf, sizeof(buf), "%.9g", initial_chi2);
   o << "  initial chi2       " << buf << "\n";

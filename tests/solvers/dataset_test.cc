@@ -23,14 +23,10 @@ struct Reference {
 };
 
 const Reference kReferences[] = {
-    {"intel.g2o", 551.736, 45.004696},
-    {"CSAIL.g2o", 0, 40.555129},
-    {"manhattan.g2o", 0, 3549.036796},
-    {"kitti_00.g2o", 0, 98.322012},
-    {"input_M3500_g2o.g2o", 2.56667e6, 137.913},
-    {"sphere2500.g2o", 2.54781e6, 727.149471},
-    {"parking-garage.g2o", 16720.0, 1.238691},
-    {"smallGrid3D.g2o", 115958, 458.153787},
+    {"intel.g2o", 551.736, 45.004696},           {"CSAIL.g2o", 0, 40.555129},
+    {"manhattan.g2o", 0, 3549.036796},           {"kitti_00.g2o", 0, 98.322012},
+    {"input_M3500_g2o.g2o", 2.56667e6, 137.913}, {"sphere2500.g2o", 2.54781e6, 727.149471},
+    {"parking-garage.g2o", 16720.0, 1.238691},   {"smallGrid3D.g2o", 115958, 458.153787},
     {"tinyGrid3D.g2o", 213.064, 6.727882},
 };
 

@@ -1,5 +1,7 @@
 // Gauss-Newton and Levenberg-Marquardt on synthetic graphs with known ground truth, the
 // three linear solvers against each other, stopping rules, gauge handling and failures.
+#include "tether/solvers/optimizer.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +10,6 @@
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
 #include "tether/factors/prior.h"
-#include "tether/solvers/optimizer.h"
 #include "tether/tools/simulate.h"
 
 namespace tether {
@@ -83,8 +84,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{SimWorld::kLandmarks, Algorithm::kLevenbergMarquardt, LinearSolverType::kCholmod},
                       Case{SimWorld::kLandmarks, Algorithm::kGaussNewton, LinearSolverType::kEigenLDLT}),
     [](const ::testing::TestParamInfo<Case>& i) {
-      return std::string(ToString(i.param.world)) + "_" + ToString(i.param.algorithm) + "_" +
-             ToString(i.param.linear);
+      return std::string(ToString(i.param.world)) + "_" + ToString(i.param.algorithm) + "_" + ToString(i.param.linear);
     });
 
 TEST(OptimizerTest, LinearSolversAgree) {

@@ -1,14 +1,13 @@
 // The tether program end to end: exit codes, the iteration table and summary, files written
 // only on success, simulate's determinism.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace {
 

@@ -241,8 +241,7 @@ TEST(SimulateTest, SphereHasSE3PosesAndLoopClosuresToThePreviousRing) {
     ASSERT_EQ(f->type_name(), "BetweenSE3");
     if (IsConsecutive(*f)) continue;
     const double gap =
-        (g.ground_truth.AtSE3(f->keys()[0]).translation() - g.ground_truth.AtSE3(f->keys()[1]).translation())
-            .norm();
+        (g.ground_truth.AtSE3(f->keys()[0]).translation() - g.ground_truth.AtSE3(f->keys()[1]).translation()).norm();
     EXPECT_LT(gap, 2.0);  // neighbours on the previous ring
   }
 }
@@ -325,8 +324,8 @@ TEST(SimulateTest, GroundTruthChi2MatchesResidualDimensions) {
       const SimulatedGraph g = Simulate(o);
       const int dims = ResidualDims(g.graph);
       const double chi2 = g.graph.Chi2(g.ground_truth);
-      EXPECT_NEAR(chi2 / dims, 1.0, 0.3) << ToString(w) << " sigma x" << sigma_scale << ": chi2 " << chi2
-                                         << " over " << dims << " residual dimensions";
+      EXPECT_NEAR(chi2 / dims, 1.0, 0.3) << ToString(w) << " sigma x" << sigma_scale << ": chi2 " << chi2 << " over "
+                                         << dims << " residual dimensions";
     }
   }
 }
@@ -370,8 +369,7 @@ TEST(SimulateTest, OptimisingRecoversTheGroundTruth) {
     const double chi2 = g.graph.Chi2(v);
     EXPECT_LE(chi2, g.graph.Chi2(g.ground_truth)) << ToString(w);
     EXPECT_NEAR(chi2 / dof, 1.0, 0.3) << ToString(w) << ": chi2 " << chi2 << " with " << dof << " dof";
-    EXPECT_LT(MaxPositionDifference(g.ground_truth, v),
-              0.5 * MaxPositionDifference(g.ground_truth, g.initial))
+    EXPECT_LT(MaxPositionDifference(g.ground_truth, v), 0.5 * MaxPositionDifference(g.ground_truth, g.initial))
         << ToString(w);
   }
 }

@@ -35,8 +35,7 @@ namespace {
     const std::size_t end = svg.find('>', pos);
     if (end == std::string::npos) return ::testing::AssertionFailure() << "unterminated tag at " << pos;
     const std::string tag = svg.substr(pos + 1, end - pos - 1);
-    if (tag.find('<') != std::string::npos)
-      return ::testing::AssertionFailure() << "'<' inside tag at " << pos;
+    if (tag.find('<') != std::string::npos) return ::testing::AssertionFailure() << "'<' inside tag at " << pos;
     if (tag.empty()) return ::testing::AssertionFailure() << "empty tag at " << pos;
     const bool closing = tag[0] == '/';
     const bool self_closing = tag.back() == '/';
@@ -150,8 +149,7 @@ TEST(SvgPlotTest, ManhattanBeforeAndAfter) {
   const std::string svg = RenderSvg(g.graph, &g.initial, &g.ground_truth, po);
   EXPECT_TRUE(WellFormed(svg));
   EXPECT_FALSE(HasNonFinite(svg));
-  for (const char* cls : {"before", "after", "loop-closures"})
-    EXPECT_FALSE(PathData(svg, cls).empty()) << cls;
+  for (const char* cls : {"before", "after", "loop-closures"}) EXPECT_FALSE(PathData(svg, cls).empty()) << cls;
   EXPECT_TRUE(PathData(svg, "landmarks").empty());
   for (const char* label : {">before<", ">after<", ">loop closures<", ">manhattan 300<", " m</text>"})
     EXPECT_TRUE(Contains(svg, label)) << label;

@@ -29,8 +29,8 @@ std::string Row(const IterationSummary& it) {
   } else {
     std::snprintf(lam, sizeof(lam), "%9s", "-");
   }
-  std::snprintf(buf, sizeof(buf), "%5d  %16.9g  %s  %s  %s  %9.3f%s", it.iteration, it.chi2, rel, lam, step,
-                it.seconds, it.accepted ? "" : "  rejected");
+  std::snprintf(buf, sizeof(buf), "%5d  %16.9g  %s  %s  %s  %9.3f%s", it.iteration, it.chi2, rel, lam, step, it.seconds,
+                it.accepted ? "" : "  rejected");
   return buf;
 }
 

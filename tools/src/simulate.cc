@@ -361,24 +361,23 @@ class Simulation {
 
 bool SimulateOptions::IsValid(std::string* why) const {
   if (poses < 1 || poses > kMaxPoses)
-    return Fail(
-        why, "SimulateOptions.poses must be between 1 and " + Str(kMaxPoses) + " (got " + Str(poses) + ")");
+    return Fail(why, "SimulateOptions.poses must be between 1 and " + Str(kMaxPoses) + " (got " + Str(poses) + ")");
   if (!(translation_sigma >= 1e-9 && translation_sigma <= 1e6))
-    return Fail(why, "SimulateOptions.translation_sigma must be in [1e-9, 1e6] metres (got " +
-                         Str(translation_sigma) + ")");
+    return Fail(why,
+                "SimulateOptions.translation_sigma must be in [1e-9, 1e6] metres (got " + Str(translation_sigma) + ")");
   if (!(rotation_sigma >= 1e-9 && rotation_sigma <= 0.5))
-    return Fail(why, "SimulateOptions.rotation_sigma must be in [1e-9, 0.5] radians (got " +
-                         Str(rotation_sigma) + "): larger noise makes angle errors far from Gaussian");
+    return Fail(why, "SimulateOptions.rotation_sigma must be in [1e-9, 0.5] radians (got " + Str(rotation_sigma) +
+                         "): larger noise makes angle errors far from Gaussian");
   if (!(loop_closure_probability >= 0.0 && loop_closure_probability <= 1.0))
-    return Fail(why, "SimulateOptions.loop_closure_probability must be in [0, 1] (got " +
-                         Str(loop_closure_probability) + ")");
+    return Fail(
+        why, "SimulateOptions.loop_closure_probability must be in [0, 1] (got " + Str(loop_closure_probability) + ")");
   if (world == SimWorld::kLandmarks) {
     if (landmarks < 1 || landmarks > kMaxLandmarks)
       return Fail(why, "SimulateOptions.landmarks must be between 1 and " + Str(kMaxLandmarks) +
                            " for the landmarks world (got " + Str(landmarks) + ")");
     if (!(landmark_range >= 1e-3 && landmark_range <= 1e6))
-      return Fail(why, "SimulateOptions.landmark_range must be in [1e-3, 1e6] metres (got " +
-                           Str(landmark_range) + ")");
+      return Fail(why,
+                  "SimulateOptions.landmark_range must be in [1e-3, 1e6] metres (got " + Str(landmark_range) + ")");
   }
   if (why != nullptr) why->clear();
   return true;

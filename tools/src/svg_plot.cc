@@ -151,8 +151,7 @@ bool Consecutive(Key a, Key b) { return (a > b ? a - b : b - a) == 1; }
 /// Every variable layout starts with x, y (variable.h), so the projection is the first two.
 Pt XY(const double* p) { return Pt{p[0], p[1]}; }
 
-Layer Extract(const Values& values, const FactorGraph& graph, const std::unordered_set<Key>& linked,
-              bool with_loops) {
+Layer Extract(const Values& values, const FactorGraph& graph, const std::unordered_set<Key>& linked, bool with_loops) {
   Layer layer;
   layer.present = true;
   std::vector<std::pair<Key, Pt>> poses;
@@ -168,8 +167,7 @@ Layer Extract(const Values& values, const FactorGraph& graph, const std::unorder
   }
   std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    const bool joined =
-        i > 0 && poses[i].first == poses[i - 1].first + 1 && linked.count(poses[i - 1].first) != 0;
+    const bool joined = i > 0 && poses[i].first == poses[i - 1].first + 1 && linked.count(poses[i - 1].first) != 0;
     if (!joined) layer.runs.emplace_back();
     layer.runs.back().push_back(poses[i].second);
   }
@@ -223,15 +221,13 @@ bool PlotOptions::IsValid(std::string* why) const {
   if (width_px < 200 || width_px > 20000) {
     reason = "PlotOptions.width_px must be in [200, 20000] (got " + std::to_string(width_px) + ")";
   } else if (height_px != 0 && (height_px < 150 || height_px > 20000)) {
-    reason = "PlotOptions.height_px must be 0 (automatic) or in [150, 20000] (got " +
-             std::to_string(height_px) + ")";
+    reason = "PlotOptions.height_px must be 0 (automatic) or in [150, 20000] (got " + std::to_string(height_px) + ")";
   }
   if (why != nullptr) *why = reason;
   return reason.empty();
 }
 
-std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after,
-                      const PlotOptions& options) {
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const PlotOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("RenderSvg: " + why);
 
@@ -243,8 +239,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   }
   const bool loops_from_after = after != nullptr;
   Layer lb, la;
-  if (before != nullptr)
-    lb = Extract(*before, graph, linked, options.draw_loop_closures && !loops_from_after);
+  if (before != nullptr) lb = Extract(*before, graph, linked, options.draw_loop_closures && !loops_from_after);
   if (after != nullptr) la = Extract(*after, graph, linked, options.draw_loop_closures);
   if (!options.draw_landmarks) {
     lb.landmarks.clear();
@@ -336,17 +331,16 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
       "fill=\"none\" stroke-width=\"1.2\" stroke-linecap=\"round\" stroke-linejoin=\"round\"";
   AppendPath(trajectory(lb), "before", "stroke=\"" + std::string(kBeforeColour) + "\" " + line_style, &svg);
   AppendPath(trajectory(la), "after", "stroke=\"" + std::string(kAfterColour) + "\" " + line_style, &svg);
-  AppendPath(
-      loop_path, "loop-closures",
-      "fill=\"none\" stroke=\"" + std::string(kLoopColour) + "\" stroke-width=\"0.5\" stroke-opacity=\"0.6\"",
-      &svg);
+  AppendPath(loop_path, "loop-closures",
+             "fill=\"none\" stroke=\"" + std::string(kLoopColour) + "\" stroke-width=\"0.5\" stroke-opacity=\"0.6\"",
+             &svg);
   AppendPath(squares(lb), "landmarks-before", "fill=\"" + std::string(kBeforeColour) + "\"", &svg);
   AppendPath(squares(la), "landmarks", "fill=\"" + std::string(kLandmarkColour) + "\"", &svg);
   const Layer& first = !la.runs.empty() ? la : lb;
   if (!first.runs.empty()) {
     const Pt s = frame(first.runs[0][0]);
-    svg += "<circle class=\"start\" cx=\"" + Num(s.x) + "\" cy=\"" + Num(s.y) +
-           "\" r=\"3.5\" fill=\"none\" stroke=\"" + kStartColour + "\" stroke-width=\"1.5\"/>\n";
+    svg += "<circle class=\"start\" cx=\"" + Num(s.x) + "\" cy=\"" + Num(s.y) + "\" r=\"3.5\" fill=\"none\" stroke=\"" +
+           kStartColour + "\" stroke-width=\"1.5\"/>\n";
   }
 
   // Legend: a swatch and a label for each thing present, left to right.
@@ -354,8 +348,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   double x = kMargin;
   svg += "<g class=\"legend\" font-size=\"12\">\n";
   auto label = [&](const std::string& text) {
-    svg +=
-        "<text x=\"" + Num(x + 28.0) + "\" y=\"" + Num(legend_y + 4.0) + "\">" + Escape(text) + "</text>\n";
+    svg += "<text x=\"" + Num(x + 28.0) + "\" y=\"" + Num(legend_y + 4.0) + "\">" + Escape(text) + "</text>\n";
     x += 28.0 + 7.0 * static_cast<double>(text.size()) + 18.0;
   };
   auto line_item = [&](const char* colour, double stroke_width, const std::string& text) {
@@ -367,9 +360,8 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   if (la.present) line_item(kAfterColour, 2.0, options.after_label);
   if (!loops.empty()) line_item(kLoopColour, 1.0, "loop closures");
   if (!la.landmarks.empty() || !lb.landmarks.empty()) {
-    svg += "<rect x=\"" + Num(x + 9.0) + "\" y=\"" + Num(legend_y - 2.0) +
-           "\" width=\"4\" height=\"4\" fill=\"" + (la.landmarks.empty() ? kBeforeColour : kLandmarkColour) +
-           "\"/>\n";
+    svg += "<rect x=\"" + Num(x + 9.0) + "\" y=\"" + Num(legend_y - 2.0) + "\" width=\"4\" height=\"4\" fill=\"" +
+           (la.landmarks.empty() ? kBeforeColour : kLandmarkColour) + "\"/>\n";
     label("landmarks");
   }
   svg += "</g>\n";
@@ -379,8 +371,8 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   const double bar_px = bar_m * frame.scale;
   const double x1 = width - kMargin, x0 = x1 - bar_px;
   svg += "<g class=\"scale-bar\" stroke=\"black\" stroke-width=\"1\">\n";
-  svg += "<path d=\"M" + Num(x0) + " " + Num(legend_y - 4.0) + "v8M" + Num(x0) + " " + Num(legend_y) + "H" +
-         Num(x1) + "M" + Num(x1) + " " + Num(legend_y - 4.0) + "v8\"/>\n";
+  svg += "<path d=\"M" + Num(x0) + " " + Num(legend_y - 4.0) + "v8M" + Num(x0) + " " + Num(legend_y) + "H" + Num(x1) +
+         "M" + Num(x1) + " " + Num(legend_y - 4.0) + "v8\"/>\n";
   svg += "<text x=\"" + Num(x0 - 6.0) + "\" y=\"" + Num(legend_y + 4.0) +
          "\" text-anchor=\"end\" font-size=\"12\" stroke=\"none\">" + LengthLabel(bar_m) + "</text>\n";
   svg += "</g>\n";
@@ -388,8 +380,8 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   return svg;
 }
 
-void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before,
-                  const Values* after, const PlotOptions& options) {
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
+                  const PlotOptions& options) {
   const std::string svg = RenderSvg(graph, before, after, options);
   const std::string tmp = path + ".tmp";
   auto fail = [&](const std::string& what, int err) {

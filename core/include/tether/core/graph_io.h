@@ -30,7 +30,7 @@ struct GraphFile {
   Values values;
   FactorGraph graph;
   std::vector<std::string> warnings;
-  int repaired_informations = 0;       ///< information matrices changed by the repair option
+  int repaired_informations = 0;         ///< information matrices changed by the repair option
   int initialised_by_spanning_tree = 0;  ///< vertices that got their initial value from edges
 };
 

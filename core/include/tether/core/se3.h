@@ -30,9 +30,7 @@ class SE3 {
   SE3(const SO3<T>& r, const Vector3& t) : r_(r), t_(t) {}
   SE3(const Quaternion& q, const Vector3& t) : r_(q), t_(t) {}
 
-  static SE3 FromParams(const T* p) {
-    return SE3(Quaternion(p[6], p[3], p[4], p[5]), Vector3(p[0], p[1], p[2]));
-  }
+  static SE3 FromParams(const T* p) { return SE3(Quaternion(p[6], p[3], p[4], p[5]), Vector3(p[0], p[1], p[2])); }
   void ToParams(T* p) const {
     p[0] = t_.x();
     p[1] = t_.y();

@@ -10,8 +10,8 @@ template <typename T>
 T WrapAngle(const T& a) {
   using std::atan2;
   using std::cos;
-  using std::sin;
   using std::floor;
+  using std::sin;
   const double kPi = 3.14159265358979323846;
   // Fast path for the common case; exact for values already in range.
   T r = a;

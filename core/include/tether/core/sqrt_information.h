@@ -42,9 +42,9 @@ class SqrtInformation {
 
 /// How non-positive-definite information matrices in input files are treated.
 enum class InformationRepair {
-  kNone,        ///< an error naming file:line (default)
-  kNearestPD,   ///< eigenvalues clamped up to a small positive floor (nearest PD in Frobenius norm)
-  kIsotropic,   ///< replaced by (trace / n) * I, or I where the trace is not positive
+  kNone,       ///< an error naming file:line (default)
+  kNearestPD,  ///< eigenvalues clamped up to a small positive floor (nearest PD in Frobenius norm)
+  kIsotropic,  ///< replaced by (trace / n) * I, or I where the trace is not positive
 };
 const char* ToString(InformationRepair r);
 bool FromString(const std::string& s, InformationRepair* r);

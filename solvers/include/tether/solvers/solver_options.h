@@ -11,17 +11,17 @@ namespace tether {
 
 enum class Algorithm { kGaussNewton, kLevenbergMarquardt };
 enum class LinearSolverType {
-  kCholmod,     ///< CHOLMOD supernodal Cholesky of H = J^T J (default)
-  kEigenLDLT,   ///< Eigen SimplicialLDLT of H (no SuiteSparse needed at run time)
-  kQR,          ///< SuiteSparseQR on the Jacobian J itself (better conditioned, slower)
+  kCholmod,    ///< CHOLMOD supernodal Cholesky of H = J^T J (default)
+  kEigenLDLT,  ///< Eigen SimplicialLDLT of H (no SuiteSparse needed at run time)
+  kQR,         ///< SuiteSparseQR on the Jacobian J itself (better conditioned, slower)
 };
 enum class SolverStatus {
-  kConverged,         ///< a tolerance was met
-  kMaxIterations,     ///< max_iterations reached first
-  kTimeLimit,         ///< max_seconds reached first
-  kDiverged,          ///< chi2 became non-finite or grew without bound; last good values kept
-  kRankDeficient,     ///< the linear system is singular (gauge not fixed, disconnected graph)
-  kInvalidInput,      ///< options or graph invalid (message says why); values untouched
+  kConverged,      ///< a tolerance was met
+  kMaxIterations,  ///< max_iterations reached first
+  kTimeLimit,      ///< max_seconds reached first
+  kDiverged,       ///< chi2 became non-finite or grew without bound; last good values kept
+  kRankDeficient,  ///< the linear system is singular (gauge not fixed, disconnected graph)
+  kInvalidInput,   ///< options or graph invalid (message says why); values untouched
 };
 
 // Names used by the CLI and reports: "gn", "lm"; "cholmod", "ldlt", "qr"; "converged", ...
@@ -34,13 +34,13 @@ bool FromString(const std::string& s, SolverStatus* st);
 
 /// One row of the iteration log.
 struct IterationSummary {
-  int iteration = 0;              ///< 0 is the initial state
-  double chi2 = 0;                ///< chi2 after this iteration (of the accepted state)
-  double relative_decrease = 0;   ///< (chi2_before - chi2_after) / chi2_before of the tried step
-  double lambda = 0;              ///< LM damping used for the step (0 for GN)
-  double step_norm = 0;           ///< |delta| of the tried step
-  double seconds = 0;             ///< since the solve started
-  bool accepted = true;           ///< LM: whether the step was kept
+  int iteration = 0;             ///< 0 is the initial state
+  double chi2 = 0;               ///< chi2 after this iteration (of the accepted state)
+  double relative_decrease = 0;  ///< (chi2_before - chi2_after) / chi2_before of the tried step
+  double lambda = 0;             ///< LM damping used for the step (0 for GN)
+  double step_norm = 0;          ///< |delta| of the tried step
+  double seconds = 0;            ///< since the solve started
+  bool accepted = true;          ///< LM: whether the step was kept
 };
 
 struct SolverOptions {
@@ -70,24 +70,24 @@ struct SolverOptions {
 
 struct SolverSummary {
   SolverStatus status = SolverStatus::kInvalidInput;
-  std::string message;                 ///< why it stopped, in words
+  std::string message;  ///< why it stopped, in words
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   LinearSolverType linear_solver = LinearSolverType::kCholmod;
   double initial_chi2 = 0;
   double final_chi2 = 0;
-  int iterations = 0;                  ///< iterations tried (accepted or not)
+  int iterations = 0;  ///< iterations tried (accepted or not)
   int accepted_iterations = 0;
   double total_seconds = 0;
-  double setup_seconds = 0;            ///< symbolic analysis and structure
-  double linearize_seconds = 0;        ///< evaluating factors and assembling
-  double solve_seconds = 0;            ///< numeric factorisation and solves
-  int num_variables = 0;               ///< free variables
-  int num_fixed = 0;                   ///< variables held constant
+  double setup_seconds = 0;      ///< symbolic analysis and structure
+  double linearize_seconds = 0;  ///< evaluating factors and assembling
+  double solve_seconds = 0;      ///< numeric factorisation and solves
+  int num_variables = 0;         ///< free variables
+  int num_fixed = 0;             ///< variables held constant
   int num_factors = 0;
   int num_residuals = 0;
-  int tangent_dim = 0;                 ///< columns of J
+  int tangent_dim = 0;  ///< columns of J
   bool gauge_fixed_automatically = false;
-  Key gauge_key = 0;                   ///< the variable fixed automatically, if any
+  Key gauge_key = 0;  ///< the variable fixed automatically, if any
   std::vector<IterationSummary> log;
 
   bool IsSolutionUsable() const {

@@ -8,15 +8,15 @@ namespace tether {
 
 struct OptimizeCommand {
   std::string input;
-  std::string output;            ///< g2o file with the optimised values (optional)
-  std::string plot;              ///< SVG with the trajectory before and after (optional)
-  std::string solver = "lm";     ///< gn | lm
+  std::string output;              ///< g2o file with the optimised values (optional)
+  std::string plot;                ///< SVG with the trajectory before and after (optional)
+  std::string solver = "lm";       ///< gn | lm
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr
   int max_iterations = 100;
-  double time_limit = 0;         ///< seconds, 0 for none
+  double time_limit = 0;                    ///< seconds, 0 for none
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
-  bool quiet = false;            ///< no iteration table
-  bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
+  bool quiet = false;                       ///< no iteration table
+  bool allow_partial_vertices = false;      ///< compose missing vertices from edges instead of failing
 };
 
 struct SimulateCommand {

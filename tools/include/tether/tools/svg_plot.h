@@ -45,7 +45,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
 
 /// Writes RenderSvg's output to `path`, through a temporary file renamed into place, so a
 /// failure never leaves half a file. Throws IoError naming `path` when it cannot be written.
-void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before,
-                  const Values* after, const PlotOptions& options = {});
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
+                  const PlotOptions& options = {});
 
 }  // namespace tether
