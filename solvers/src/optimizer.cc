@@ -205,6 +205,15 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
     s.status = SolverStatus::kConverged;
     s.message = "gradient below gradient_tolerance at the start";
   }
+  // LM: a step that failed or did not lower chi2 is logged as rejected and the damping grows.
+  auto reject = [&](IterationSummary& it) {
+    it.accepted = false;
+    it.chi2 = chi2;
+    it.seconds = SecondsSince(t0);
+    report(it);
+    lambda *= nu;
+    nu *= 2.0;
+  };
   while (s.status == SolverStatus::kMaxIterations && s.iterations < options.max_iterations) {
     if (options.max_seconds > 0 && SecondsSince(t0) > options.max_seconds) {
       s.status = SolverStatus::kTimeLimit;
@@ -226,12 +235,7 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
     }
     if (fr != internal::FactorResult::kOk) {
       if (lm && lambda < options.max_lambda) {
-        it.accepted = false;
-        it.chi2 = chi2;
-        it.seconds = SecondsSince(t0);
-        report(it);
-        lambda *= nu;
-        nu *= 2;
+        reject(it);
         continue;
       }
       s.status = SolverStatus::kRankDeficient;
@@ -262,12 +266,7 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
         nu = 2.0;
       } else {
         p.Restore();
-        it.accepted = false;
-        it.chi2 = chi2;
-        it.seconds = SecondsSince(t0);
-        report(it);
-        lambda *= nu;
-        nu *= 2.0;
+        reject(it);
         if (lambda > options.max_lambda) {
           s.status = SolverStatus::kConverged;
           s.message = "no step lowers chi2 any further (damping reached max_lambda)";

@@ -157,24 +157,32 @@ void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions)
   }
 }
 
+void Problem::AddGradient(const FactorRef& f, double* g, double* diag) const {
+  const double* r = res_.data() + f.row;
+  for (int a = 0; a < f.count; ++a) {
+    const Entry& e = entries_[f.first + a];
+    if (e.var < 0) continue;
+    const double* J = jac_.data() + e.jac;
+    const int off = vars_[e.var].offset;
+    for (int c = 0; c < e.dim; ++c) {
+      double s = 0, d = 0;
+      for (int i = 0; i < f.m; ++i) {
+        s += J[i * e.dim + c] * r[i];
+        d += J[i * e.dim + c] * J[i * e.dim + c];
+      }
+      g[off + c] += s;
+      if (diag != nullptr) diag[off + c] += d;
+    }
+  }
+}
+
 void Problem::AssembleNormal(Csc* h, double* g) const {
   std::fill(h->values.begin(), h->values.end(), 0.0);
   std::fill(g, g + n_, 0.0);
   double* hx = h->values.data();
   std::size_t pi = 0;
   for (const FactorRef& f : factors_) {
-    const double* r = res_.data() + f.row;
-    for (int a = 0; a < f.count; ++a) {
-      const Entry& e = entries_[f.first + a];
-      if (e.var < 0) continue;
-      const double* J = jac_.data() + e.jac;
-      double* gv = g + vars_[e.var].offset;
-      for (int c = 0; c < e.dim; ++c) {
-        double s = 0;
-        for (int i = 0; i < f.m; ++i) s += J[i * e.dim + c] * r[i];
-        gv[c] += s;
-      }
-    }
+    AddGradient(f, g, nullptr);
     // Pairs were generated in the same factor order.
     for (; pi < pairs_.size() && pairs_[pi].row_entry < f.first + f.count; ++pi) {
       const Pair& p = pairs_[pi];
@@ -207,24 +215,7 @@ void Problem::AssembleNormal(Csc* h, double* g) const {
 void Problem::Gradient(double* g, double* diag) const {
   std::fill(g, g + n_, 0.0);
   std::fill(diag, diag + n_, 0.0);
-  for (const FactorRef& f : factors_) {
-    const double* r = res_.data() + f.row;
-    for (int a = 0; a < f.count; ++a) {
-      const Entry& e = entries_[f.first + a];
-      if (e.var < 0) continue;
-      const double* J = jac_.data() + e.jac;
-      const int off = vars_[e.var].offset;
-      for (int c = 0; c < e.dim; ++c) {
-        double s = 0, d = 0;
-        for (int i = 0; i < f.m; ++i) {
-          s += J[i * e.dim + c] * r[i];
-          d += J[i * e.dim + c] * J[i * e.dim + c];
-        }
-        g[off + c] += s;
-        diag[off + c] += d;
-      }
-    }
-  }
+  for (const FactorRef& f : factors_) AddGradient(f, g, diag);
 }
 
 void Problem::BuildJacobianStructure(Csc* j, std::vector<int>* damping_positions) {

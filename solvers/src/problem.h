@@ -75,6 +75,9 @@ class Problem {
     int pos, ld;               // position of the block's (0,0) in the CSC values; column stride
   };
 
+  // g += J_f^T r_f and, where diag is not null, diag += the column norms of J_f squared.
+  void AddGradient(const FactorRef& f, double* g, double* diag) const;
+
   std::vector<Var> vars_;
   std::vector<FactorRef> factors_;
   std::vector<Entry> entries_;

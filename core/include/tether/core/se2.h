@@ -49,35 +49,17 @@ class SE2 {
 
   /// Exact group exponential of (rho_x, rho_y, theta).
   static SE2 Exp(const Vector3& v) {
-    using std::abs;
-    using std::cos;
-    using std::sin;
     const T th = v[2];
     T a, b;  // V = [a -b; b a]
-    if (abs(th) < T(1e-9)) {
-      a = T(1) - th * th / T(6);
-      b = th / T(2);
-    } else {
-      a = sin(th) / th;
-      b = (T(1) - cos(th)) / th;
-    }
+    VCoefficients(th, &a, &b);
     return SE2(a * v[0] - b * v[1], b * v[0] + a * v[1], th);
   }
 
   /// Exact group logarithm; inverse of Exp for |theta| < pi.
   Vector3 Log() const {
-    using std::abs;
-    using std::cos;
-    using std::sin;
     const T th = theta_;
     T a, b;
-    if (abs(th) < T(1e-9)) {
-      a = T(1) - th * th / T(6);
-      b = th / T(2);
-    } else {
-      a = sin(th) / th;
-      b = (T(1) - cos(th)) / th;
-    }
+    VCoefficients(th, &a, &b);
     const T det = a * a + b * b;  // V^{-1} = [a b; -b a] / det
     return Vector3((a * t_.x() + b * t_.y()) / det, (-b * t_.x() + a * t_.y()) / det, th);
   }
@@ -110,6 +92,19 @@ class SE2 {
   }
 
  private:
+  // Coefficients of V(theta) = [a -b; b a], the left Jacobian of SO(2) acting on translations.
+  static void VCoefficients(const T& th, T* a, T* b) {
+    using std::abs;
+    using std::cos;
+    using std::sin;
+    if (abs(th) < T(1e-9)) {
+      *a = T(1) - th * th / T(6);
+      *b = th / T(2);
+    } else {
+      *a = sin(th) / th;
+      *b = (T(1) - cos(th)) / th;
+    }
+  }
   SE2 WithAngle(const T& a) const {
     SE2 r = *this;
     r.theta_ = WrapAngle(a);
