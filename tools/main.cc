@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
+  optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable");
   optimize->add_flag("--allow-partial-vertices", opt.allow_partial_vertices,
                      "Give vertices without a VERTEX line initial values composed from edges");
 
@@ -34,6 +35,12 @@ int main(int argc, char** argv) {
   simulate->add_option("-o,--output", sim.output, "Output g2o file (initial values: composed odometry)")->required();
   simulate->add_option("--ground-truth", sim.ground_truth, "Also write the true values to this g2o file");
 
+  tether::PluginsListCommand plist;
+  CLI::App* plugins = app.add_subcommand("plugins", "Factor plugins");
+  plugins->require_subcommand(1);
+  CLI::App* list = plugins->add_subcommand("list", "List loaded plugins and every registered factor type");
+  list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -41,5 +48,6 @@ int main(int argc, char** argv) {
   }
   if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
   if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
+  if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
   return 2;
 }

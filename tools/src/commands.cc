@@ -6,6 +6,7 @@
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/tools/simulate.h"
 #include "tether/tools/svg_plot.h"
@@ -37,6 +38,22 @@ std::string Row(const IterationSummary& it) {
 struct GraphCounts {
   std::size_t poses = 0, landmarks = 0;
 };
+
+// Loads the plugins into the default registry; returns false (after saying why) on failure.
+bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, std::ostream& out,
+                 std::ostream& err) {
+  for (const std::string& p : plugins) {
+    try {
+      const LoadedPlugin l = loader->Load(p);
+      out << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << l.type_names.size()
+          << " factor types)\n";
+    } catch (const Error& e) {
+      err << "error: " << e.what() << "\n";
+      return false;
+    }
+  }
+  return true;
+}
 
 GraphCounts Count(const Values& v) {
   GraphCounts c;
@@ -70,7 +87,9 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     err << "tether optimize: " << why << "\n";
     return 2;
   }
-  const Registry& registry = DefaultRegistry();
+  Registry& registry = DefaultRegistry();
+  PluginLoader loader(registry);
+  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
   GraphFile file;
   try {
     ReadOptions ro;
@@ -151,6 +170,26 @@ int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err
       << " landmarks, " << sim.graph.size() << " factors (" << sim.odometry_factors << " odometry, "
       << sim.loop_closures << " loop closures, " << sim.observations << " observations), seed " << cmd.seed << "\n";
   if (!cmd.ground_truth.empty()) out << "wrote ground truth " << cmd.ground_truth << "\n";
+  return 0;
+}
+
+int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostream& err) {
+  Registry& registry = DefaultRegistry();
+  PluginLoader loader(registry);
+  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
+  out << "plugin search path (after explicit paths):";
+  for (const std::string& d : PluginLoader::SearchPath()) out << " " << d;
+  out << "\n";
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-20s %-24s %4s  %-20s %s\n", "type", "g2o tag", "dim", "variables", "owner");
+  out << line;
+  for (const auto& [name, t] : registry.types()) {
+    std::string vars;
+    for (VarType v : t.variable_types) vars += (vars.empty() ? "" : " ") + std::string(ToString(v));
+    std::snprintf(line, sizeof(line), "%-20s %-24s %4d  %-20s %s\n", name.c_str(),
+                  t.tag.empty() ? "(none)" : t.tag.c_str(), t.dim, vars.c_str(), t.owner.c_str());
+    out << line;
+  }
   return 0;
 }
 

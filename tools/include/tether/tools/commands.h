@@ -3,6 +3,7 @@
 // code and writes its report to `out` and errors to `err`.
 #include <iosfwd>
 #include <string>
+#include <vector>
 
 namespace tether {
 
@@ -17,6 +18,11 @@ struct OptimizeCommand {
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
   bool quiet = false;                       ///< no iteration table
   bool allow_partial_vertices = false;      ///< compose missing vertices from edges instead of failing
+  std::vector<std::string> plugins;  ///< factor plugins to load first (paths or names)
+};
+
+struct PluginsListCommand {
+  std::vector<std::string> plugins;  ///< plugins to load before listing
 };
 
 struct SimulateCommand {
@@ -31,5 +37,7 @@ struct SimulateCommand {
 /// (status says why; nothing written).
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err);
 int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err);
+/// Lists loaded plugins and every registered factor type (name, tag, dimensions, owner).
+int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostream& err);
 
 }  // namespace tether

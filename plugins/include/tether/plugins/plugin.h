@@ -1,0 +1,100 @@
+#pragma once
+// What a factor plugin includes. A plugin is a shared library that exports one C function,
+//
+//   extern "C" const tether::PluginDescription* tether_plugin_entry();
+//
+// written for you by TETHER_PLUGIN(name, version, register_function). The loader checks the
+// interface version and the build fingerprint, then calls register_function with a
+// PluginRegistrar; the types it adds are committed to the registry all at once, or not at
+// all. No static initialisers take part: nothing happens until the loader asks.
+//
+//   void RegisterMyTypes(tether::PluginRegistrar& r) { r.AddFactorType(...); }
+//   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "tether/core/registry.h"
+#include "tether/core/version.h"
+
+/// Changes whenever PluginDescription or the registration contract changes.
+#define TETHER_PLUGIN_INTERFACE_VERSION 1
+/// The symbol the loader looks up.
+#define TETHER_PLUGIN_ENTRY_SYMBOL "tether_plugin_entry"
+
+namespace tether {
+
+/// Build settings that must agree between tether and a plugin: the layout of Eigen's
+/// fixed-size types and of tether's own classes depends on them.
+struct BuildFingerprint {
+  int tether_major, tether_minor, tether_patch;
+  int eigen_world, eigen_major, eigen_minor;
+  int eigen_max_align_bytes;         ///< EIGEN_MAX_ALIGN_BYTES
+  int eigen_max_static_align_bytes;  ///< EIGEN_MAX_STATIC_ALIGN_BYTES
+  int eigen_vectorize;               ///< 1 where EIGEN_VECTORIZE is defined
+  int eigen_dont_align;              ///< 1 where EIGEN_DONT_ALIGN is defined
+  int cxx11_abi;                     ///< _GLIBCXX_USE_CXX11_ABI (-1 elsewhere)
+  int pointer_bytes;
+};
+
+/// The fingerprint of the translation unit that calls it (inline on purpose: a plugin gets its
+/// own compiler's view, tether its own).
+inline BuildFingerprint CurrentBuildFingerprint() {
+  BuildFingerprint f{};
+  f.tether_major = TETHER_VERSION_MAJOR;
+  f.tether_minor = TETHER_VERSION_MINOR;
+  f.tether_patch = TETHER_VERSION_PATCH;
+  f.eigen_world = EIGEN_WORLD_VERSION;
+  f.eigen_major = EIGEN_MAJOR_VERSION;
+  f.eigen_minor = EIGEN_MINOR_VERSION;
+  f.eigen_max_align_bytes = EIGEN_MAX_ALIGN_BYTES;
+  f.eigen_max_static_align_bytes = EIGEN_MAX_STATIC_ALIGN_BYTES;
+#ifdef EIGEN_VECTORIZE
+  f.eigen_vectorize = 1;
+#endif
+#ifdef EIGEN_DONT_ALIGN
+  f.eigen_dont_align = 1;
+#endif
+#ifdef _GLIBCXX_USE_CXX11_ABI
+  f.cxx11_abi = _GLIBCXX_USE_CXX11_ABI;
+#else
+  f.cxx11_abi = -1;
+#endif
+  f.pointer_bytes = static_cast<int>(sizeof(void*));
+  return f;
+}
+
+/// One line per field that differs: "eigen_max_align_bytes: tether 16, plugin 32".
+std::vector<std::string> CompareFingerprints(const BuildFingerprint& tether, const BuildFingerprint& plugin);
+
+/// Collects what a plugin registers; the loader commits it to the registry afterwards.
+class PluginRegistrar {
+ public:
+  explicit PluginRegistrar(std::string plugin_name) : plugin_(std::move(plugin_name)) {}
+  /// Adds a factor type; its owner is set to the plugin's name.
+  void AddFactorType(FactorType type);
+  const std::vector<FactorType>& factor_types() const { return types_; }
+  const std::string& plugin_name() const { return plugin_; }
+
+ private:
+  std::string plugin_;
+  std::vector<FactorType> types_;
+};
+
+struct PluginDescription {
+  int interface_version;  ///< TETHER_PLUGIN_INTERFACE_VERSION when the plugin was built
+  const char* name;       ///< unique plugin name, e.g. "range_factors"
+  const char* version;    ///< the plugin's own version
+  BuildFingerprint fingerprint;
+  void (*register_types)(PluginRegistrar& registrar);
+};
+
+}  // namespace tether
+
+/// Defines the entry function of a plugin.
+#define TETHER_PLUGIN(NAME, VERSION, REGISTER_FUNCTION)                                                    \
+  extern "C" __attribute__((visibility("default"))) const ::tether::PluginDescription* tether_plugin_entry() { \
+    static const ::tether::PluginDescription description = {                                             \
+        TETHER_PLUGIN_INTERFACE_VERSION, NAME, VERSION, ::tether::CurrentBuildFingerprint(), REGISTER_FUNCTION}; \
+    return &description;                                                                                  \
+  }

@@ -1,0 +1,54 @@
+#pragma once
+// Loads factor plugins with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their types.
+//
+// Search order for Load(name): a path that exists as given (absolute or relative to the
+// working directory); then each folder of TETHER_PLUGIN_PATH (colon-separated); then the
+// installed plugin folder: lib/tether/plugins beside the installed libtether_plugins.so
+// (so a relocated install finds its own plugins), and the one configured at build time.
+//
+// Lifetime: a loaded plugin stays loaded for the rest of the process (it is never
+// dlclose'd), so factors it created stay valid whatever happens to the loader. Its types
+// stay registered until Registry::RemoveOwner(plugin name), which is only safe once no
+// factor of those types exists.
+#include <string>
+#include <vector>
+
+#include "tether/core/error.h"
+#include "tether/core/registry.h"
+
+namespace tether {
+
+/// A plugin could not be loaded; the message names the file and what to do.
+class PluginError : public Error {
+ public:
+  using Error::Error;
+};
+
+struct LoadedPlugin {
+  std::string name;
+  std::string version;
+  std::string path;                     ///< canonical path of the shared library
+  std::vector<std::string> type_names;  ///< factor types it registered
+};
+
+class PluginLoader {
+ public:
+  explicit PluginLoader(Registry& registry) : registry_(registry) {}
+
+  /// Loads and registers a plugin. Loading the same file again returns the earlier result
+  /// and changes nothing. Throws PluginError.
+  LoadedPlugin Load(const std::string& path_or_name);
+  const std::vector<LoadedPlugin>& loaded() const { return loaded_; }
+
+  /// Where Load looks for a bare file name, in order.
+  static std::vector<std::string> SearchPath();
+  /// The file Load would open for `path_or_name`; throws PluginError listing the places
+  /// searched when there is none.
+  static std::string Resolve(const std::string& path_or_name);
+
+ private:
+  Registry& registry_;
+  std::vector<LoadedPlugin> loaded_;
+};
+
+}  // namespace tether

@@ -1,0 +1,150 @@
+#include "tether/plugins/plugin_loader.h"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+
+#include "tether/plugins/plugin.h"
+
+namespace tether {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+bool IsFile(const std::string& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+bool IsDirectory(const std::string& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+
+}  // namespace
+
+std::vector<std::string> PluginLoader::SearchPath() {
+  std::vector<std::string> dirs;
+  if (const char* env = std::getenv("TETHER_PLUGIN_PATH")) {
+    std::string s(env);
+    std::size_t start = 0;
+    while (start <= s.size()) {
+      const std::size_t end = std::min(s.find(':', start), s.size());
+      if (end > start) dirs.push_back(s.substr(start, end - start));
+      start = end + 1;
+    }
+  }
+  // The installed plugin folder: beside this library (lib/tether/plugins), which also holds
+  // for a tree installed with `cmake --install --prefix`, then the configured one.
+  Dl_info info;
+  if (dladdr(reinterpret_cast<void*>(&PluginLoader::Resolve), &info) != 0 && info.dli_fname != nullptr) {
+    const std::string here = fs::path(info.dli_fname).parent_path().string() + "/tether/plugins";
+    if (IsDirectory(here)) dirs.push_back(here);
+  }
+  if (std::find(dirs.begin(), dirs.end(), TETHER_PLUGIN_INSTALL_DIR) == dirs.end()) {
+    dirs.push_back(TETHER_PLUGIN_INSTALL_DIR);
+  }
+  return dirs;
+}
+
+std::string PluginLoader::Resolve(const std::string& path_or_name) {
+  if (IsFile(path_or_name)) return fs::canonical(path_or_name).string();
+  std::string searched = path_or_name;
+  // A bare name (no folder) is looked up along the search path.
+  if (path_or_name.find('/') == std::string::npos) {
+    for (const std::string& dir : SearchPath()) {
+      const std::string candidate = dir + "/" + path_or_name;
+      if (IsFile(candidate)) return fs::canonical(candidate).string();
+      searched += ", " + candidate;
+    }
+  }
+  throw PluginError("plugin " + path_or_name + ": no such file (looked in: " + searched +
+                    "); give the path of the .so, or add its folder to TETHER_PLUGIN_PATH");
+}
+
+LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
+  const std::string path = Resolve(path_or_name);
+  for (auto it = loaded_.begin(); it != loaded_.end(); ++it) {
+    if (it->path != path) continue;
+    // Loading the same file twice is harmless. But where its types were removed since
+    // (Registry::RemoveOwner), it is registered afresh below, as a new loader would do.
+    const bool registered = std::all_of(it->type_names.begin(), it->type_names.end(), [&](const std::string& n) {
+      const FactorType* t = registry_.FindByName(n);
+      return t != nullptr && t->owner == it->name;
+    });
+    if (registered) return *it;
+    loaded_.erase(it);
+    break;
+  }
+  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* why = dlerror();
+    throw PluginError("plugin " + path + ": cannot be loaded as a shared library: " + (why ? why : "unknown error") +
+                      "; check that it is a plugin built for this machine and that the libraries it needs are "
+                      "installed");
+  }
+  // From here on the library stays loaded for the life of the process (see the header).
+  dlerror();
+  void* symbol = dlsym(handle, TETHER_PLUGIN_ENTRY_SYMBOL);
+  if (symbol == nullptr) {
+    throw PluginError("plugin " + path + ": the entry symbol '" TETHER_PLUGIN_ENTRY_SYMBOL
+                      "' is missing; define it with TETHER_PLUGIN(name, version, register_function) "
+                      "in one source file of the plugin");
+  }
+  using Entry = const PluginDescription* (*)();
+  const PluginDescription* d = reinterpret_cast<Entry>(symbol)();
+  if (d == nullptr) throw PluginError("plugin " + path + ": " TETHER_PLUGIN_ENTRY_SYMBOL " returned no description");
+  if (d->interface_version != TETHER_PLUGIN_INTERFACE_VERSION) {
+    throw PluginError("plugin " + path + ": plugin interface version " + std::to_string(d->interface_version) +
+                      ", but this tether speaks version " + std::to_string(TETHER_PLUGIN_INTERFACE_VERSION) +
+                      "; rebuild the plugin against this tether's headers");
+  }
+  const std::string name = d->name ? d->name : "";
+  if (name.empty()) throw PluginError("plugin " + path + ": the description has no name; give TETHER_PLUGIN a name");
+  const std::vector<std::string> diffs = CompareFingerprints(CurrentBuildFingerprint(), d->fingerprint);
+  if (!diffs.empty()) {
+    std::string m = "plugin " + path + " ('" + name + "'): built with different settings than this tether (";
+    for (std::size_t i = 0; i < diffs.size(); ++i) m += (i ? "; " : "") + diffs[i];
+    throw PluginError(m + "); rebuild the plugin with the same tether, Eigen version and compiler flags");
+  }
+  for (const LoadedPlugin& p : loaded_) {
+    if (p.name == name) {
+      throw PluginError("plugin " + path + ": a plugin named '" + name + "' is loaded already from " + p.path +
+                        "; load only one of them");
+    }
+  }
+  if (d->register_types == nullptr) {
+    throw PluginError("plugin " + path + " ('" + name + "'): the description has no registration function");
+  }
+  PluginRegistrar registrar(name);
+  try {
+    d->register_types(registrar);
+  } catch (const std::exception& e) {
+    throw PluginError("plugin " + path + " ('" + name + "'): registration failed: " + e.what() +
+                      "; nothing of it was registered");
+  } catch (...) {
+    throw PluginError("plugin " + path + " ('" + name +
+                      "'): registration threw something that is not a std::exception; nothing of it was registered");
+  }
+  // Commit all types at once: a trial copy takes them first, so a conflict leaves the
+  // registry exactly as it was.
+  Registry trial = registry_;
+  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}};
+  try {
+    for (const FactorType& t : registrar.factor_types()) {
+      trial.Register(t);
+      loaded.type_names.push_back(t.name);
+    }
+  } catch (const Error& e) {
+    throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
+  }
+  registry_ = std::move(trial);
+  loaded_.push_back(std::move(loaded));
+  return loaded_.back();
+}
+
+}  // namespace tether
