@@ -23,7 +23,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
-  optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable");
+  optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable")
+      ->allow_extra_args(false);
   optimize->add_flag("--allow-partial-vertices", opt.allow_partial_vertices,
                      "Give vertices without a VERTEX line initial values composed from edges");
 
@@ -39,15 +40,21 @@ int main(int argc, char** argv) {
   CLI::App* plugins = app.add_subcommand("plugins", "Factor plugins");
   plugins->require_subcommand(1);
   CLI::App* list = plugins->add_subcommand("list", "List loaded plugins and every registered factor type");
-  list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable");
+  list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable")->allow_extra_args(false);
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
-  if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
-  if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
+  try {
+    if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
+    if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
+    if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
+  } catch (const std::exception& e) {
+    // The commands report expected errors themselves; this is the last line of defence.
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
   return 2;
 }

@@ -19,6 +19,19 @@ bool Factor::Linearize(const double* const* params, double* residual, double* co
   return true;
 }
 
+void Factor::CheckShape() const {
+  const std::size_t n = variable_types().size();
+  if (keys_.size() != n) {
+    throw InvalidArgument(type_name() + " factor has " + std::to_string(keys_.size()) + " keys but its type takes " +
+                          std::to_string(n) + "; build it with the right keys");
+  }
+  if (dim() < 1 || dim() > kMaxResidualDim || dim() != residual_dim()) {
+    throw InvalidArgument(type_name() + " factor has a noise model of dimension " + std::to_string(dim()) +
+                          " for an error of dimension " + std::to_string(residual_dim()) +
+                          "; give it a noise model of the error's dimension (1 to 6)");
+  }
+}
+
 std::vector<const double*> Factor::GatherParams(const Values& values) const {
   const std::vector<VarType> types = variable_types();
   std::vector<const double*> p(keys_.size());
@@ -38,6 +51,7 @@ std::vector<const double*> Factor::GatherParams(const Values& values) const {
 }
 
 double Factor::Chi2(const Values& values) const {
+  CheckShape();
   const std::vector<const double*> p = GatherParams(values);
   double r[kMaxResidualDim];
   if (!Linearize(p.data(), r, nullptr)) return std::numeric_limits<double>::infinity();

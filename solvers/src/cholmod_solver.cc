@@ -79,7 +79,9 @@ class Cholmod : public SparseCholesky {
   }
   void Solve(const double* b, double* x) override {
     cholmod_dense bd = DenseView(const_cast<double*>(b), n_);
-    cholmod_solve2(CHOLMOD_A, L_, &bd, nullptr, &X_, nullptr, &Y_, &E_, &cc_);
+    if (!cholmod_solve2(CHOLMOD_A, L_, &bd, nullptr, &X_, nullptr, &Y_, &E_, &cc_) || X_ == nullptr) {
+      throw Error("CHOLMOD could not solve (status " + std::to_string(cc_.status) + "); try --linear ldlt");
+    }
     std::memcpy(x, X_->x, sizeof(double) * n_);
   }
   std::string Description() const override { return "CHOLMOD supernodal"; }
@@ -108,7 +110,9 @@ class Spqr : public SparseQR {
     colptr_.assign(j.colptr.begin(), j.colptr.end());
     rowind_.assign(j.rowind.begin(), j.rowind.end());
     cholmod_sparse a = View(j);
-    qr_ = SuiteSparseQR_symbolic<double>(SPQR_ORDERING_DEFAULT, 0, &a, &cc_);
+    // allow_tol = 1: columns below SPQR's default tolerance count as dependent, so rank
+    // deficiency is detected instead of turning into enormous steps.
+    qr_ = SuiteSparseQR_symbolic<double>(SPQR_ORDERING_DEFAULT, 1, &a, &cc_);
     if (qr_ == nullptr) {
       throw Error("SuiteSparseQR could not analyse the Jacobian (status " + std::to_string(cc_.status) +
                   "); try --linear cholmod");
@@ -125,7 +129,11 @@ class Spqr : public SparseQR {
   void Solve(const double* b, double* x) override {
     cholmod_dense bd = DenseView(const_cast<double*>(b), rows_);
     cholmod_dense* y = SuiteSparseQR_qmult<double>(SPQR_QTX, qr_, &bd, &cc_);
-    cholmod_dense* sol = SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_);
+    cholmod_dense* sol = y ? SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_) : nullptr;
+    if (sol == nullptr) {
+      if (y) cholmod_l_free_dense(&y, &cc_);
+      throw Error("SuiteSparseQR could not solve (status " + std::to_string(cc_.status) + "); try --linear cholmod");
+    }
     std::memcpy(x, sol->x, sizeof(double) * cols_);
     cholmod_l_free_dense(&y, &cc_);
     cholmod_l_free_dense(&sol, &cc_);

@@ -15,6 +15,8 @@ class EigenLDLT : public SparseCholesky {
   void Analyze(const Csc& h) override { solver_.analyzePattern(View(h)); }
   FactorResult Factorize(const Csc& h) override {
     solver_.factorize(View(h));
+    // Eigen reports a zero pivot (a singular matrix) as NumericalIssue.
+    if (solver_.info() == Eigen::NumericalIssue) return FactorResult::kNotPositiveDefinite;
     if (solver_.info() != Eigen::Success) return FactorResult::kFailed;
     // LDL^T succeeds on indefinite matrices; the solvers need positive definite ones.
     if (!(solver_.vectorD().minCoeff() > 0)) return FactorResult::kNotPositiveDefinite;

@@ -23,9 +23,12 @@ double Dot(const std::vector<double>& a, const std::vector<double>& b) {
   return s;
 }
 
+// Largest |a_i|; NaN if any entry is NaN (so that no tolerance test passes on NaN).
 double MaxAbs(const std::vector<double>& a) {
   double m = 0;
-  for (double v : a) m = std::max(m, std::abs(v));
+  for (double v : a) {
+    if (!(std::abs(v) <= m)) m = std::abs(v);
+  }
   return m;
 }
 
@@ -37,12 +40,15 @@ std::set<Key> ChooseFixed(const FactorGraph& graph, const Values& values, Solver
   for (const auto& f : graph.factors()) {
     if (f->keys().size() == 1) return fixed;
   }
+  // The lowest-key pose that some factor uses (an unused pose anchors nothing).
   bool found = false;
   Key best = 0;
-  for (Key k : values.keys()) {
-    if (IsPose(values.TypeOf(k)) && (!found || k < best)) {
-      best = k;
-      found = true;
+  for (const auto& f : graph.factors()) {
+    for (Key k : f->keys()) {
+      if (values.Has(k) && IsPose(values.TypeOf(k)) && (!found || k < best)) {
+        best = k;
+        found = true;
+      }
     }
   }
   if (found) {
@@ -124,15 +130,15 @@ class StepSolver {
   std::unique_ptr<internal::SparseQR> qr_;
 };
 
-}  // namespace
-
-SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+// The solve itself; `holder` receives the Problem so that Optimize can restore the last good
+// values if a factor (or an allocation) throws mid-solve.
+SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions& options,
+                  std::unique_ptr<internal::Problem>* holder) {
   const Clock::time_point t0 = Clock::now();
   SolverSummary s;
   s.algorithm = options.algorithm;
   s.linear_solver = options.linear_solver;
   s.num_factors = static_cast<int>(graph.size());
-  if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
   std::string why;
   if (!options.IsValid(&why)) {
     s.status = SolverStatus::kInvalidInput;
@@ -140,7 +146,7 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
     return s;
   }
   const std::set<Key> fixed = ChooseFixed(graph, *values, &s);
-  std::unique_ptr<internal::Problem> problem;
+  std::unique_ptr<internal::Problem>& problem = *holder;
   try {
     problem = std::make_unique<internal::Problem>(graph, values, fixed);
   } catch (const Error& e) {
@@ -156,9 +162,11 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
 
   double chi2 = p.Linearize();
   s.initial_chi2 = s.final_chi2 = chi2;
-  if (!std::isfinite(chi2)) {
+  if (!std::isfinite(chi2) || !p.jacobian_finite()) {
     s.status = SolverStatus::kInvalidInput;
-    s.message = "chi2 at the initial values is not finite; check the initial values and measurements";
+    s.message = std::isfinite(chi2) ? "the Jacobian at the initial values is not finite; check the initial values"
+                                    : "chi2 at the initial values is not finite; check the initial values and "
+                                      "measurements";
     return s;
   }
   auto report = [&](const IterationSummary& it) {
@@ -238,6 +246,12 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
         reject(it);
         continue;
       }
+      if (fr == internal::FactorResult::kFailed) {
+        s.status = SolverStatus::kDiverged;
+        s.message = std::string("the ") + ToString(options.linear_solver) +
+                    " factorisation failed (out of memory or numerical trouble); try another --linear solver";
+        break;
+      }
       s.status = SolverStatus::kRankDeficient;
       s.message = std::string("the linear system is singular (") +
                   (fr == internal::FactorResult::kNotPositiveDefinite ? "not positive definite" : "rank deficient") +
@@ -282,10 +296,29 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
       report(it);
       break;
     }
-    ++s.accepted_iterations;
     const double old_chi2 = chi2;
     tl = Clock::now();
     chi2 = p.Linearize();
+    if (!p.jacobian_finite()) {
+      // A finite cost with a non-finite Jacobian: the step cannot be built on.
+      if (lm) {
+        p.Restore();
+        chi2 = p.Linearize();
+        solver->Assemble();
+        s.linearize_seconds += SecondsSince(tl);
+        chi2 = old_chi2;
+        reject(it);
+        continue;
+      }
+      s.status = SolverStatus::kDiverged;
+      s.message = "the Jacobian became non-finite after a Gauss-Newton step; try --solver lm";
+      it.accepted = false;
+      it.chi2 = old_chi2;
+      it.seconds = SecondsSince(t0);
+      report(it);
+      break;
+    }
+    ++s.accepted_iterations;
     solver->Assemble();
     s.linearize_seconds += SecondsSince(tl);
     if (!lm && chi2 < best_chi2) {
@@ -319,6 +352,28 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
   s.final_chi2 = chi2;
   s.total_seconds = SecondsSince(t0);
   return s;
+}
+
+}  // namespace
+
+SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+  if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
+  std::unique_ptr<internal::Problem> problem;
+  try {
+    return Run(graph, values, options, &problem);
+  } catch (const std::exception& e) {
+    // A factor's Evaluate threw, or memory ran out: keep the last good values (LM: the last
+    // accepted state; GN: the best visited) and say what happened.
+    if (problem) problem->Restore();
+    SolverSummary s;
+    s.algorithm = options.algorithm;
+    s.linear_solver = options.linear_solver;
+    s.num_factors = static_cast<int>(graph.size());
+    s.status = problem ? SolverStatus::kDiverged : SolverStatus::kInvalidInput;
+    s.message = std::string("the solve stopped on an exception: ") + e.what() +
+                (problem ? "; the last good values were kept" : "; values untouched");
+    return s;
+  }
 }
 
 }  // namespace tether

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "tether/core/error.h"
 
@@ -13,10 +14,13 @@ namespace internal {
 Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed) : values_(values) {
   // Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR
   // permute for fill-in themselves).
+  // Variables no factor uses stay as they are (they would only make H singular).
+  std::unordered_set<Key> used;
+  for (const auto& f : graph.factors()) used.insert(f->keys().begin(), f->keys().end());
   std::unordered_map<Key, int> var_index;
   var_index.reserve(values->size());
   for (Key k : values->keys()) {
-    if (fixed.count(k)) continue;
+    if (fixed.count(k) || !used.count(k)) continue;
     const VarType t = values->TypeOf(k);
     var_index.emplace(k, static_cast<int>(vars_.size()));
     vars_.push_back(Var{k, t, n_, TangentDim(t), values->Params(k)});
@@ -26,8 +30,13 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
   int jac_size = 0;
   for (std::size_t fi = 0; fi < graph.size(); ++fi) {
     const Factor& f = graph.at(fi);
-    const std::vector<const double*> p = f.GatherParams(*values);  // throws for missing/mistyped keys
     const std::vector<VarType> types = f.variable_types();
+    try {
+      f.CheckShape();  // keys against types, noise against error dimension
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument("factor " + std::to_string(fi) + ": " + e.what());
+    }
+    const std::vector<const double*> p = f.GatherParams(*values);  // throws for missing/mistyped keys
     const int first = static_cast<int>(entries_.size());
     for (std::size_t k = 0; k < f.keys().size(); ++k) {
       const auto it = var_index.find(f.keys()[k]);
@@ -65,6 +74,7 @@ double Problem::Chi2() const {
 }
 
 double Problem::Linearize() {
+  jacobian_finite_ = false;
   double chi2 = 0;
   for (const FactorRef& f : factors_) {
     double* r = res_.data() + f.row;
@@ -74,8 +84,12 @@ double Problem::Linearize() {
     for (int i = 0; i < f.m; ++i) chi2 += r[i] * r[i];
   }
   if (!std::isfinite(chi2)) return std::numeric_limits<double>::infinity();
+  jacobian_finite_ = true;
   for (double v : jac_) {
-    if (!std::isfinite(v)) return std::numeric_limits<double>::infinity();
+    if (!std::isfinite(v)) {
+      jacobian_finite_ = false;
+      break;
+    }
   }
   return chi2;
 }
@@ -225,6 +239,12 @@ void Problem::BuildJacobianStructure(Csc* j, std::vector<int>* damping_positions
     for (int a = 0; a < f.count; ++a) {
       Entry& e = entries_[f.first + a];
       if (e.var < 0) continue;
+      for (int b = 0; b < a; ++b) {
+        if (entries_[f.first + b].var == e.var) {
+          throw InvalidArgument(f.factor->type_name() + " factor uses variable " + KeyToString(vars_[e.var].key) +
+                                " twice, which the qr solver does not support; use --linear cholmod or ldlt");
+        }
+      }
       e.qr_offset = column_length[e.var];
       column_length[e.var] += f.m;
     }
@@ -293,11 +313,13 @@ double Problem::ParameterNorm() const {
 }
 
 void Problem::Save() {
+  has_saved_ = true;
   double* out = saved_.data();
   for (const Var& v : vars_) out = std::copy(v.params, v.params + AmbientDim(v.type), out);
 }
 
 void Problem::Restore() {
+  if (!has_saved_) return;  // nothing saved yet: the values were never changed
   const double* in = saved_.data();
   for (const Var& v : vars_) {
     std::copy(in, in + AmbientDim(v.type), v.params);

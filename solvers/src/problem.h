@@ -31,7 +31,9 @@ class Problem {
   /// chi2 at the current values; +inf if a factor fails or produces a non-finite value.
   double Chi2() const;
   /// Whitened residuals and Jacobians at the current values; returns chi2 (inf on failure).
+  /// Whether every Jacobian entry came out finite is kept in jacobian_finite().
   double Linearize();
+  bool jacobian_finite() const { return jacobian_finite_; }
   /// H (upper, full diagonal blocks) into h.values and g = J^T r; needs BuildNormalStructure.
   void AssembleNormal(Csc* h, double* g) const;
   /// g = J^T r and the diagonal of J^T J.
@@ -46,6 +48,7 @@ class Problem {
   void Retract(const double* delta);
   /// Norm of all free variables' parameters (for the step tolerance).
   double ParameterNorm() const;
+  /// Save copies the free variables aside; Restore puts them back (a no-op before any Save).
   void Save();
   void Restore();
 
@@ -89,6 +92,8 @@ class Problem {
   std::vector<int> qr_colptr_;
   Values* values_;
   int n_ = 0, m_ = 0;
+  bool jacobian_finite_ = false;
+  bool has_saved_ = false;
 };
 
 }  // namespace internal

@@ -40,8 +40,7 @@ struct GraphCounts {
 };
 
 // Loads the plugins into the default registry; returns false (after saying why) on failure.
-bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, std::ostream& out,
-                 std::ostream& err) {
+bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, std::ostream& out, std::ostream& err) {
   for (const std::string& p : plugins) {
     try {
       const LoadedPlugin l = loader->Load(p);

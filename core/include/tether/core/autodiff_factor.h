@@ -22,10 +22,12 @@ class AutoDiffFactor : public Factor {
   static constexpr int kNumKeys = sizeof...(kTypes);
   static constexpr int kTangentTotal = (TangentDim(kTypes) + ...);
   using Jet = ceres::Jet<double, kTangentTotal>;
+  static_assert(kErrorDim >= 1 && kErrorDim <= kMaxResidualDim, "error dimension must be 1 to 6");
 
   AutoDiffFactor(std::vector<Key> keys, SqrtInformation noise) : Factor(std::move(keys), noise) {}
 
   std::vector<VarType> variable_types() const override { return {kTypes...}; }
+  int residual_dim() const override { return kErrorDim; }
 
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override {
     static constexpr std::array<VarType, kNumKeys> types = {kTypes...};

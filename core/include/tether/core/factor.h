@@ -27,8 +27,12 @@ class Factor {
 
   /// The registered type name of this factor (for example "BetweenSE2").
   virtual std::string type_name() const = 0;
-  /// Residual dimension.
+  /// Residual dimension of the noise model (what the solver allocates for this factor).
   int dim() const { return noise_.dim(); }
+  /// The number of error entries Evaluate writes. Override it (built-in factors and
+  /// AutoDiffFactor do): the solver refuses a factor whose noise model has another dimension
+  /// instead of letting Evaluate write past its buffers. The default trusts the noise model.
+  virtual int residual_dim() const { return dim(); }
   /// Type expected for each key, in key order.
   virtual std::vector<VarType> variable_types() const = 0;
   /// Error (not whitened) and its Jacobians; returns false if it cannot be evaluated.
@@ -54,6 +58,9 @@ class Factor {
   bool Linearize(const double* const* params, double* residual, double* const* jacobians) const;
   /// chi2 = e^T Omega e at the given values; throws InvalidArgument for missing/mistyped keys.
   double Chi2(const Values& values) const;
+  /// Throws InvalidArgument unless the keys match variable_types() and the noise model's
+  /// dimension is the error's (1 to 6).
+  void CheckShape() const;
   /// Gathers parameter pointers for this factor's keys, checking presence and types.
   std::vector<const double*> GatherParams(const Values& values) const;
 

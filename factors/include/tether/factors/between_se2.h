@@ -9,6 +9,7 @@ class BetweenSE2 : public Factor {
  public:
   BetweenSE2(Key i, Key j, const SE2d& z, SqrtInformation noise) : Factor({i, j}, noise), z_(z) {}
   std::string type_name() const override { return "BetweenSE2"; }
+  int residual_dim() const override { return 3; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kSE2}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<BetweenSE2>(*this); }

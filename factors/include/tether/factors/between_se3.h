@@ -10,6 +10,7 @@ class BetweenSE3 : public Factor {
  public:
   BetweenSE3(Key i, Key j, const SE3d& z, SqrtInformation noise) : Factor({i, j}, noise), z_(z) {}
   std::string type_name() const override { return "BetweenSE3"; }
+  int residual_dim() const override { return 6; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE3, VarType::kSE3}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<BetweenSE3>(*this); }

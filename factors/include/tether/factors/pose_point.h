@@ -11,6 +11,7 @@ class PosePoint2 : public Factor {
   PosePoint2(Key pose, Key point, const Eigen::Vector2d& z, SqrtInformation noise)
       : Factor({pose, point}, noise), z_(z) {}
   std::string type_name() const override { return "PosePoint2"; }
+  int residual_dim() const override { return 2; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kPoint2}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<PosePoint2>(*this); }
@@ -26,6 +27,7 @@ class PosePoint3 : public Factor {
   PosePoint3(Key pose, Key point, const Eigen::Vector3d& z, SqrtInformation noise)
       : Factor({pose, point}, noise), z_(z) {}
   std::string type_name() const override { return "PosePoint3"; }
+  int residual_dim() const override { return 3; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE3, VarType::kPoint3}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<PosePoint3>(*this); }

@@ -10,6 +10,7 @@ class PriorSE2 : public Factor {
  public:
   PriorSE2(Key k, const SE2d& z, SqrtInformation noise) : Factor({k}, noise), z_(z) {}
   std::string type_name() const override { return "PriorSE2"; }
+  int residual_dim() const override { return 3; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE2}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<PriorSE2>(*this); }
@@ -23,6 +24,7 @@ class PriorSE3 : public Factor {
  public:
   PriorSE3(Key k, const SE3d& z, SqrtInformation noise) : Factor({k}, noise), z_(z) {}
   std::string type_name() const override { return "PriorSE3"; }
+  int residual_dim() const override { return 6; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE3}; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<PriorSE3>(*this); }

@@ -1,0 +1,194 @@
+// Failure paths of the solver: malformed factors, non-finite Jacobians, factors that throw,
+// singular systems under QR. None may crash, report "converged" on bad numbers, or leave
+// non-finite values.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "tether/core/autodiff_factor.h"
+#include "tether/core/error.h"
+#include "tether/factors/between_se2.h"
+#include "tether/solvers/optimizer.h"
+
+namespace tether {
+namespace {
+
+// e = (10 (y + 0.5), x - 1 + acos(min(1, 1 - y))): finite everywhere, but its Jacobian is
+// NaN where y <= 0 (acos' at 1 times a zero derivative). The minimum (x = 1 + acos(1.5)...)
+// lies at y = -0.5, inside the bad region.
+class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, VarType::kPoint2> {
+ public:
+  explicit NanJacobianFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
+  std::string type_name() const override { return "NanJacobian"; }
+  std::unique_ptr<Factor> Clone() const override { return std::make_unique<NanJacobianFactor>(*this); }
+  template <typename T>
+  bool operator()(const T* const* p, T* e) const {
+    using std::acos;
+    T a = T(1) - p[0][1];
+    if (a > T(1)) a = T(1);
+    e[0] = T(10) * (p[0][1] + T(0.5));
+    e[1] = p[0][0] - T(1) + acos(a);
+    return true;
+  }
+};
+
+// Pulls a point towards (5, 5) but throws once x exceeds 2.
+class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, VarType::kPoint2> {
+ public:
+  explicit ThrowingFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
+  std::string type_name() const override { return "Throwing"; }
+  std::unique_ptr<Factor> Clone() const override { return std::make_unique<ThrowingFactor>(*this); }
+  template <typename T>
+  bool operator()(const T* const* p, T* e) const {
+    if (p[0][0] > T(2)) throw std::runtime_error("measurement model undefined beyond x = 2");
+    e[0] = p[0][0] - T(5);
+    e[1] = p[0][1] - T(5);
+    return true;
+  }
+};
+
+bool AllFinite(const Values& v) {
+  for (int t = 0; t < kNumVarTypes; ++t)
+    for (double x : v.Data(static_cast<VarType>(t)))
+      if (!std::isfinite(x)) return false;
+  return true;
+}
+
+TEST(OptimizerFailureTest, NoiseOfTheWrongDimensionIsInvalidInput) {
+  FactorGraph g;
+  g.Add(std::make_unique<BetweenSE2>(0, 1, SE2d(1, 0, 0), SqrtInformation::Identity(2)));
+  Values v;
+  v.Insert(0, SE2d());
+  v.Insert(1, SE2d());
+  const SolverSummary s = Optimize(g, &v, {});
+  EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(s.message.find("noise model of dimension 2 for an error of dimension 3"), std::string::npos) << s.message;
+  EXPECT_THROW(g.Chi2(v), InvalidArgument);
+}
+
+TEST(OptimizerFailureTest, WrongNumberOfKeysIsInvalidInput) {
+  Values v;
+  v.InsertPoint2(1, Eigen::Vector2d(0, 0));
+  // A factor whose keys do not match its types: build one through the base class.
+  struct Mismatched : public Factor {
+    Mismatched() : Factor({1, 2, 3}, SqrtInformation::Identity(2)) {}
+    std::string type_name() const override { return "Mismatched"; }
+    std::vector<VarType> variable_types() const override { return {VarType::kPoint2}; }
+    bool Evaluate(const double* const*, double* e, double* const*) const override {
+      e[0] = e[1] = 0;
+      return true;
+    }
+    std::unique_ptr<Factor> Clone() const override { return std::make_unique<Mismatched>(*this); }
+  };
+  FactorGraph g3;
+  g3.Add(std::make_unique<Mismatched>());
+  const SolverSummary s = Optimize(g3, &v, {});
+  EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(s.message.find("has 3 keys but its type takes 1"), std::string::npos) << s.message;
+}
+
+TEST(OptimizerFailureTest, NonFiniteJacobianIsNeverConverged) {
+  for (Algorithm a : {Algorithm::kLevenbergMarquardt, Algorithm::kGaussNewton}) {
+    FactorGraph g;
+    g.Add(std::make_unique<NanJacobianFactor>(1));
+    Values v;
+    v.InsertPoint2(1, Eigen::Vector2d(3, 1));
+    SolverOptions o;
+    o.algorithm = a;
+    const SolverSummary s = Optimize(g, &v, o);
+    EXPECT_TRUE(std::isfinite(s.final_chi2)) << ToString(a) << ": " << s.BriefReport();
+    EXPECT_LE(s.final_chi2, s.initial_chi2) << ToString(a);
+    EXPECT_NEAR(s.final_chi2, g.Chi2(v), 1e-9 * std::max(1.0, s.final_chi2)) << ToString(a);
+    EXPECT_TRUE(AllFinite(v));
+    if (a == Algorithm::kGaussNewton) {
+      EXPECT_EQ(s.status, SolverStatus::kDiverged) << s.message;
+    }
+    // Wherever it stopped, the values it returned have a finite Jacobian (y > 0).
+    EXPECT_GT(v.AtPoint2(1).y(), 0.0) << ToString(a);
+  }
+  // A start with a non-finite Jacobian is refused outright.
+  FactorGraph g;
+  g.Add(std::make_unique<NanJacobianFactor>(1));
+  Values v;
+  v.InsertPoint2(1, Eigen::Vector2d(3, -1));
+  const SolverSummary s = Optimize(g, &v, {});
+  EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(s.message.find("Jacobian"), std::string::npos);
+}
+
+TEST(OptimizerFailureTest, AFactorThatThrowsKeepsTheLastGoodValues) {
+  for (Algorithm a : {Algorithm::kLevenbergMarquardt, Algorithm::kGaussNewton}) {
+    FactorGraph g;
+    g.Add(std::make_unique<ThrowingFactor>(1));
+    Values v;
+    v.InsertPoint2(1, Eigen::Vector2d(0, 0));
+    SolverOptions o;
+    o.algorithm = a;
+    const SolverSummary s = Optimize(g, &v, o);
+    EXPECT_EQ(s.status, SolverStatus::kDiverged) << ToString(a);
+    EXPECT_NE(s.message.find("measurement model undefined beyond x = 2"), std::string::npos) << s.message;
+    EXPECT_EQ(v.AtPoint2(1), Eigen::Vector2d(0, 0)) << ToString(a);
+  }
+}
+
+TEST(OptimizerFailureTest, QrDetectsRankDeficiencyOfDisconnectedLoops) {
+  // Two 20-pose loops with no link between them; the second floats freely.
+  FactorGraph g;
+  Values v;
+  const auto noise = SqrtInformation::Isotropic(3, 0.1);
+  for (int loop = 0; loop < 2; ++loop) {
+    for (int i = 0; i < 20; ++i) {
+      const Key a = loop * 100 + i, b = loop * 100 + (i + 1) % 20;
+      g.Add(std::make_unique<BetweenSE2>(a, b, SE2d(1, 0, 2 * M_PI / 20), noise));
+      v.Insert(a, SE2d(std::cos(i * 0.3) * 3 + loop * 10 + 0.01 * i, std::sin(i * 0.3) * 3, i * 0.3 + 0.02));
+    }
+  }
+  SolverOptions o;
+  o.algorithm = Algorithm::kGaussNewton;
+  o.linear_solver = LinearSolverType::kQR;
+  const SolverSummary s = Optimize(g, &v, o);
+  EXPECT_EQ(s.status, SolverStatus::kRankDeficient) << s.BriefReport() << " " << s.message;
+  EXPECT_TRUE(AllFinite(v));
+}
+
+TEST(OptimizerFailureTest, QrRefusesAFactorUsingOneVariableTwice) {
+  FactorGraph g;
+  g.Add(std::make_unique<BetweenSE2>(0, 1, SE2d(1, 0, 0), SqrtInformation::Identity(3)));
+  g.Add(std::make_unique<BetweenSE2>(1, 1, SE2d(), SqrtInformation::Identity(3)));
+  Values v;
+  v.Insert(0, SE2d());
+  v.Insert(1, SE2d(0.5, 0, 0));
+  SolverOptions o;
+  o.linear_solver = LinearSolverType::kQR;
+  const SolverSummary s = Optimize(g, &v, o);
+  EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(s.message.find("uses variable 1 twice"), std::string::npos) << s.message;
+  // The Cholesky solvers handle it (the self-loop contributes nothing here).
+  o.linear_solver = LinearSolverType::kCholmod;
+  EXPECT_EQ(Optimize(g, &v, o).status, SolverStatus::kConverged);
+  EXPECT_NEAR(v.AtSE2(1).x(), 1.0, 1e-9);
+}
+
+TEST(OptimizerFailureTest, AutomaticGaugeSkipsUnusedPoses) {
+  // Pose 0 exists but no factor uses it; the loop 1-2-3 must be anchored at pose 1.
+  FactorGraph g;
+  const auto noise = SqrtInformation::Identity(3);
+  g.Add(std::make_unique<BetweenSE2>(1, 2, SE2d(1, 0, 2.0944), noise));
+  g.Add(std::make_unique<BetweenSE2>(2, 3, SE2d(1, 0, 2.0944), noise));
+  g.Add(std::make_unique<BetweenSE2>(3, 1, SE2d(1, 0, 2.0944), noise));
+  Values v;
+  v.Insert(0, SE2d());
+  v.Insert(1, SE2d(0, 0, 0));
+  v.Insert(2, SE2d(1, 0.1, 2.0));
+  v.Insert(3, SE2d(0.5, 0.8, -2.0));
+  SolverOptions o;
+  o.algorithm = Algorithm::kGaussNewton;
+  const SolverSummary s = Optimize(g, &v, o);
+  EXPECT_EQ(s.status, SolverStatus::kConverged) << s.message;
+  EXPECT_TRUE(s.gauge_fixed_automatically);
+  EXPECT_EQ(s.gauge_key, 1u);
+}
+
+}  // namespace
+}  // namespace tether
