@@ -72,6 +72,12 @@ std::string FormatInformation(double v, double scale) {
   return buf;
 }
 
+// What else a user can do about a clash: a plugin's types can be removed, built-in ones cannot.
+std::string UnloadHint(const FactorType& holder) {
+  if (holder.owner.empty() || holder.owner == "builtin") return " (built-in types cannot be removed)";
+  return " or unload '" + holder.owner + "' first";
+}
+
 }  // namespace
 
 std::string FormatDouble(double v) {
@@ -120,15 +126,14 @@ void Registry::Register(FactorType type) {
   const auto same_name = by_name_.find(type.name);
   if (same_name != by_name_.end()) {
     throw InvalidArgument("cannot register factor type " + Owned(type) + ": the name is taken already by " +
-                          Owned(same_name->second) + "; choose another name or unload '" + same_name->second.owner +
-                          "' first");
+                          Owned(same_name->second) + "; choose another name" + UnloadHint(same_name->second));
   }
   if (!type.tag.empty()) {
     const auto same_tag = tag_to_name_.find(type.tag);
     if (same_tag != tag_to_name_.end()) {
       throw InvalidArgument("cannot register factor type " + Owned(type) + ": the g2o tag '" + type.tag +
                             "' is taken already by " + Owned(by_name_.at(same_tag->second)) +
-                            "; choose another tag or unload '" + by_name_.at(same_tag->second).owner + "' first");
+                            "; choose another tag" + UnloadHint(by_name_.at(same_tag->second)));
     }
     if (type.tag.find_first_of(" \t\r\n") != std::string::npos || type.tag[0] == '#') {
       incomplete("the g2o tag '" + type.tag + "' contains blanks or starts with '#'; use one word");

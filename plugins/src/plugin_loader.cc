@@ -3,7 +3,6 @@
 #include <dlfcn.h>
 
 #include <algorithm>
-#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 
@@ -42,8 +41,11 @@ std::vector<std::string> PluginLoader::SearchPath() {
   // for a tree installed with `cmake --install --prefix`, then the configured one.
   Dl_info info;
   if (dladdr(reinterpret_cast<void*>(&PluginLoader::Resolve), &info) != 0 && info.dli_fname != nullptr) {
-    const std::string here = fs::path(info.dli_fname).parent_path().string() + "/tether/plugins";
-    if (IsDirectory(here)) dirs.push_back(here);
+    // Canonical, so that ".../bin/../lib" (an RPATH of $ORIGIN/../lib) matches the configured
+    // folder below instead of listing it twice.
+    std::error_code ec;
+    const fs::path here = fs::canonical(fs::path(info.dli_fname).parent_path() / "tether" / "plugins", ec);
+    if (!ec && IsDirectory(here.string())) dirs.push_back(here.string());
   }
   if (std::find(dirs.begin(), dirs.end(), TETHER_PLUGIN_INSTALL_DIR) == dirs.end()) {
     dirs.push_back(TETHER_PLUGIN_INSTALL_DIR);
@@ -91,7 +93,8 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
   dlerror();
   void* symbol = dlsym(handle, TETHER_PLUGIN_ENTRY_SYMBOL);
   if (symbol == nullptr) {
-    throw PluginError("plugin " + path + ": the entry symbol '" TETHER_PLUGIN_ENTRY_SYMBOL
+    throw PluginError("plugin " + path +
+                      ": the entry symbol '" TETHER_PLUGIN_ENTRY_SYMBOL
                       "' is missing; define it with TETHER_PLUGIN(name, version, register_function) "
                       "in one source file of the plugin");
   }

@@ -133,6 +133,8 @@ TEST(RegistryTest, DuplicateTagNamesBothOwners) {
       ErrorOf<InvalidArgument>([&] { r.Register(StandardPointPriorType("MyEdge", "EDGE_SE2", "myplugin")); });
   EXPECT_CONTAINS(m, "'MyEdge' (owner 'myplugin')");
   EXPECT_CONTAINS(m, "g2o tag 'EDGE_SE2' is taken already by 'BetweenSE2' (owner 'builtin')");
+  EXPECT_CONTAINS(m, "built-in types cannot be removed");
+  EXPECT_EQ(m.find("unload"), std::string::npos) << m;  // built-in types cannot be unloaded
   EXPECT_EQ(r.FindByName("MyEdge"), nullptr);
   EXPECT_EQ(r.FindByTag("EDGE_SE2")->name, "BetweenSE2");
 }

@@ -44,6 +44,8 @@ class Range2D : public Factor {
   // Must be the name the type is registered under: the writer looks the type up by it.
   std::string type_name() const override { return "Range2D"; }
   std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kPoint2}; }
+  // Entries of the error Evaluate writes: the solver refuses a noise model of another size.
+  int residual_dim() const override { return 1; }
   std::unique_ptr<Factor> Clone() const override { return std::make_unique<Range2D>(*this); }
   // The numbers written after the ids in the file (standard layout).
   std::vector<double> Measurement() const override { return {range_}; }

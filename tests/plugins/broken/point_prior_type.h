@@ -15,6 +15,7 @@ class PointPrior : public tether::Factor {
       : Factor({key}, noise), type_name_(std::move(type_name)), z_{z[0], z[1]} {}
   std::string type_name() const override { return type_name_; }
   std::vector<tether::VarType> variable_types() const override { return {tether::VarType::kPoint2}; }
+  int residual_dim() const override { return 2; }
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override {
     error[0] = params[0][0] - z_[0];
     error[1] = params[0][1] - z_[1];

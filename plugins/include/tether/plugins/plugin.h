@@ -92,9 +92,9 @@ struct PluginDescription {
 }  // namespace tether
 
 /// Defines the entry function of a plugin.
-#define TETHER_PLUGIN(NAME, VERSION, REGISTER_FUNCTION)                                                    \
-  extern "C" __attribute__((visibility("default"))) const ::tether::PluginDescription* tether_plugin_entry() { \
-    static const ::tether::PluginDescription description = {                                             \
-        TETHER_PLUGIN_INTERFACE_VERSION, NAME, VERSION, ::tether::CurrentBuildFingerprint(), REGISTER_FUNCTION}; \
-    return &description;                                                                                  \
+#define TETHER_PLUGIN(NAME, VERSION, REGISTER_FUNCTION)                                                              \
+  extern "C" __attribute__((visibility("default"))) const ::tether::PluginDescription* tether_plugin_entry() {       \
+    static const ::tether::PluginDescription description = {TETHER_PLUGIN_INTERFACE_VERSION, NAME, VERSION,          \
+                                                            ::tether::CurrentBuildFingerprint(), REGISTER_FUNCTION}; \
+    return &description;                                                                                             \
   }

@@ -18,7 +18,7 @@ struct OptimizeCommand {
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
   bool quiet = false;                       ///< no iteration table
   bool allow_partial_vertices = false;      ///< compose missing vertices from edges instead of failing
-  std::vector<std::string> plugins;  ///< factor plugins to load first (paths or names)
+  std::vector<std::string> plugins;         ///< factor plugins to load first (paths or names)
 };
 
 struct PluginsListCommand {
