@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   optimize->add_option("-o,--output", opt.output, "Write the optimised graph (g2o)");
   optimize->add_option("--solver", opt.solver, "gn | lm")->capture_default_str();
   optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr")->capture_default_str();
+  optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
   optimize

@@ -48,11 +48,6 @@ std::string Plural(std::size_t n, const char* one, const char* many) {
   return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
-void IdentityParams(VarType t, double* p) {
-  std::fill(p, p + AmbientDim(t), 0.0);
-  if (t == VarType::kSE3) p[6] = 1.0;  // qw
-}
-
 // What the reader knows about one id of the file.
 struct IdInfo {
   VarType type = VarType::kSE2;

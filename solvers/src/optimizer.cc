@@ -175,7 +175,9 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   };
   IterationSummary it0;
   it0.chi2 = chi2;
-  it0.lambda = options.algorithm == Algorithm::kLevenbergMarquardt ? options.initial_lambda : 0.0;
+  it0.lambda = options.algorithm == Algorithm::kLevenbergMarquardt && options.initial_lambda >= options.min_lambda
+                   ? options.initial_lambda
+                   : 0.0;
   if (p.tangent_dim() == 0) {
     s.status = SolverStatus::kConverged;
     s.message = "nothing to optimise: every variable is fixed";
@@ -197,7 +199,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   const bool lm = options.algorithm == Algorithm::kLevenbergMarquardt;
   const int n = p.tangent_dim();
   std::vector<double> delta(n, 0.0);
-  double lambda = options.initial_lambda, nu = 2.0;
+  // LM damping; below min_lambda it is switched off and the step is a Gauss-Newton step.
+  double lambda = options.initial_lambda < options.min_lambda ? 0.0 : options.initial_lambda, nu = 2.0;
   double best_chi2 = chi2;  // GN: the best state seen is kept in the Problem's save slot
   p.Save();
 
@@ -219,8 +222,12 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     it.chi2 = chi2;
     it.seconds = SecondsSince(t0);
     report(it);
-    lambda *= nu;
-    nu *= 2.0;
+    if (lambda < options.min_lambda) {
+      lambda = options.min_lambda;  // (re)start the damping
+    } else {
+      lambda *= nu;
+      nu *= 2.0;
+    }
   };
   while (s.status == SolverStatus::kMaxIterations && s.iterations < options.max_iterations) {
     if (options.max_seconds > 0 && SecondsSince(t0) > options.max_seconds) {
@@ -276,7 +283,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
       if (std::isfinite(new_chi2) && new_chi2 < chi2) {
         const double rho = predicted > 0 ? (chi2 - new_chi2) / predicted : 0.0;
         lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-        lambda = std::max(lambda, 1e-15);
+        if (lambda < options.min_lambda) lambda = 0.0;
         nu = 2.0;
       } else {
         p.Restore();

@@ -74,8 +74,11 @@ bool SolverOptions::IsValid(std::string* why) const {
   if (!(gradient_tolerance >= 0)) return fail("gradient_tolerance must be >= 0");
   if (!(parameter_tolerance >= 0)) return fail("parameter_tolerance must be >= 0");
   if (!(max_seconds >= 0) || !std::isfinite(max_seconds)) return fail("max_seconds must be finite and >= 0");
-  if (!(initial_lambda > 0) || !std::isfinite(initial_lambda)) return fail("initial_lambda must be finite and > 0");
-  if (!(max_lambda > initial_lambda)) return fail("max_lambda must exceed initial_lambda");
+  if (!(initial_lambda >= 0) || !std::isfinite(initial_lambda)) return fail("initial_lambda must be finite and >= 0");
+  if (!(min_lambda > 0) || !std::isfinite(min_lambda)) return fail("min_lambda must be finite and > 0");
+  if (!(max_lambda > initial_lambda) || !(max_lambda > min_lambda)) {
+    return fail("max_lambda must exceed initial_lambda and min_lambda");
+  }
   return true;
 }
 

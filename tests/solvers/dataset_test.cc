@@ -11,6 +11,7 @@
 
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -54,6 +55,45 @@ TEST_P(DatasetTest, ReachesReferenceChi2) {
 
 INSTANTIATE_TEST_SUITE_P(G2o, DatasetTest, ::testing::ValuesIn(kReferences),
                          [](const ::testing::TestParamInfo<Reference>& i) {
+                           std::string n = i.param.file;
+                           n = n.substr(0, n.find('.'));
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+// From the chordal initial guess with default options, every file reaches the best-known
+// optimum (the table: LM started from a certified global optimum) to 1e-6 relative,
+// MIT and ais2klinik included, where the files' own starts lead to local minima or crawl.
+// input_M3500 has no best-known figure; g2o's converged value stands in.
+struct BestKnown {
+  const char* file;
+  double chi2;
+};
+
+const BestKnown kBestKnown[] = {
+    {"intel.g2o", 45.004696},         {"MIT.g2o", 41.163269},         {"CSAIL.g2o", 40.555129},
+    {"manhattan.g2o", 3549.036796},   {"ais2klinik.g2o", 172.815579}, {"kitti_00.g2o", 98.322012},
+    {"input_M3500_g2o.g2o", 137.913}, {"sphere2500.g2o", 727.149667}, {"parking-garage.g2o", 1.238691},
+    {"smallGrid3D.g2o", 458.153784},  {"tinyGrid3D.g2o", 6.727882},
+};
+
+class ChordalDatasetTest : public ::testing::TestWithParam<BestKnown> {};
+
+TEST_P(ChordalDatasetTest, ReachesBestKnownChi2) {
+  const BestKnown& ref = GetParam();
+  const std::string path = DatasetPath(ref.file);
+  if (!Exists(path)) GTEST_SKIP() << "dataset " << path << " absent (../shared/datasets not beside the repository)";
+  GraphFile f = ReadGraphFile(path, DefaultRegistry());
+  Initialize(f.graph, &f.values, InitMethod::kChordal);
+  const SolverSummary s = Optimize(f.graph, &f.values, {});
+  EXPECT_EQ(s.status, SolverStatus::kConverged) << s.FullReport();
+  // The best-known values are printed to 6 decimals: allow their rounding, 5e-7 absolute.
+  EXPECT_NEAR(s.final_chi2, ref.chi2, 1e-6 * ref.chi2 + 5e-7) << s.FullReport();
+}
+
+INSTANTIATE_TEST_SUITE_P(G2o, ChordalDatasetTest, ::testing::ValuesIn(kBestKnown),
+                         [](const ::testing::TestParamInfo<BestKnown>& i) {
                            std::string n = i.param.file;
                            n = n.substr(0, n.find('.'));
                            for (char& c : n)

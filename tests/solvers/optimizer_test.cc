@@ -104,8 +104,7 @@ TEST(OptimizerTest, LinearSolversAgree) {
 TEST(OptimizerTest, LevenbergMarquardtNeverRaisesChi2) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
-  SolverOptions o;
-  o.initial_lambda = 1e-12;  // start almost undamped so that rejections happen
+  SolverOptions o;  // the default starts undamped, so that rejections happen
   int rejected = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
   double last = s.initial_chi2;
@@ -114,9 +113,54 @@ TEST(OptimizerTest, LevenbergMarquardtNeverRaisesChi2) {
     last = it.chi2;
     rejected += it.accepted ? 0 : 1;
   }
+  EXPECT_GT(rejected, 0) << "the test no longer exercises rejection; make the start worse";
   EXPECT_LE(s.final_chi2, s.initial_chi2);
   EXPECT_EQ(s.iterations, static_cast<int>(s.log.size()) - 1);
   EXPECT_EQ(s.accepted_iterations, s.iterations - rejected);
+}
+
+// The damping policy: the first step is undamped; a rejected undamped step restarts the
+// damping at min_lambda; damping is never between 0 and min_lambda; and it grows on every
+// further rejection.
+TEST(OptimizerTest, LevenbergMarquardtDampsOnlyAfterARejection) {
+  const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
+  Values v = sim.initial;
+  SolverOptions o;
+  const SolverSummary s = Optimize(sim.graph, &v, o);
+  ASSERT_GE(s.log.size(), 2u);
+  EXPECT_EQ(s.log[1].lambda, 0.0);
+  bool restarted = false;
+  for (std::size_t i = 1; i < s.log.size(); ++i) {
+    const IterationSummary& it = s.log[i];
+    EXPECT_TRUE(it.lambda == 0.0 || it.lambda >= o.min_lambda) << "iteration " << i << " lambda " << it.lambda;
+    if (i + 1 < s.log.size() && !it.accepted) {
+      const double next = s.log[i + 1].lambda;
+      if (it.lambda == 0.0) {
+        EXPECT_EQ(next, o.min_lambda) << "iteration " << i + 1;
+        restarted = true;
+      } else {
+        EXPECT_GT(next, it.lambda) << "iteration " << i + 1;
+      }
+    }
+  }
+  EXPECT_TRUE(restarted) << "no undamped step was rejected; make the start worse";
+}
+
+// Where Gauss-Newton never raises chi2, LM takes exactly its steps.
+TEST(OptimizerTest, LevenbergMarquardtFollowsGaussNewtonWhileItWorks) {
+  const SimulatedGraph sim = Sim(SimWorld::kManhattan, 400);
+  Values gn_values = sim.initial, lm_values = sim.initial;
+  SolverOptions gn, lm;
+  gn.algorithm = Algorithm::kGaussNewton;
+  const SolverSummary a = Optimize(sim.graph, &gn_values, gn);
+  const SolverSummary b = Optimize(sim.graph, &lm_values, lm);
+  ASSERT_EQ(a.status, SolverStatus::kConverged);
+  for (std::size_t i = 1; i < a.log.size(); ++i) ASSERT_LT(a.log[i].chi2, a.log[i - 1].chi2) << i;
+  ASSERT_EQ(a.log.size(), b.log.size());
+  for (std::size_t i = 1; i < a.log.size(); ++i) {
+    EXPECT_EQ(b.log[i].lambda, 0.0);
+    EXPECT_EQ(b.log[i].chi2, a.log[i].chi2) << "iteration " << i;
+  }
 }
 
 TEST(OptimizerTest, CallbackSeesEveryIteration) {
@@ -168,6 +212,23 @@ TEST(OptimizerTest, InvalidOptionsLeaveValuesUntouched) {
   EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
   EXPECT_NE(s.message.find("max_iterations"), std::string::npos);
   EXPECT_EQ(v.Data(VarType::kSE2), sim.initial.Data(VarType::kSE2));
+}
+
+TEST(OptimizerTest, DampingOptionsAreValidated) {
+  std::string why;
+  SolverOptions o;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.initial_lambda = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("initial_lambda"), std::string::npos) << why;
+  o = SolverOptions();
+  o.min_lambda = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("min_lambda"), std::string::npos) << why;
+  o = SolverOptions();
+  o.max_lambda = o.min_lambda / 2;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("max_lambda"), std::string::npos) << why;
 }
 
 TEST(OptimizerTest, NonFiniteStartIsRejected) {

@@ -7,6 +7,7 @@
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
+#include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/tools/simulate.h"
 #include "tether/tools/svg_plot.h"
@@ -74,6 +75,11 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
     return 2;
   }
+  InitMethod init;
+  if (!FromString(cmd.init, &init)) {
+    err << "tether optimize: unknown --init '" << cmd.init << "'; use file, spanning-tree or chordal\n";
+    return 2;
+  }
   if (!FromString(cmd.repair_information, &repair)) {
     err << "tether optimize: unknown --repair-information '" << cmd.repair_information
         << "'; use none, nearest-pd or isotropic\n";
@@ -109,7 +115,14 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     out << "initial values: " << file.initialised_by_spanning_tree
         << " variables composed along a spanning tree from the lowest id\n";
   }
-  const Values before = file.values;
+  try {
+    const InitSummary is = Initialize(file.graph, &file.values, init);
+    if (init != InitMethod::kFile) out << is.message << "\n";
+  } catch (const Error& e) {
+    err << "error: " << cmd.input << ": " << e.what() << "\n";
+    return 1;
+  }
+  const Values before = file.values;  // where the solve starts
   if (!cmd.quiet) {
     out << "iter              chi2    rel.decr     lambda   step norm   time [s]\n";
     options.callback = [&out](const IterationSummary& it) { out << Row(it) << std::endl; };

@@ -26,6 +26,11 @@ constexpr int AmbientDim(VarType t) {
   constexpr int d[] = {3, 7, 2, 3};
   return d[static_cast<int>(t)];
 }
+/// The identity (origin) of a type in its ambient parameters.
+inline void IdentityParams(VarType t, double* p) {
+  for (int i = 0; i < AmbientDim(t); ++i) p[i] = 0.0;
+  if (t == VarType::kSE3) p[6] = 1.0;  // qw
+}
 /// "SE2", "SE3", "Point2", "Point3".
 std::string_view ToString(VarType t);
 /// Inverse of ToString; returns false for an unknown name.

@@ -55,11 +55,15 @@ struct SolverOptions {
   double parameter_tolerance = 1e-10;
   /// Wall-clock limit in seconds (0: none).
   double max_seconds = 0;
-  /// LM: initial damping, relative to the diagonal of H (Marquardt scaling). Small: the
-  /// first steps are nearly Gauss-Newton steps, and the damping only grows where a step is
-  /// rejected. Measured on the public g2o datasets, 1e-9 needs 2-4x fewer iterations than
-  /// 1e-5 and reaches lower minima from poor starts (MIT: 770.7 against 3761.9).
-  double initial_lambda = 1e-9;
+  /// LM: initial damping, relative to the diagonal of H (Marquardt scaling). 0: the first
+  /// step is a Gauss-Newton step, and damping starts only where a step is rejected. See
+  /// docs/solvers.md for the measurements behind the defaults.
+  double initial_lambda = 0;
+  /// LM: damping below this is switched off (the step is a Gauss-Newton step); a rejected
+  /// undamped step restarts the damping here. Some public datasets have directions H barely
+  /// constrains (ais2klinik): damping of even 1e-9 of diag(H) shortens the steps along them
+  /// tenfold and turns 7 iterations into 30.
+  double min_lambda = 1e-9;
   /// LM: give up (converged: no step lowers chi2) when lambda exceeds this.
   double max_lambda = 1e16;
   /// Called after every iteration (and once for iteration 0).

@@ -1,0 +1,454 @@
+#include "tether/solvers/initialize.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+
+#include "tether/core/error.h"
+#include "tether/core/graph_io.h"
+#include "tether/core/variable.h"
+
+namespace tether {
+
+const char* ToString(InitMethod m) {
+  switch (m) {
+    case InitMethod::kFile:
+      return "file";
+    case InitMethod::kSpanningTree:
+      return "spanning-tree";
+    case InitMethod::kChordal:
+      return "chordal";
+  }
+  return "?";
+}
+
+bool FromString(const std::string& s, InitMethod* m) {
+  for (InitMethod c : {InitMethod::kFile, InitMethod::kSpanningTree, InitMethod::kChordal}) {
+    if (s == ToString(c)) {
+      *m = c;
+      return true;
+    }
+  }
+  return false;
+}
+
+namespace {
+
+using Params = std::array<double, 7>;
+
+void CopyParams(const Values& from, Key k, Values* to) {
+  const double* p = from.Params(k);
+  std::copy(p, p + AmbientDim(from.TypeOf(k)), to->Params(k));
+}
+
+// The keys used by the factors of `graph`, each with the type its factors give it.
+std::map<Key, VarType> UsedVariables(const FactorGraph& graph) {
+  std::map<Key, VarType> used;
+  for (const auto& f : graph.factors()) {
+    const std::vector<VarType> types = f->variable_types();
+    for (std::size_t j = 0; j < f->keys().size() && j < types.size(); ++j) used.emplace(f->keys()[j], types[j]);
+  }
+  return used;
+}
+
+// Union-find over dense indices.
+class Components {
+ public:
+  explicit Components(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
+  std::uint32_t Find(std::uint32_t i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  void Join(std::uint32_t a, std::uint32_t b) {
+    a = Find(a), b = Find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);  // the root is the lowest index
+  }
+
+ private:
+  std::vector<std::uint32_t> parent_;
+};
+
+// ---- spanning tree ----
+
+// Composes every used variable outward from one anchor per connected piece: the piece's fixed
+// variables if it has any, else its lowest pose key (its lowest key if it has no pose), kept
+// at its current value.
+void SpanningTree(const FactorGraph& graph, Values* values, InitSummary* s) {
+  const std::map<Key, VarType> used = UsedVariables(graph);
+  Values seed;
+  std::set<Key> anchor_keys;
+  for (const std::vector<Key>& piece : ConnectedPieces(*values, graph)) {
+    std::vector<Key> anchors;
+    for (Key k : piece)
+      if (graph.IsFixed(k) && used.count(k)) anchors.push_back(k);
+    if (anchors.empty()) {
+      // Pieces are sorted, so the first pose is the lowest.
+      const auto pose = std::find_if(piece.begin(), piece.end(), [&](Key k) {
+        const auto it = used.find(k);
+        return it != used.end() && IsPose(it->second);
+      });
+      if (pose != piece.end()) {
+        anchors.push_back(*pose);
+      } else if (used.count(piece.front())) {
+        anchors.push_back(piece.front());
+      }
+    }
+    // An anchor without a value is left to InitializeSpanningTree: it starts from the origin
+    // where nothing has a value, and refuses a variable it cannot reach otherwise.
+    for (Key k : anchors) {
+      if (!values->Has(k)) continue;
+      seed.InsertParams(k, values->TypeOf(k), values->Params(k));
+      ++s->anchors;
+      anchor_keys.insert(k);
+    }
+  }
+  InitializeSpanningTree(graph, &seed);  // throws for a variable it cannot reach
+  for (const auto& [k, type] : used) {
+    if (!values->Has(k)) {
+      values->InsertParams(k, type, seed.Params(k));
+    } else {
+      CopyParams(seed, k, values);
+    }
+    if (anchor_keys.count(k)) continue;  // kept where it was
+    (IsPose(type) ? s->poses_set : s->points_set) += 1;
+  }
+}
+
+// ---- chordal relaxation ----
+
+template <int D>
+struct PoseTraits;
+
+template <>
+struct PoseTraits<2> {
+  static constexpr VarType kType = VarType::kSE2;
+  static constexpr int kRotationDim = 1;
+  static void Split(const double* p, Eigen::Matrix2d* R, Eigen::Vector2d* t) {
+    *R = Eigen::Rotation2Dd(p[2]).toRotationMatrix();
+    *t = Eigen::Vector2d(p[0], p[1]);
+  }
+  static void Join(const Eigen::Matrix2d& R, const Eigen::Vector2d& t, double* p) {
+    p[0] = t.x(), p[1] = t.y(), p[2] = std::atan2(R(1, 0), R(0, 0));
+  }
+};
+
+template <>
+struct PoseTraits<3> {
+  static constexpr VarType kType = VarType::kSE3;
+  static constexpr int kRotationDim = 3;
+  static void Split(const double* p, Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+    *R = Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized().toRotationMatrix();
+    *t = Eigen::Vector3d(p[0], p[1], p[2]);
+  }
+  static void Join(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double* p) {
+    const Eigen::Quaterniond q = Eigen::Quaterniond(R).normalized();
+    p[0] = t.x(), p[1] = t.y(), p[2] = t.z();
+    p[3] = q.x(), p[4] = q.y(), p[5] = q.z(), p[6] = q.w();
+  }
+};
+
+// The rotation nearest to A in the Frobenius norm.
+template <int D>
+Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A) {
+  using Matrix = Eigen::Matrix<double, D, D>;
+  const Eigen::JacobiSVD<Matrix> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Matrix S = Matrix::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) S(D - 1, D - 1) = -1;
+  return svd.matrixU() * S * svd.matrixV().transpose();
+}
+
+// Solves the sparse symmetric positive-definite system A X = B; throws naming `what` when A
+// is singular.
+Eigen::MatrixXd SolveSpd(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0).any()) {
+    throw InvalidArgument(std::string("chordal initialisation: the ") + what +
+                          " system is singular (a pose is tied to the others by measurements that fix too "
+                          "little of it); use --init spanning-tree or --init file");
+  }
+  Eigen::MatrixXd X = ldlt.solve(B);
+  if (!X.allFinite()) {
+    throw InvalidArgument(std::string("chordal initialisation: the ") + what + " system gave non-finite values");
+  }
+  return X;
+}
+
+template <int D>
+class Chordal {
+ public:
+  using Matrix = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+  using Traits = PoseTraits<D>;
+  static constexpr int kTangent = D + Traits::kRotationDim;
+
+  Chordal(const FactorGraph& graph, Values* values) : graph_(graph), values_(values) {}
+
+  void Run(InitSummary* s) {
+    CollectMeasurements();
+    if (edges_.empty()) return;
+    ChooseAnchors();
+    SolveRotations();
+    SolveTranslations();
+    for (std::uint32_t i = 0; i < keys_.size(); ++i) {
+      if (free_[i] < 0) continue;
+      Params p;
+      Traits::Join(R_[i], t_[i], p.data());
+      if (values_->Has(keys_[i])) {
+        std::copy(p.begin(), p.begin() + AmbientDim(Traits::kType), values_->Params(keys_[i]));
+      } else {
+        values_->InsertParams(keys_[i], Traits::kType, p.data());
+      }
+      ++s->poses_set;
+    }
+    s->anchors += anchors_;
+    s->measurements_used += static_cast<int>(edges_.size());
+  }
+
+ private:
+  // Pose j as measured from pose i, and how much the measurement says about it.
+  struct Edge {
+    std::uint32_t i, j;
+    Matrix R;              // rotation of j in i's frame
+    Vector t;              // position of j in i's frame
+    double kappa;          // weight of the chordal term ||R_j - R_i R||^2
+    Matrix translation_w;  // information on j's position, in j's frame
+  };
+
+  std::uint32_t Node(Key k) {
+    const auto [it, inserted] = index_.emplace(k, static_cast<std::uint32_t>(keys_.size()));
+    if (inserted) keys_.push_back(k);
+    return it->second;
+  }
+
+  // Every two-key factor between poses of this dimension whose type can predict one from the
+  // other. The measurement is the prediction of the second pose from the first at the origin;
+  // its information comes from the factor's whitened Jacobian with respect to the second pose
+  // at that point, so it is right for any error definition.
+  void CollectMeasurements() {
+    for (const auto& f : graph_.factors()) {
+      if (f->keys().size() != 2) continue;
+      const std::vector<VarType> types = f->variable_types();
+      if (types.size() != 2 || types[0] != Traits::kType || types[1] != Traits::kType) continue;
+      Params a, b;
+      IdentityParams(Traits::kType, a.data());
+      if (!f->Predict(0, a.data(), 1, b.data())) continue;
+      if (!std::all_of(b.begin(), b.begin() + AmbientDim(Traits::kType), [](double v) { return std::isfinite(v); }))
+        continue;
+      std::array<double, kMaxResidualDim> r;
+      std::array<double, kMaxResidualDim * kTangent> ja, jb;
+      const double* params[2] = {a.data(), b.data()};
+      double* jac[2] = {ja.data(), jb.data()};
+      if (f->dim() > kMaxResidualDim || !f->Linearize(params, r.data(), jac)) continue;
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, kTangent, Eigen::RowMajor>> J(jb.data(), f->dim(),
+                                                                                                 kTangent);
+      const Eigen::Matrix<double, kTangent, kTangent> info = J.transpose() * J;
+      if (!info.allFinite()) continue;
+      Edge e;
+      e.i = Node(f->keys()[0]);
+      e.j = Node(f->keys()[1]);
+      if (e.i == e.j) continue;
+      Traits::Split(b.data(), &e.R, &e.t);
+      // ||R_j - R_i R||_F^2 is 2 theta^2 for a small rotation error theta (in 2D and 3D alike), so
+      // half the mean angular information weighs it like the factor weighs theta^2.
+      e.kappa = info.template bottomRightCorner<Traits::kRotationDim, Traits::kRotationDim>().trace() /
+                (2.0 * Traits::kRotationDim);
+      e.translation_w = info.template topLeftCorner<D, D>();
+      if (!(e.kappa > 0)) continue;
+      edges_.push_back(e);
+    }
+  }
+
+  // Per piece linked by the measurements: its fixed poses, else its lowest key, keep their
+  // values; every other pose of the piece is an unknown.
+  void ChooseAnchors() {
+    const std::uint32_t n = static_cast<std::uint32_t>(keys_.size());
+    Components pieces(n);
+    for (const Edge& e : edges_) pieces.Join(e.i, e.j);
+    std::vector<bool> anchor(n, false), piece_has_fixed(n, false);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (graph_.IsFixed(keys_[i])) anchor[i] = piece_has_fixed[pieces.Find(i)] = true;
+    }
+    std::vector<std::uint32_t> lowest(n, n);  // per root: the node with the lowest key
+    for (std::uint32_t i = 0; i < n; ++i) {
+      std::uint32_t& l = lowest[pieces.Find(i)];
+      if (l == n || keys_[i] < keys_[l]) l = i;
+    }
+    for (std::uint32_t root = 0; root < n; ++root) {
+      if (lowest[root] != n && !piece_has_fixed[root]) anchor[lowest[root]] = true;
+    }
+    R_.assign(n, Matrix::Identity());
+    t_.assign(n, Vector::Zero());
+    free_.assign(n, -1);
+    num_free_ = 0;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (anchor[i]) {
+        ++anchors_;
+        if (values_->Has(keys_[i])) Traits::Split(values_->Params(keys_[i]), &R_[i], &t_[i]);
+      } else {
+        free_[i] = num_free_++;
+      }
+    }
+  }
+
+  // With y_i = column c of R_i^T, R_j = R_i R becomes y_j = R^T y_i for each column c: one
+  // sparse system with D right-hand sides, unknowns D per free pose.
+  void SolveRotations() {
+    if (num_free_ == 0) return;
+    std::vector<Eigen::Triplet<double>> triplets;
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(D * num_free_, D);
+    triplets.reserve(edges_.size() * 4 * D * D);
+    const auto add_block = [&](int fi, int fj, const Matrix& m) {
+      for (int r = 0; r < D; ++r)
+        for (int c = 0; c < D; ++c) triplets.emplace_back(D * fi + r, D * fj + c, m(r, c));
+    };
+    for (const Edge& e : edges_) {
+      const Matrix M = e.R.transpose();  // residual y_j - M y_i
+      const int fi = free_[e.i], fj = free_[e.j];
+      const Matrix I = Matrix::Identity() * e.kappa;
+      if (fi >= 0) add_block(fi, fi, I);  // kappa M^T M = kappa I
+      if (fj >= 0) add_block(fj, fj, I);
+      if (fi >= 0 && fj >= 0) {
+        add_block(fi, fj, -e.kappa * M.transpose());
+        add_block(fj, fi, -e.kappa * M);
+      } else if (fj >= 0) {
+        rhs.block(D * fj, 0, D, D) += e.kappa * M * R_[e.i].transpose();
+      } else if (fi >= 0) {
+        rhs.block(D * fi, 0, D, D) += e.kappa * M.transpose() * R_[e.j].transpose();
+      }
+    }
+    Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
+    A.setFromTriplets(triplets.begin(), triplets.end());
+    const Eigen::MatrixXd Y = SolveSpd(A, rhs, "rotation");
+    for (std::uint32_t i = 0; i < keys_.size(); ++i) {
+      if (free_[i] >= 0) R_[i] = NearestRotation<D>(Y.block(D * free_[i], 0, D, D).transpose());
+    }
+  }
+
+  // With the rotations held: t_j - t_i = R_i t, weighted by the measurement's information on
+  // the position of j, turned into the world frame by R_j.
+  void SolveTranslations() {
+    if (num_free_ == 0) return;
+    std::vector<Eigen::Triplet<double>> triplets;
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(D * num_free_);
+    triplets.reserve(edges_.size() * 4 * D * D);
+    const auto add_block = [&](int fi, int fj, const Matrix& m) {
+      for (int r = 0; r < D; ++r)
+        for (int c = 0; c < D; ++c) triplets.emplace_back(D * fi + r, D * fj + c, m(r, c));
+    };
+    for (const Edge& e : edges_) {
+      const Matrix W = R_[e.j] * e.translation_w * R_[e.j].transpose();
+      const Vector c = R_[e.i] * e.t;  // residual t_j - t_i - c
+      const int fi = free_[e.i], fj = free_[e.j];
+      if (fi >= 0) {
+        add_block(fi, fi, W);
+        rhs.segment<D>(D * fi) -= W * c;
+      }
+      if (fj >= 0) {
+        add_block(fj, fj, W);
+        rhs.segment<D>(D * fj) += W * c;
+      }
+      if (fi >= 0 && fj >= 0) {
+        add_block(fi, fj, -W);
+        add_block(fj, fi, -W);
+      } else if (fj >= 0) {
+        rhs.segment<D>(D * fj) += W * t_[e.i];
+      } else if (fi >= 0) {
+        rhs.segment<D>(D * fi) += W * t_[e.j];
+      }
+    }
+    Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
+    A.setFromTriplets(triplets.begin(), triplets.end());
+    const Eigen::VectorXd x = SolveSpd(A, rhs, "translation");
+    for (std::uint32_t i = 0; i < keys_.size(); ++i) {
+      if (free_[i] >= 0) t_[i] = x.segment<D>(D * free_[i]);
+    }
+  }
+
+  const FactorGraph& graph_;
+  Values* values_;
+  std::unordered_map<Key, std::uint32_t> index_;
+  std::vector<Key> keys_;
+  std::vector<Edge> edges_;
+  std::vector<int> free_;  // index among the unknowns, -1 for anchors
+  int num_free_ = 0;
+  int anchors_ = 0;
+  std::vector<Matrix, Eigen::aligned_allocator<Matrix>> R_;
+  std::vector<Vector, Eigen::aligned_allocator<Vector>> t_;
+};
+
+// Puts every point that is not fixed at the mean of its predictions from the poses that
+// observe it (poses as they are now). Points nothing predicts keep their values.
+void PointsFromPoses(const FactorGraph& graph, Values* values, InitSummary* s) {
+  struct Sum {
+    VarType type;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int count = 0;
+  };
+  std::map<Key, Sum> points;
+  for (const auto& f : graph.factors()) {
+    const std::vector<VarType> types = f->variable_types();
+    if (f->keys().size() != 2 || types.size() != 2) continue;
+    for (std::size_t known = 0; known < 2; ++known) {
+      const std::size_t unknown = 1 - known;
+      const Key pk = f->keys()[known], qk = f->keys()[unknown];
+      if (!IsPose(types[known]) || IsPose(types[unknown]) || graph.IsFixed(qk) || !values->Has(pk)) continue;
+      Params out;
+      if (!f->Predict(known, values->Params(pk), unknown, out.data())) continue;
+      const int n = AmbientDim(types[unknown]);
+      if (!std::all_of(out.begin(), out.begin() + n, [](double v) { return std::isfinite(v); })) continue;
+      Sum& p = points.try_emplace(qk, Sum{types[unknown]}).first->second;
+      for (int i = 0; i < n; ++i) p.sum[i] += out[i];
+      ++p.count;
+    }
+  }
+  for (const auto& [k, p] : points) {
+    const Eigen::Vector3d mean = p.sum / p.count;
+    if (values->Has(k)) {
+      std::copy(mean.data(), mean.data() + AmbientDim(p.type), values->Params(k));
+    } else {
+      values->InsertParams(k, p.type, mean.data());
+    }
+    ++s->points_set;
+  }
+}
+
+}  // namespace
+
+InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method) {
+  const auto start = std::chrono::steady_clock::now();
+  InitSummary s;
+  s.method = method;
+  Values work = *values;
+  switch (method) {
+    case InitMethod::kFile:
+      break;
+    case InitMethod::kSpanningTree:
+      SpanningTree(graph, &work, &s);
+      break;
+    case InitMethod::kChordal:
+      // Variables without a value get one from the spanning tree first, so that every pose the
+      // pose-pose measurements do not reach (linked through points only, say) has one.
+      InitializeSpanningTree(graph, &work);
+      Chordal<2>(graph, &work).Run(&s);
+      Chordal<3>(graph, &work).Run(&s);
+      PointsFromPoses(graph, &work, &s);
+      break;
+  }
+  *values = std::move(work);
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "initialisation '%s': %d poses and %d points set, %d anchors, %.3f s",
+                ToString(method), s.poses_set, s.points_set, s.anchors, s.seconds);
+  s.message = buf;
+  return s;
+}
+
+}  // namespace tether
