@@ -275,13 +275,31 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     if (lm) p.Save();
     p.Retract(delta.data());
     tl = Clock::now();
-    const double new_chi2 = p.Chi2();
+    double new_chi2 = p.Chi2();
+    double predicted_now = predicted;
+    // LM: an undamped step that overshoots is first tried at half length, a few times, before
+    // the damping starts: a chi2 evaluation is far cheaper than the factorisation a damped step
+    // needs, and along the very flat directions some datasets have (parking-garage) damping
+    // shortens the steps far too much. Along a*d the model predicts -g.d (2a - a^2) at lambda 0.
+    if (lm && lambda == 0.0) {
+      double a = 1.0;
+      for (int h = 0; h < options.max_step_halvings && !(std::isfinite(new_chi2) && new_chi2 < chi2); ++h) {
+        p.Restore();
+        for (double& d : delta) d *= 0.5;
+        a *= 0.5;
+        ++it.step_halvings;
+        p.Retract(delta.data());
+        new_chi2 = p.Chi2();
+      }
+      predicted_now = predicted * (2 * a - a * a);
+      it.step_norm *= a;
+    }
     s.linearize_seconds += SecondsSince(tl);
     it.relative_decrease = (chi2 - new_chi2) / chi2;
 
     if (lm) {
       if (std::isfinite(new_chi2) && new_chi2 < chi2) {
-        const double rho = predicted > 0 ? (chi2 - new_chi2) / predicted : 0.0;
+        const double rho = predicted_now > 0 ? (chi2 - new_chi2) / predicted_now : 0.0;
         lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
         if (lambda < options.min_lambda) lambda = 0.0;
         nu = 2.0;

@@ -76,6 +76,7 @@ bool SolverOptions::IsValid(std::string* why) const {
   if (!(max_seconds >= 0) || !std::isfinite(max_seconds)) return fail("max_seconds must be finite and >= 0");
   if (!(initial_lambda >= 0) || !std::isfinite(initial_lambda)) return fail("initial_lambda must be finite and >= 0");
   if (!(min_lambda > 0) || !std::isfinite(min_lambda)) return fail("min_lambda must be finite and > 0");
+  if (max_step_halvings < 0) return fail("max_step_halvings must be >= 0");
   if (!(max_lambda > initial_lambda) || !(max_lambda > min_lambda)) {
     return fail("max_lambda must exceed initial_lambda and min_lambda");
   }

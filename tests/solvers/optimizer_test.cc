@@ -105,6 +105,7 @@ TEST(OptimizerTest, LevenbergMarquardtNeverRaisesChi2) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
   SolverOptions o;  // the default starts undamped, so that rejections happen
+  o.max_step_halvings = 0;  // (with halvings, this start has no rejections)
   int rejected = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
   double last = s.initial_chi2;
@@ -126,6 +127,7 @@ TEST(OptimizerTest, LevenbergMarquardtDampsOnlyAfterARejection) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
   SolverOptions o;
+  o.max_step_halvings = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
   ASSERT_GE(s.log.size(), 2u);
   EXPECT_EQ(s.log[1].lambda, 0.0);
@@ -144,6 +146,35 @@ TEST(OptimizerTest, LevenbergMarquardtDampsOnlyAfterARejection) {
     }
   }
   EXPECT_TRUE(restarted) << "no undamped step was rejected; make the start worse";
+}
+
+// An undamped step that raises chi2 is halved (at most max_step_halvings times) before the
+// damping starts; with no halvings allowed, none happen.
+TEST(OptimizerTest, LevenbergMarquardtHalvesAnOvershootingUndampedStep) {
+  const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
+  int halved_and_kept = 0;
+  for (int halvings : {0, 1, 3}) {
+    Values v = sim.initial;
+    SolverOptions o;
+    o.max_step_halvings = halvings;
+    const SolverSummary s = Optimize(sim.graph, &v, o);
+    EXPECT_TRUE(s.IsSolutionUsable()) << s.message;
+    int seen = 0;
+    for (const IterationSummary& it : s.log) {
+      EXPECT_LE(it.step_halvings, halvings);
+      if (it.step_halvings > 0) {
+        EXPECT_EQ(it.lambda, 0.0);  // only undamped steps are halved
+        ++seen;
+        if (it.accepted) ++halved_and_kept;
+      }
+    }
+    if (halvings == 0) {
+      EXPECT_EQ(seen, 0);
+    } else {
+      EXPECT_GT(seen, 0) << "no undamped step overshot; make the start worse";
+    }
+  }
+  EXPECT_GT(halved_and_kept, 0);
 }
 
 // Where Gauss-Newton never raises chi2, LM takes exactly its steps.

@@ -65,10 +65,39 @@ TEST_F(CliTest, SimulateThenOptimizeWritesGraphAndPlot) {
   const std::string svg = ReadAll(P("out.svg"));
   EXPECT_NE(svg.find("<svg"), std::string::npos);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
-  // The optimised file re-reads and is already at the optimum: another run stops at once.
-  CliRun again = Tether("optimize " + P("out.g2o") + " -q");
+  // The optimised file re-reads and is already at the optimum: another run from the file's
+  // values stops at once.
+  CliRun again = Tether("optimize " + P("out.g2o") + " -q --init file");
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_NE(again.output.find("iterations         1 "), std::string::npos) << again.output;
+}
+
+// --init: chordal by default (and said so), file and spanning-tree on request, all reaching
+// the same optimum here; an unknown name is bad usage.
+TEST_F(CliTest, InitChoosesTheInitialGuess) {
+  ASSERT_EQ(Tether("simulate sphere --poses 300 --seed 4 -o " + P("s.g2o")).code, 0);
+  CliRun byDefault = Tether("optimize " + P("s.g2o") + " -q -o " + P("d.g2o"));
+  ASSERT_EQ(byDefault.code, 0) << byDefault.output;
+  EXPECT_NE(byDefault.output.find("initialisation 'chordal': 299 poses"), std::string::npos) << byDefault.output;
+  CliRun file = Tether("optimize " + P("s.g2o") + " -q --init file -o " + P("f.g2o"));
+  ASSERT_EQ(file.code, 0) << file.output;
+  EXPECT_EQ(file.output.find("initialisation"), std::string::npos) << file.output;
+  CliRun tree = Tether("optimize " + P("s.g2o") + " -q --init spanning-tree -o " + P("t.g2o"));
+  ASSERT_EQ(tree.code, 0) << tree.output;
+  EXPECT_NE(tree.output.find("initialisation 'spanning-tree'"), std::string::npos) << tree.output;
+  const auto final_chi2 = [](const std::string& out) {
+    const std::size_t at = out.find("final chi2");
+    return at == std::string::npos ? -1.0 : std::stod(out.substr(at + 10));
+  };
+  const double reference = final_chi2(file.output);
+  ASSERT_GT(reference, 0);
+  EXPECT_NEAR(final_chi2(byDefault.output), reference, 1e-6 * reference);
+  EXPECT_NEAR(final_chi2(tree.output), reference, 1e-6 * reference);
+  CliRun bad = Tether("optimize " + P("s.g2o") + " --init lago");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("unknown --init 'lago'; use file, spanning-tree or chordal"), std::string::npos)
+      << bad.output;
+  EXPECT_FALSE(fs::exists(P("lago.g2o")));
 }
 
 TEST_F(CliTest, SimulateIsDeterministic) {

@@ -13,7 +13,7 @@ struct OptimizeCommand {
   std::string plot;                ///< SVG with the trajectory before and after (optional)
   std::string solver = "lm";       ///< gn | lm
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr
-  std::string init = "file";       ///< file | spanning-tree | chordal
+  std::string init = "chordal";    ///< file | spanning-tree | chordal (see docs/initialisation.md)
   int max_iterations = 100;
   double time_limit = 0;                    ///< seconds, 0 for none
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
