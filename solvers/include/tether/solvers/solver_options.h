@@ -9,7 +9,11 @@
 
 namespace tether {
 
-enum class Algorithm { kGaussNewton, kLevenbergMarquardt };
+enum class Algorithm {
+  kGaussNewton,
+  kLevenbergMarquardt,
+  kCeres,  ///< Ceres' Levenberg-Marquardt through the Ceres adapter (ceres_adapter.h)
+};
 enum class LinearSolverType {
   kCholmod,    ///< CHOLMOD supernodal Cholesky of H = J^T J (default)
   kEigenLDLT,  ///< Eigen SimplicialLDLT of H (no SuiteSparse needed at run time)
@@ -24,7 +28,7 @@ enum class SolverStatus {
   kInvalidInput,   ///< options or graph invalid (message says why); values untouched
 };
 
-// Names used by the CLI and reports: "gn", "lm"; "cholmod", "ldlt", "qr"; "converged", ...
+// Names used by the CLI and reports: "gn", "lm", "ceres"; "cholmod", "ldlt", "qr"; "converged", ...
 const char* ToString(Algorithm a);
 const char* ToString(LinearSolverType t);
 const char* ToString(SolverStatus s);
@@ -48,8 +52,9 @@ struct SolverOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   LinearSolverType linear_solver = LinearSolverType::kCholmod;
   int max_iterations = 100;
-  /// Stop when an accepted step lowers chi2 by less than this fraction.
-  double function_tolerance = 1e-9;
+  /// Stop when an accepted step lowers chi2 by less than this fraction (docs/solvers.md
+  /// has the measurements behind the default).
+  double function_tolerance = 1e-8;
   /// Stop when max |g_i| (gradient of chi2 / 2 in tangent coordinates) is below this.
   double gradient_tolerance = 1e-10;
   /// Stop when |delta| <= parameter_tolerance * (|x| + parameter_tolerance).
