@@ -1,5 +1,6 @@
 #include "tether/solvers/initialize.h"
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -165,21 +166,33 @@ Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A
   return svd.matrixU() * S * svd.matrixV().transpose();
 }
 
-// Solves the sparse symmetric positive-definite system A X = B; throws naming `what` when A
-// is singular.
-Eigen::MatrixXd SolveSpd(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
-  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0).any()) {
-    throw InvalidArgument(std::string("chordal initialisation: the ") + what +
-                          " system is singular (a pose is tied to the others by measurements that fix too "
-                          "little of it); use --init spanning-tree or --init file");
+// Solves sparse symmetric positive-definite systems A X = B that share one sparsity pattern
+// (the rotation and the translation systems do): the ordering and symbolic analysis are done
+// once. Throws naming `what` when A is singular.
+class SpdSolver {
+ public:
+  Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
+    if (!analysed_) {
+      ldlt_.analyzePattern(A);
+      analysed_ = true;
+    }
+    ldlt_.factorize(A);
+    if (ldlt_.info() != Eigen::Success) {
+      throw InvalidArgument(std::string("chordal initialisation: the ") + what +
+                            " system is singular (a pose is tied to the others by measurements that fix too "
+                            "little of it); use --init spanning-tree or --init file");
+    }
+    Eigen::MatrixXd X = ldlt_.solve(B);
+    if (!X.allFinite()) {
+      throw InvalidArgument(std::string("chordal initialisation: the ") + what + " system gave non-finite values");
+    }
+    return X;
   }
-  Eigen::MatrixXd X = ldlt.solve(B);
-  if (!X.allFinite()) {
-    throw InvalidArgument(std::string("chordal initialisation: the ") + what + " system gave non-finite values");
-  }
-  return X;
-}
+
+ private:
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>> ldlt_;
+  bool analysed_ = false;
+};
 
 template <int D>
 class Chordal {
@@ -326,7 +339,7 @@ class Chordal {
     }
     Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
     A.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::MatrixXd Y = SolveSpd(A, rhs, "rotation");
+    const Eigen::MatrixXd Y = spd_.Solve(A, rhs, "rotation");
     for (std::uint32_t i = 0; i < keys_.size(); ++i) {
       if (free_[i] >= 0) R_[i] = NearestRotation<D>(Y.block(D * free_[i], 0, D, D).transpose());
     }
@@ -366,7 +379,7 @@ class Chordal {
     }
     Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
     A.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::VectorXd x = SolveSpd(A, rhs, "translation");
+    const Eigen::VectorXd x = spd_.Solve(A, rhs, "translation");
     for (std::uint32_t i = 0; i < keys_.size(); ++i) {
       if (free_[i] >= 0) t_[i] = x.segment<D>(D * free_[i]);
     }
@@ -374,6 +387,7 @@ class Chordal {
 
   const FactorGraph& graph_;
   Values* values_;
+  SpdSolver spd_;  // the rotation and translation systems have the same pattern
   std::unordered_map<Key, std::uint32_t> index_;
   std::vector<Key> keys_;
   std::vector<Edge> edges_;

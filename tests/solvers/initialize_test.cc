@@ -182,6 +182,57 @@ TEST(InitializeTest, UnreachableVariableThrowsAndChangesNothing) {
   }
 }
 
+// A factor that measures only the change of heading between two SE2 poses, and can predict
+// one from the other (with no change of position). It fixes nothing about positions.
+class HeadingChange : public Factor {
+ public:
+  HeadingChange(Key a, Key b, double z) : Factor({a, b}, SqrtInformation::Isotropic(1, 0.01)), z_(z) {}
+  std::string type_name() const override { return "HeadingChange"; }
+  int residual_dim() const override { return 1; }
+  std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kSE2}; }
+  bool Evaluate(const double* const* p, double* e, double* const* j) const override {
+    e[0] = WrapAngle(p[1][2] - p[0][2] - z_);
+    if (j && j[0]) j[0][0] = 0, j[0][1] = 0, j[0][2] = -1;
+    if (j && j[1]) j[1][0] = 0, j[1][1] = 0, j[1][2] = 1;
+    return true;
+  }
+  std::unique_ptr<Factor> Clone() const override { return std::make_unique<HeadingChange>(*this); }
+  bool Predict(std::size_t known, const double* kp, std::size_t unknown, double* out) const override {
+    if (known > 1 || unknown > 1 || known == unknown) return false;
+    out[0] = kp[0], out[1] = kp[1], out[2] = WrapAngle(kp[2] + (known == 0 ? z_ : -z_));
+    return true;
+  }
+
+ private:
+  double z_;
+};
+
+// Measurements that fix rotations but not positions make the translation system singular:
+// a clear error that says what to do, and the values are not touched. The spanning tree
+// still composes them.
+TEST(InitializeTest, SingularTranslationSystemIsAClearError) {
+  FactorGraph graph;
+  graph.Add(std::make_unique<HeadingChange>(0, 1, 0.3));
+  graph.Add(std::make_unique<HeadingChange>(1, 2, -0.1));
+  Values v;
+  v.Insert(0, SE2d(1, 2, 0));
+  v.Insert(1, SE2d(5, 5, 1));
+  v.Insert(2, SE2d(7, 7, 2));
+  const Values before = v;
+  try {
+    Initialize(graph, &v, InitMethod::kChordal);
+    FAIL() << "a singular translation system was accepted";
+  } catch (const InvalidArgument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("translation system is singular"), std::string::npos) << m;
+    EXPECT_NE(m.find("--init spanning-tree"), std::string::npos) << m;
+  }
+  EXPECT_EQ(v.Data(VarType::kSE2), before.Data(VarType::kSE2));
+  Initialize(graph, &v, InitMethod::kSpanningTree);
+  EXPECT_NEAR(v.AtSE2(2).theta(), 0.2, 1e-12);
+  EXPECT_EQ(v.AtSE2(2).x(), 1.0);
+}
+
 // Pieces linked by nothing each get their own anchor.
 TEST(InitializeTest, EveryPieceHasAnAnchor) {
   FactorGraph graph;
