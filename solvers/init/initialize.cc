@@ -171,6 +171,9 @@ Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A
 // once. Throws naming `what` when A is singular.
 class SpdSolver {
  public:
+  // A singular system is reported by the exception below, not by CHOLMOD on stderr.
+  SpdSolver() { ldlt_.cholmod().print = 0; }
+
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
     if (!analysed_) {
       ldlt_.analyzePattern(A);
