@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   CLI::App* optimize = app.add_subcommand("optimize", "Optimise a g2o or TORO graph file");
   optimize->add_option("input", opt.input, "Graph file (.g2o, or TORO .graph)")->required();
   optimize->add_option("-o,--output", opt.output, "Write the optimised graph (g2o)");
-  optimize->add_option("--solver", opt.solver, "gn | lm")->capture_default_str();
+  optimize->add_option("--solver", opt.solver, "gn | lm | ceres (Ceres' Levenberg-Marquardt)")->capture_default_str();
   optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr")->capture_default_str();
   optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <limits>
 
+#include "gauge.h"
 #include "linear_solver.h"
 #include "problem.h"
 #include "tether/core/error.h"
+#include "tether/solvers/ceres_adapter.h"
 
 namespace tether {
 
@@ -30,33 +32,6 @@ double MaxAbs(const std::vector<double>& a) {
     if (!(std::abs(v) <= m)) m = std::abs(v);
   }
   return m;
-}
-
-// Chooses what to hold fixed: the graph's own fixed set, or (where it fixes nothing and no
-// unary factor anchors the problem) the pose with the lowest key.
-std::set<Key> ChooseFixed(const FactorGraph& graph, const Values& values, SolverSummary* s) {
-  std::set<Key> fixed = graph.fixed();
-  if (!fixed.empty()) return fixed;
-  for (const auto& f : graph.factors()) {
-    if (f->keys().size() == 1) return fixed;
-  }
-  // The lowest-key pose that some factor uses (an unused pose anchors nothing).
-  bool found = false;
-  Key best = 0;
-  for (const auto& f : graph.factors()) {
-    for (Key k : f->keys()) {
-      if (values.Has(k) && IsPose(values.TypeOf(k)) && (!found || k < best)) {
-        best = k;
-        found = true;
-      }
-    }
-  }
-  if (found) {
-    fixed.insert(best);
-    s->gauge_fixed_automatically = true;
-    s->gauge_key = best;
-  }
-  return fixed;
 }
 
 // One linear solve of the damped system, whichever back-end is in use.
@@ -145,7 +120,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     s.message = "invalid options: " + why;
     return s;
   }
-  const std::set<Key> fixed = ChooseFixed(graph, *values, &s);
+  const std::set<Key> fixed = internal::ChooseFixed(graph, *values, &s);
   std::unique_ptr<internal::Problem>& problem = *holder;
   try {
     problem = std::make_unique<internal::Problem>(graph, values, fixed);
@@ -383,6 +358,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
 
 SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
   if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
+  if (options.algorithm == Algorithm::kCeres) return OptimizeWithCeres(graph, values, options);
   std::unique_ptr<internal::Problem> problem;
   try {
     return Run(graph, values, options, &problem);

@@ -6,7 +6,17 @@
 
 namespace tether {
 
-const char* ToString(Algorithm a) { return a == Algorithm::kGaussNewton ? "gn" : "lm"; }
+const char* ToString(Algorithm a) {
+  switch (a) {
+    case Algorithm::kGaussNewton:
+      return "gn";
+    case Algorithm::kLevenbergMarquardt:
+      return "lm";
+    case Algorithm::kCeres:
+      return "ceres";
+  }
+  return "lm";
+}
 
 const char* ToString(LinearSolverType t) {
   switch (t) {
@@ -52,7 +62,7 @@ bool Parse(const std::string& s, std::initializer_list<E> all, E* out) {
 }  // namespace
 
 bool FromString(const std::string& s, Algorithm* a) {
-  return Parse(s, {Algorithm::kGaussNewton, Algorithm::kLevenbergMarquardt}, a);
+  return Parse(s, {Algorithm::kGaussNewton, Algorithm::kLevenbergMarquardt, Algorithm::kCeres}, a);
 }
 bool FromString(const std::string& s, LinearSolverType* t) {
   return Parse(s, {LinearSolverType::kCholmod, LinearSolverType::kEigenLDLT, LinearSolverType::kQR}, t);
@@ -94,7 +104,12 @@ std::string SolverSummary::FullReport() const {
   std::ostringstream o;
   char buf[128];
   o << "Solver summary\n";
-  o << "  algorithm          " << ToString(algorithm) << " / " << ToString(linear_solver) << "\n";
+  if (algorithm == Algorithm::kCeres) {
+    o << "  algorithm          ceres: Ceres Levenberg-Marquardt / SPARSE_NORMAL_CHOLESKY (SuiteSparse "
+      << ToString(linear_solver) << ")\n";
+  } else {
+    o << "  algorithm          " << ToString(algorithm) << " / " << ToString(linear_solver) << "\n";
+  }
   o << "  variables          " << num_variables << " free, " << num_fixed << " fixed (" << tangent_dim
     << " unknowns)\n";
   o << "  factors            " << num_factors << " (" << num_residuals << " residuals)\n";

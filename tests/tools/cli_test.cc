@@ -151,4 +151,36 @@ TEST_F(CliTest, EveryLinearSolverAndAlgorithmRuns) {
   }
 }
 
+// --solver ceres: Ceres' Levenberg-Marquardt through the adapter, with the same table and
+// summary; the file it writes holds the optimum the native LM reaches; only --linear cholmod.
+TEST_F(CliTest, SolverCeresMatchesNativeLm) {
+  ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 6 -o " + P("s.g2o")).code, 0);
+  CliRun ceres = Tether("optimize " + P("s.g2o") + " --solver ceres -o " + P("c.g2o"));
+  ASSERT_EQ(ceres.code, 0) << ceres.output;
+  EXPECT_NE(ceres.output.find("algorithm          ceres: Ceres Levenberg-Marquardt / SPARSE_NORMAL_CHOLESKY"),
+            std::string::npos)
+      << ceres.output;
+  EXPECT_NE(ceres.output.find("iter              chi2"), std::string::npos);
+  EXPECT_NE(ceres.output.find("\n    1  "), std::string::npos) << ceres.output;
+  EXPECT_NE(ceres.output.find("status             converged"), std::string::npos) << ceres.output;
+  ASSERT_TRUE(fs::exists(P("c.g2o")));
+  CliRun lm = Tether("optimize " + P("s.g2o") + " -q --solver lm");
+  ASSERT_EQ(lm.code, 0) << lm.output;
+  const auto chi2 = [](const std::string& out, const std::string& what) {
+    const std::size_t at = out.find(what);
+    return at == std::string::npos ? -1.0 : std::stod(out.substr(at + what.size()));
+  };
+  const double c = chi2(ceres.output, "final chi2"), l = chi2(lm.output, "final chi2");
+  ASSERT_GT(l, 0);
+  EXPECT_NEAR(c, l, 2e-8 * l);  // each stops within function_tolerance (1e-8) of the optimum
+  // The written file starts where Ceres ended.
+  CliRun again = Tether("optimize " + P("c.g2o") + " -q --init file --solver lm");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NEAR(chi2(again.output, "initial chi2"), c, 1e-8 * c);
+  CliRun qr = Tether("optimize " + P("s.g2o") + " --solver ceres --linear qr -o " + P("q.g2o"));
+  EXPECT_EQ(qr.code, 2);
+  EXPECT_NE(qr.output.find("use --linear cholmod"), std::string::npos) << qr.output;
+  EXPECT_FALSE(fs::exists(P("q.g2o")));
+}
+
 }  // namespace

@@ -68,11 +68,16 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   SolverOptions options;
   InformationRepair repair;
   if (!FromString(cmd.solver, &options.algorithm)) {
-    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn or lm\n";
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn, lm or ceres\n";
     return 2;
   }
   if (!FromString(cmd.linear, &options.linear_solver)) {
     err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
+    return 2;
+  }
+  if (options.algorithm == Algorithm::kCeres && options.linear_solver != LinearSolverType::kCholmod) {
+    err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
+           "--linear cholmod (ldlt and qr are for gn and lm)\n";
     return 2;
   }
   InitMethod init;

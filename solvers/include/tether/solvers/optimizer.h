@@ -15,7 +15,8 @@
 
 namespace tether {
 
-/// Optimises `values` in place. Never throws for numerical trouble: the status says what
+/// Optimises `values` in place. With options.algorithm == Algorithm::kCeres this is
+/// OptimizeWithCeres (ceres_adapter.h). Never throws for numerical trouble: the status says what
 /// happened. Throws InvalidArgument only for programming errors (null values).
 SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options = {});
 

@@ -11,7 +11,7 @@ struct OptimizeCommand {
   std::string input;
   std::string output;              ///< g2o file with the optimised values (optional)
   std::string plot;                ///< SVG with the trajectory before and after (optional)
-  std::string solver = "lm";       ///< gn | lm
+  std::string solver = "lm";       ///< gn | lm | ceres
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr
   std::string init = "chordal";    ///< file | spanning-tree | chordal (see docs/initialisation.md)
   int max_iterations = 100;
