@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "tether/tools/bench.h"
 #include "tether/tools/commands.h"
 
 int main(int argc, char** argv) {
@@ -43,6 +44,17 @@ int main(int argc, char** argv) {
   CLI::App* list = plugins->add_subcommand("list", "List loaded plugins and every registered factor type");
   list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable")->allow_extra_args(false);
 
+  tether::BenchCommand bc;
+  CLI::App* bench = app.add_subcommand("bench", "Time solver configurations on graph files (docs/benchmarking.md)");
+  bench->add_option("files", bc.files, "Graph files (.g2o, or TORO .graph)");
+  bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, ceres")->capture_default_str();
+  bench->add_option("--linear", bc.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
+  bench->add_option("--init", bc.init, "Comma-separated: file, spanning-tree, chordal")->capture_default_str();
+  bench->add_option("--threads", bc.threads, "Comma-separated thread counts (default: the solver's)");
+  bench->add_option("--repeat", bc.repeat, "Runs per configuration")->capture_default_str();
+  bench->add_option("--format", bc.format, "md | csv")->capture_default_str();
+  bench->add_option("-o,--output", bc.output, "Write the table here instead of stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -52,6 +64,7 @@ int main(int argc, char** argv) {
     if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
     if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
     if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
+    if (bench->parsed()) return tether::RunBench(bc, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
     std::cerr << "error: " << e.what() << "\n";

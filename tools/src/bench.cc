@@ -1,0 +1,696 @@
+#include "tether/tools/bench.h"
+
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <ostream>
+#include <sstream>
+#include <type_traits>
+#include <utility>
+
+#include "tether/core/error.h"
+#include "tether/core/graph_io.h"
+#include "tether/factors/builtin.h"
+#include "tether/solvers/optimizer.h"
+
+namespace tether {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Fields the solvers gain over time, detected at compile time so that this file builds with
+// and without them.
+template <typename O, typename = void>
+struct HasNumThreads : std::false_type {};
+template <typename O>
+struct HasNumThreads<O, std::void_t<decltype(std::declval<O&>().num_threads)>> : std::true_type {};
+
+template <typename S, typename = void>
+struct HasFactorizeSeconds : std::false_type {};
+template <typename S>
+struct HasFactorizeSeconds<S, std::void_t<decltype(std::declval<const S&>().factorize_seconds)>> : std::true_type {};
+
+template <typename O>
+void SetThreads(O* options, int threads) {
+  if constexpr (HasNumThreads<O>::value) {
+    if (threads > 0) options->num_threads = threads;
+  } else {
+    (void)options;
+    (void)threads;
+  }
+}
+
+template <typename O>
+std::string DefaultThreads() {
+  if constexpr (HasNumThreads<O>::value) {
+    return std::to_string(O{}.num_threads);
+  } else {
+    return "-";
+  }
+}
+
+// Fills the time split from the summary. Where the summary keeps the numeric factorisations
+// apart, solve_seconds is what remains of the linear solve (triangular solves, damping).
+template <typename S>
+void FillSplit(const S& s, BenchRun* r) {
+  r->setup_seconds = s.setup_seconds;
+  r->linearize_seconds = s.linearize_seconds;
+  r->solve_seconds = s.solve_seconds;
+  if constexpr (HasFactorizeSeconds<S>::value) {
+    r->factorize_seconds = s.factorize_seconds;
+  }
+}
+
+const char* OutcomeName(BenchOutcome o) {
+  switch (o) {
+    case BenchOutcome::kSolved:
+      return "solved";
+    case BenchOutcome::kSolveFailed:
+      return "solve-failed";
+    case BenchOutcome::kBadInput:
+      return "bad-input";
+    case BenchOutcome::kCrashed:
+      return "crashed";
+  }
+  return "crashed";
+}
+
+bool OutcomeFromName(const std::string& s, BenchOutcome* o) {
+  for (BenchOutcome c :
+       {BenchOutcome::kSolved, BenchOutcome::kSolveFailed, BenchOutcome::kBadInput, BenchOutcome::kCrashed}) {
+    if (s == OutcomeName(c)) {
+      *o = c;
+      return true;
+    }
+  }
+  return false;
+}
+
+int Severity(BenchOutcome o) {
+  switch (o) {
+    case BenchOutcome::kSolved:
+      return 0;
+    case BenchOutcome::kSolveFailed:
+      return 1;
+    case BenchOutcome::kBadInput:
+      return 2;
+    case BenchOutcome::kCrashed:
+      return 3;
+  }
+  return 3;
+}
+
+std::string OneLine(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  std::replace(s.begin(), s.end(), '\r', ' ');
+  return s;
+}
+
+// The child's report: one "key value" line per field, then "end".
+std::string Serialize(const BenchRun& r) {
+  std::ostringstream o;
+  o.precision(17);
+  o << "outcome " << OutcomeName(r.outcome) << "\n"
+    << "status " << OneLine(r.status) << "\n"
+    << "message " << OneLine(r.message) << "\n"
+    << "poses " << r.poses << "\nlandmarks " << r.landmarks << "\nedges " << r.edges << "\n"
+    << "iterations " << r.iterations << "\n"
+    << "initial_chi2 " << r.initial_chi2 << "\nfinal_chi2 " << r.final_chi2 << "\n"
+    << "total " << r.total_seconds << "\nread " << r.read_seconds << "\ninit " << r.init_seconds << "\n"
+    << "optimize " << r.optimize_seconds << "\nsetup " << r.setup_seconds << "\n"
+    << "linearize " << r.linearize_seconds << "\nfactorize " << r.factorize_seconds << "\n"
+    << "solve " << r.solve_seconds << "\nwrite " << r.write_seconds << "\nfloor " << r.floor_seconds << "\n"
+    << "end\n";
+  return o.str();
+}
+
+// Returns false unless the text is a complete report.
+bool Deserialize(const std::string& text, BenchRun* r) {
+  std::istringstream in(text);
+  std::string line;
+  std::map<std::string, double*> numbers = {
+      {"initial_chi2", &r->initial_chi2}, {"final_chi2", &r->final_chi2},       {"total", &r->total_seconds},
+      {"read", &r->read_seconds},         {"init", &r->init_seconds},           {"optimize", &r->optimize_seconds},
+      {"setup", &r->setup_seconds},       {"linearize", &r->linearize_seconds}, {"factorize", &r->factorize_seconds},
+      {"solve", &r->solve_seconds},       {"write", &r->write_seconds},         {"floor", &r->floor_seconds}};
+  std::map<std::string, long*> counts = {{"poses", &r->poses}, {"landmarks", &r->landmarks}, {"edges", &r->edges}};
+  bool outcome = false;
+  while (std::getline(in, line)) {
+    if (line == "end") return outcome;
+    const std::size_t sp = line.find(' ');
+    const std::string key = line.substr(0, sp);
+    const std::string value = sp == std::string::npos ? "" : line.substr(sp + 1);
+    if (key == "outcome") {
+      outcome = OutcomeFromName(value, &r->outcome);
+    } else if (key == "status") {
+      r->status = value;
+    } else if (key == "message") {
+      r->message = value;
+    } else if (key == "iterations") {
+      r->iterations = std::atoi(value.c_str());
+    } else if (auto n = numbers.find(key); n != numbers.end()) {
+      *n->second = std::strtod(value.c_str(), nullptr);
+    } else if (auto c = counts.find(key); c != counts.end()) {
+      *c->second = std::strtol(value.c_str(), nullptr, 10);
+    }
+  }
+  return false;
+}
+
+bool WriteAll(int fd, const std::string& s) {
+  std::size_t done = 0;
+  while (done < s.size()) {
+    const ssize_t n = ::write(fd, s.data() + done, s.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+std::string ReadAllFd(int fd) {
+  std::string s;
+  char buf[4096];
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, sizeof(buf));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    s.append(buf, static_cast<std::size_t>(n));
+  }
+  return s;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The median over the runs of one field; negative (not available) if any run lacks it.
+double MedianOf(const std::vector<BenchRun>& runs, double BenchRun::*field) {
+  std::vector<double> v;
+  for (const BenchRun& r : runs) {
+    if (r.*field < 0) return -1;
+    v.push_back(r.*field);
+  }
+  return Median(v);
+}
+
+// The first run that got as far as solving, whose problem figures the row shows.
+const BenchRun* Representative(const BenchRow& row) {
+  for (const BenchRun& r : row.runs) {
+    if (r.outcome == BenchOutcome::kSolved || r.outcome == BenchOutcome::kSolveFailed) return &r;
+  }
+  return nullptr;
+}
+
+std::string Fmt(const char* format, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), format, v);
+  return buf;
+}
+
+// Seconds for Markdown: three significant digits, or whole seconds from 100 s.
+std::string Seconds(double s) {
+  if (s < 0) return "n/a";
+  return s >= 100 ? Fmt("%.0f", s) : Fmt("%.3g", s);
+}
+
+std::string CsvNumber(const char* format, double v) { return v < 0 ? "" : Fmt(format, v); }
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + "\"";
+}
+
+std::string Basename(const std::string& path) { return fs::path(path).filename().string(); }
+
+std::string ThreadsText(const BenchConfig& c) {
+  return c.threads > 0 ? std::to_string(c.threads) : DefaultThreads<SolverOptions>();
+}
+
+// Splits "a,b,c"; returns false on an empty item.
+bool SplitList(const std::string& s, std::vector<std::string>* items) {
+  items->clear();
+  std::string cur;
+  std::istringstream in(s);
+  while (std::getline(in, cur, ',')) {
+    if (cur.empty()) return false;
+    items->push_back(cur);
+  }
+  return !items->empty() && s.back() != ',';
+}
+
+// The table's columns: the Markdown header and the CSV header.
+struct Column {
+  const char* md;
+  const char* csv;
+};
+
+const Column kColumns[] = {
+    {"file", "file"},
+    {"solver", "solver"},
+    {"linear", "linear"},
+    {"init", "init"},
+    {"threads", "threads"},
+    {"poses", "poses"},
+    {"landmarks", "landmarks"},
+    {"edges", "edges"},
+    {"initial chi2", "initial_chi2"},
+    {"final chi2", "final_chi2"},
+    {"iterations", "iterations"},
+    {"status", "status"},
+    {"wall median [s]", "wall_median_s"},
+    {"wall min [s]", "wall_min_s"},
+    {"wall max [s]", "wall_max_s"},
+    {"read [s]", "read_s"},
+    {"init [s]", "init_s"},
+    {"setup [s]", "setup_s"},
+    {"linearize [s]", "linearize_s"},
+    {"factorize [s]", "factorize_s"},
+    {"solve [s]", "solve_s"},
+    {"write [s]", "write_s"},
+    {"optimize [s]", "optimize_s"},
+    {"floor [s]", "floor_s"},
+    {"optimize/floor", "optimize_over_floor"},
+    {"peak RSS [MiB]", "peak_rss_mib"},
+};
+
+// One row's cells; `csv` chooses the number format and how missing numbers look.
+std::vector<std::string> Cells(const BenchRow& row, bool csv) {
+  const auto sec = [csv](double s) { return csv ? CsvNumber("%.6g", s) : Seconds(s); };
+  const std::string none = csv ? "" : "-";
+  const BenchRun* rep = Representative(row);
+  std::vector<std::string> c;
+  c.push_back(csv ? row.file : Basename(row.file));
+  c.push_back(ToString(row.config.algorithm));
+  c.push_back(ToString(row.config.linear));
+  c.push_back(ToString(row.config.init));
+  c.push_back(ThreadsText(row.config));
+  if (rep != nullptr) {
+    c.push_back(std::to_string(rep->poses));
+    c.push_back(std::to_string(rep->landmarks));
+    c.push_back(std::to_string(rep->edges));
+    c.push_back(Fmt(csv ? "%.12g" : "%.9g", rep->initial_chi2));
+    c.push_back(Fmt(csv ? "%.12g" : "%.9g", rep->final_chi2));
+    c.push_back(std::to_string(rep->iterations));
+  } else {
+    for (int i = 0; i < 6; ++i) c.push_back(none);
+  }
+  c.push_back(row.status);
+  c.push_back(sec(row.median_seconds));
+  c.push_back(sec(row.min_seconds));
+  c.push_back(sec(row.max_seconds));
+  for (double BenchRun::*f : {&BenchRun::read_seconds, &BenchRun::init_seconds, &BenchRun::setup_seconds,
+                              &BenchRun::linearize_seconds, &BenchRun::factorize_seconds, &BenchRun::solve_seconds,
+                              &BenchRun::write_seconds, &BenchRun::optimize_seconds, &BenchRun::floor_seconds}) {
+    c.push_back(rep != nullptr ? sec(MedianOf(row.runs, f)) : none);
+  }
+  const double floor = rep != nullptr ? MedianOf(row.runs, &BenchRun::floor_seconds) : -1;
+  const double optimize = rep != nullptr ? MedianOf(row.runs, &BenchRun::optimize_seconds) : -1;
+  if (floor > 0 && optimize >= 0) {
+    c.push_back(Fmt(csv ? "%.4g" : "%.2f", optimize / floor));
+  } else {
+    c.push_back(csv ? "" : "n/a");
+  }
+  c.push_back(Fmt(csv ? "%.4g" : "%.1f", row.peak_rss_mib));
+  return c;
+}
+
+}  // namespace
+
+std::string BenchConfig::Name() const {
+  std::string s = std::string(ToString(algorithm)) + "/" + ToString(linear) + "/" + ToString(init);
+  if (threads > 0) s += "/" + std::to_string(threads) + "t";
+  return s;
+}
+
+bool BenchSupportsThreads() { return HasNumThreads<SolverOptions>::value; }
+
+std::string ActiveBlasLibrary() {
+  void* sym = ::dlsym(RTLD_DEFAULT, "dgemm_");
+  if (sym == nullptr) return "none";
+  Dl_info info;
+  if (::dladdr(sym, &info) == 0 || info.dli_fname == nullptr) return "unknown";
+  char resolved[PATH_MAX];
+  if (::realpath(info.dli_fname, resolved) != nullptr) return resolved;
+  return info.dli_fname;
+}
+
+BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config) {
+  BenchRun r;
+  const Clock::time_point t0 = Clock::now();
+  const Registry& registry = DefaultRegistry();
+  GraphFile gf;
+  try {
+    gf = ReadGraphFile(file, registry);
+  } catch (const std::exception& e) {
+    r.outcome = BenchOutcome::kBadInput;
+    r.status = "bad-input";
+    r.message = e.what();
+    r.total_seconds = SecondsSince(t0);
+    return r;
+  }
+  r.read_seconds = SecondsSince(t0);
+  r.poses = static_cast<long>(gf.values.Count(VarType::kSE2) + gf.values.Count(VarType::kSE3));
+  r.landmarks = static_cast<long>(gf.values.Count(VarType::kPoint2) + gf.values.Count(VarType::kPoint3));
+  r.edges = static_cast<long>(gf.graph.size());
+
+  const Clock::time_point ti = Clock::now();
+  try {
+    Initialize(gf.graph, &gf.values, config.init);
+  } catch (const std::exception& e) {
+    r.outcome = BenchOutcome::kBadInput;
+    r.status = "bad-input";
+    r.message = std::string("initialisation: ") + e.what();
+    r.total_seconds = SecondsSince(t0);
+    return r;
+  }
+  r.init_seconds = SecondsSince(ti);
+
+  SolverOptions options;
+  options.algorithm = config.algorithm;
+  options.linear_solver = config.linear;
+  SetThreads(&options, config.threads);
+  const SolverSummary s = Optimize(gf.graph, &gf.values, options);
+  r.status = ToString(s.status);
+  r.message = s.message;
+  r.iterations = s.iterations;
+  r.initial_chi2 = s.initial_chi2;
+  r.final_chi2 = s.final_chi2;
+  r.optimize_seconds = s.total_seconds;
+  FillSplit(s, &r);
+  if (!s.IsSolutionUsable()) {
+    r.outcome = BenchOutcome::kSolveFailed;
+    r.total_seconds = SecondsSince(t0);
+    return r;
+  }
+
+  // Written as `tether optimize -o` would, to a file removed afterwards.
+  const Clock::time_point tw = Clock::now();
+  const fs::path out = fs::temp_directory_path() / ("tether_bench_" + std::to_string(::getpid()) + ".g2o");
+  try {
+    WriteG2oFile(out.string(), gf.values, gf.graph, registry);
+  } catch (const std::exception& e) {
+    r.outcome = BenchOutcome::kSolveFailed;
+    r.status = "write-failed";
+    r.message = e.what();
+    r.total_seconds = SecondsSince(t0);
+    return r;
+  }
+  r.write_seconds = SecondsSince(tw);
+  r.total_seconds = SecondsSince(t0);
+  std::error_code ec;
+  fs::remove(out, ec);
+  r.outcome = BenchOutcome::kSolved;
+  return r;
+}
+
+BenchRun RunBenchInChild(const std::string& file, const BenchConfig& config) {
+  BenchRun r;
+  r.status = "crashed";
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) {
+    r.message = std::string("cannot create a pipe: ") + std::strerror(errno);
+    return r;
+  }
+  std::fflush(nullptr);  // nothing buffered may be written twice
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    r.message = std::string("cannot fork: ") + std::strerror(errno);
+    ::close(fds[0]);
+    ::close(fds[1]);
+    return r;
+  }
+  if (pid == 0) {
+    ::close(fds[0]);
+    std::string report;
+    try {
+      report = Serialize(RunBenchOnce(file, config));
+    } catch (const std::exception& e) {
+      BenchRun failed;
+      failed.status = "crashed";
+      failed.message = std::string("uncaught exception: ") + e.what();
+      report = Serialize(failed);
+    } catch (...) {
+      BenchRun failed;
+      failed.status = "crashed";
+      failed.message = "uncaught exception";
+      report = Serialize(failed);
+    }
+    WriteAll(fds[1], report);
+    ::close(fds[1]);
+    ::_exit(0);  // no atexit handlers, no flushing of the parent's buffers
+  }
+  ::close(fds[1]);
+  const std::string report = ReadAllFd(fds[0]);
+  ::close(fds[0]);
+  int wstatus = 0;
+  struct rusage usage;
+  std::memset(&usage, 0, sizeof(usage));
+  while (::wait4(pid, &wstatus, 0, &usage) < 0 && errno == EINTR) {
+  }
+  const bool complete = Deserialize(report, &r);
+  r.peak_rss_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
+  if (!complete || !WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0) {
+    r.outcome = BenchOutcome::kCrashed;
+    r.status = "crashed";
+    if (WIFSIGNALED(wstatus)) {
+      const int sig = WTERMSIG(wstatus);
+      r.message = "killed by signal " + std::to_string(sig) + " (" + ::strsignal(sig) + ")";
+    } else if (!complete) {
+      r.message = "the run ended (exit code " + std::to_string(WEXITSTATUS(wstatus)) + ") without reporting";
+    }
+  }
+  return r;
+}
+
+void SummarizeBenchRow(BenchRow* row) {
+  row->outcome = BenchOutcome::kSolved;
+  row->status.clear();
+  row->message.clear();
+  row->peak_rss_mib = 0;
+  std::vector<double> totals;
+  int worst = -1;
+  for (const BenchRun& r : row->runs) {
+    if (Severity(r.outcome) > worst) {
+      worst = Severity(r.outcome);
+      row->outcome = r.outcome;
+      row->status = r.status;
+      row->message = r.message;
+    }
+    totals.push_back(r.total_seconds);
+    row->peak_rss_mib = std::max(row->peak_rss_mib, r.peak_rss_mib);
+  }
+  if (totals.empty()) {
+    row->outcome = BenchOutcome::kCrashed;
+    row->status = "crashed";
+    row->message = "no runs";
+    row->median_seconds = row->min_seconds = row->max_seconds = 0;
+    return;
+  }
+  row->median_seconds = Median(totals);
+  row->min_seconds = *std::min_element(totals.begin(), totals.end());
+  row->max_seconds = *std::max_element(totals.begin(), totals.end());
+}
+
+std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas) {
+  std::ostringstream o;
+  o << "CHOLMOD's BLAS (where dgemm_ resolves): `" << blas << "`. " << repeat << (repeat == 1 ? " run" : " runs")
+    << " per configuration, each in a fresh child process; wall = read + initialise + solve + write; the "
+       "split, floor and ratio are medians over the runs; n/a: not reported by this build.\n\n";
+  std::string header = "|", rule = "|";
+  for (const Column& c : kColumns) {
+    header += std::string(" ") + c.md + " |";
+    rule += "---|";
+  }
+  o << header << "\n" << rule << "\n";
+  for (const BenchRow& row : rows) {
+    o << "|";
+    for (const std::string& cell : Cells(row, false)) o << " " << cell << " |";
+    o << "\n";
+  }
+  return o.str();
+}
+
+std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas) {
+  std::ostringstream o;
+  for (const Column& c : kColumns) o << c.csv << ",";
+  o << "runs,blas,message\n";
+  for (const BenchRow& row : rows) {
+    for (const std::string& cell : Cells(row, true)) o << CsvField(cell) << ",";
+    o << row.runs.size() << "," << CsvField(blas) << "," << CsvField(OneLine(row.message)) << "\n";
+  }
+  return o.str();
+}
+
+int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
+  const auto usage = [&err](const std::string& what) {
+    err << "tether bench: " << what << "\n";
+    return 2;
+  };
+  if (cmd.files.empty()) return usage("no FILES given; name one or more graph files (.g2o, .graph)");
+  std::vector<std::string> items;
+  std::vector<Algorithm> algorithms;
+  if (!SplitList(cmd.solvers, &items)) return usage("--solvers '" + cmd.solvers + "' is not a comma-separated list");
+  for (const std::string& s : items) {
+    Algorithm a;
+    if (!FromString(s, &a)) return usage("unknown solver '" + s + "' in --solvers; use gn, lm or ceres");
+    algorithms.push_back(a);
+  }
+  std::vector<LinearSolverType> linears;
+  if (!SplitList(cmd.linear, &items)) return usage("--linear '" + cmd.linear + "' is not a comma-separated list");
+  for (const std::string& s : items) {
+    LinearSolverType t;
+    if (!FromString(s, &t)) return usage("unknown linear solver '" + s + "' in --linear; use cholmod, ldlt or qr");
+    linears.push_back(t);
+  }
+  std::vector<InitMethod> inits;
+  if (!SplitList(cmd.init, &items)) return usage("--init '" + cmd.init + "' is not a comma-separated list");
+  for (const std::string& s : items) {
+    InitMethod m;
+    if (!FromString(s, &m)) {
+      return usage("unknown initialisation '" + s + "' in --init; use file, spanning-tree or chordal");
+    }
+    inits.push_back(m);
+  }
+  std::vector<int> threads = {0};
+  if (!cmd.threads.empty()) {
+    if (!BenchSupportsThreads()) {
+      return usage("--threads is not available in this build: the solvers have no thread count option yet");
+    }
+    if (!SplitList(cmd.threads, &items)) return usage("--threads '" + cmd.threads + "' is not a comma-separated list");
+    threads.clear();
+    for (const std::string& s : items) {
+      char* end = nullptr;
+      errno = 0;
+      const long k = std::strtol(s.c_str(), &end, 10);
+      if (end == s.c_str() || *end != '\0' || errno != 0 || k < 1 || k > 1024) {
+        return usage("--threads takes thread counts from 1 to 1024; got '" + s + "'");
+      }
+      threads.push_back(static_cast<int>(k));
+    }
+  }
+  if (cmd.repeat < 1) return usage("--repeat must be at least 1; got " + std::to_string(cmd.repeat));
+  if (cmd.format != "md" && cmd.format != "csv") return usage("unknown --format '" + cmd.format + "'; use md or csv");
+  for (const std::string& f : cmd.files) {
+    std::error_code ec;
+    if (!fs::exists(f, ec)) return usage("no such file: " + f);
+    if (fs::is_directory(f, ec)) return usage(f + " is a directory; name graph files");
+  }
+  if (!cmd.output.empty()) {
+    const fs::path parent = fs::path(cmd.output).parent_path();
+    std::error_code ec;
+    if (!parent.empty() && !fs::is_directory(parent, ec)) {
+      return usage("cannot write " + cmd.output + ": no folder " + parent.string());
+    }
+  }
+
+  std::vector<BenchConfig> configs;
+  for (Algorithm a : algorithms) {
+    for (LinearSolverType l : linears) {
+      if (a == Algorithm::kCeres && l != LinearSolverType::kCholmod) {
+        err << "tether bench: skipping ceres/" << ToString(l)
+            << ": Ceres solves with SPARSE_NORMAL_CHOLESKY over CHOLMOD only\n";
+        continue;
+      }
+      for (InitMethod m : inits) {
+        for (int k : threads) {
+          BenchConfig c;
+          c.algorithm = a;
+          c.linear = l;
+          c.init = m;
+          c.threads = k;
+          configs.push_back(c);
+        }
+      }
+    }
+  }
+  if (configs.empty()) return usage("no configuration left to run (ceres runs with --linear cholmod only)");
+
+  const std::string blas = ActiveBlasLibrary();
+  const std::size_t total_rows = cmd.files.size() * configs.size();
+  err << "tether bench: " << cmd.files.size() << (cmd.files.size() == 1 ? " file" : " files") << " x " << configs.size()
+      << (configs.size() == 1 ? " configuration" : " configurations") << " x " << cmd.repeat
+      << (cmd.repeat == 1 ? " run" : " runs") << "; BLAS " << blas << "\n";
+  std::vector<BenchRow> rows;
+  for (const std::string& file : cmd.files) {
+    for (const BenchConfig& config : configs) {
+      BenchRow row;
+      row.file = file;
+      row.config = config;
+      for (int k = 1; k <= cmd.repeat; ++k) {
+        err << "[" << rows.size() + 1 << "/" << total_rows << "] " << file << " " << config.Name() << ": run " << k
+            << " of " << cmd.repeat << " ... " << std::flush;
+        const BenchRun r = RunBenchInChild(file, config);
+        err << Fmt("%.3f s, ", r.total_seconds) << r.status << std::endl;
+        row.runs.push_back(r);
+      }
+      SummarizeBenchRow(&row);
+      if (row.outcome != BenchOutcome::kSolved) {
+        err << "error: " << file << " " << config.Name() << ": " << row.status << ": " << row.message << "\n";
+      }
+      rows.push_back(std::move(row));
+    }
+  }
+
+  const std::string table =
+      cmd.format == "csv" ? FormatBenchCsv(rows, blas) : FormatBenchMarkdown(rows, cmd.repeat, blas);
+  if (cmd.output.empty()) {
+    out << table << std::flush;
+  } else {
+    const std::string tmp = cmd.output + ".tmp" + std::to_string(::getpid());
+    {
+      std::ofstream f(tmp);
+      f << table;
+      f.close();
+      if (!f) {
+        err << "error: cannot write " << tmp << "\n";
+        std::error_code ec;
+        fs::remove(tmp, ec);
+        return 1;
+      }
+    }
+    std::error_code ec;
+    fs::rename(tmp, cmd.output, ec);
+    if (ec) {
+      err << "error: cannot write " << cmd.output << ": " << ec.message() << "\n";
+      fs::remove(tmp, ec);
+      return 1;
+    }
+    err << "wrote " << cmd.output << "\n";
+  }
+
+  int worst = 0;
+  for (const BenchRow& row : rows) worst = std::max(worst, Severity(row.outcome));
+  if (worst == Severity(BenchOutcome::kSolved)) return 0;
+  bool bad_input = false;
+  for (const BenchRow& row : rows) bad_input = bad_input || row.outcome == BenchOutcome::kBadInput;
+  return bad_input ? 1 : 3;
+}
+
+}  // namespace tether
