@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
+  optimize->add_option("--threads", opt.threads, "Threads assembling the normal equations (1 to 256)")
+      ->capture_default_str();
   optimize
       ->add_option("--repair-information", opt.repair_information,
                    "none | nearest-pd | isotropic: what to do with information matrices that are not "

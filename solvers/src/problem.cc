@@ -7,11 +7,104 @@
 #include <unordered_set>
 
 #include "tether/core/error.h"
+#include "thread_pool.h"
 
 namespace tether {
 namespace internal {
 
-Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed) : values_(values) {
+namespace {
+
+// blk += Jr^T Jc with the sizes known at compile time: the built-in factors' shapes.
+template <int M, int R, int C>
+void FixedBlock(const double* jr, const double* jc, double* blk, int ld, int, int, int) {
+  for (int c = 0; c < C; ++c) {
+    for (int r = 0; r < R; ++r) {
+      double s = 0;
+      for (int i = 0; i < M; ++i) s += jr[i * R + r] * jc[i * C + c];
+      blk[c * ld + r] += s;
+    }
+  }
+}
+
+void AnyBlock(const double* jr, const double* jc, double* blk, int ld, int m, int rd, int cd) {
+  for (int c = 0; c < cd; ++c) {
+    for (int r = 0; r < rd; ++r) {
+      double s = 0;
+      for (int i = 0; i < m; ++i) s += jr[i * rd + r] * jc[i * cd + c];
+      blk[c * ld + r] += s;
+    }
+  }
+}
+
+using Kernel = void (*)(const double*, const double*, double*, int, int, int, int);
+
+Kernel ChooseKernel(int m, int rd, int cd) {
+  struct Shape {
+    int m, rd, cd;
+    Kernel k;
+  };
+  // BetweenSE2, PriorSE2 (3: 3 x 3); BetweenSE3, PriorSE3 (6: 6 x 6); PosePoint2 (2: 3, 2);
+  // PosePoint3 (3: 6, 3).
+  static const Shape kShapes[] = {
+      {3, 3, 3, FixedBlock<3, 3, 3>}, {6, 6, 6, FixedBlock<6, 6, 6>}, {2, 3, 3, FixedBlock<2, 3, 3>},
+      {2, 3, 2, FixedBlock<2, 3, 2>}, {2, 2, 3, FixedBlock<2, 2, 3>}, {2, 2, 2, FixedBlock<2, 2, 2>},
+      {3, 6, 6, FixedBlock<3, 6, 6>}, {3, 6, 3, FixedBlock<3, 6, 3>}, {3, 3, 6, FixedBlock<3, 3, 6>},
+  };
+  for (const Shape& s : kShapes) {
+    if (s.m == m && s.rd == rd && s.cd == cd) return s.k;
+  }
+  return AnyBlock;
+}
+
+// g += J^T r for one row-major m x d Jacobian block, sizes known at compile time.
+template <int M, int D>
+void FixedGradient(const double* j, const double* r, double* g, int, int) {
+  for (int c = 0; c < D; ++c) {
+    double s = 0;
+    for (int i = 0; i < M; ++i) s += j[i * D + c] * r[i];
+    g[c] += s;
+  }
+}
+
+void AnyGradient(const double* j, const double* r, double* g, int m, int d) {
+  for (int c = 0; c < d; ++c) {
+    double s = 0;
+    for (int i = 0; i < m; ++i) s += j[i * d + c] * r[i];
+    g[c] += s;
+  }
+}
+
+using GradientKernel = void (*)(const double*, const double*, double*, int, int);
+
+GradientKernel ChooseGradientKernel(int m, int d) {
+  if (m == 3 && d == 3) return FixedGradient<3, 3>;
+  if (m == 6 && d == 6) return FixedGradient<6, 6>;
+  if (m == 2 && d == 3) return FixedGradient<2, 3>;
+  if (m == 2 && d == 2) return FixedGradient<2, 2>;
+  if (m == 3 && d == 6) return FixedGradient<3, 6>;
+  return AnyGradient;
+}
+
+// Splits [0, cost.size()) into `parts` contiguous ranges of about equal total cost;
+// returns parts + 1 boundaries.
+std::vector<int> Partition(const std::vector<double>& cost, int parts) {
+  double total = 0;
+  for (double c : cost) total += c;
+  std::vector<int> bounds(parts + 1, static_cast<int>(cost.size()));
+  bounds[0] = 0;
+  double acc = 0;
+  int k = 1;
+  for (std::size_t i = 0; i < cost.size() && k < parts; ++i) {
+    acc += cost[i];
+    while (k < parts && acc >= total * k / parts) bounds[k++] = static_cast<int>(i + 1);
+  }
+  return bounds;
+}
+
+}  // namespace
+
+Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads)
+    : values_(values) {
   // Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR
   // permute for fill-in themselves).
   // Variables no factor uses stay as they are (they would only make H singular).
@@ -27,6 +120,7 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
     n_ += TangentDim(t);
   }
   factors_.reserve(graph.size());
+  factor_jac_.reserve(graph.size() + 1);
   int jac_size = 0;
   for (std::size_t fi = 0; fi < graph.size(); ++fi) {
     const Factor& f = graph.at(fi);
@@ -38,6 +132,7 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
     }
     const std::vector<const double*> p = f.GatherParams(*values);  // throws for missing/mistyped keys
     const int first = static_cast<int>(entries_.size());
+    factor_jac_.push_back(jac_size);
     for (std::size_t k = 0; k < f.keys().size(); ++k) {
       const auto it = var_index.find(f.keys()[k]);
       const int d = TangentDim(types[k]);
@@ -52,6 +147,7 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
     factors_.push_back(FactorRef{&f, f.dim(), m_, first, static_cast<int>(f.keys().size())});
     m_ += f.dim();
   }
+  factor_jac_.push_back(jac_size);
   jac_.assign(jac_size, 0.0);
   res_.assign(m_, 0.0);
   jac_ptrs_.resize(entries_.size());
@@ -61,36 +157,118 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
   std::size_t ambient = 0;
   for (const Var& v : vars_) ambient += AmbientDim(v.type);
   saved_.assign(ambient, 0.0);
+
+  // Each variable's uses, grouped by variable in factor order (for g and the column split).
+  const int nv = num_free();
+  var_entry_start_.assign(nv + 1, 0);
+  for (const Entry& e : entries_) {
+    if (e.var >= 0) ++var_entry_start_[e.var + 1];
+  }
+  for (int v = 0; v < nv; ++v) var_entry_start_[v + 1] += var_entry_start_[v];
+  var_entries_.resize(var_entry_start_[nv]);
+  {
+    std::vector<int> next(var_entry_start_.begin(), var_entry_start_.end() - 1);
+    for (const FactorRef& f : factors_) {
+      for (int a = 0; a < f.count; ++a) {
+        const int v = entries_[f.first + a].var;
+        if (v >= 0) {
+          var_entries_[next[v]++] = VarEntry{f.first + a, f.row, f.m, ChooseGradientKernel(f.m, vars_[v].dim)};
+        }
+      }
+    }
+  }
+
+  // The work split: factors by the size of their Jacobians, block columns by the products
+  // and gradient terms that land in them.
+  const int parts = std::max(1, num_threads);
+  std::vector<double> factor_cost(factors_.size()), column_cost(nv, 0.0);
+  for (std::size_t fi = 0; fi < factors_.size(); ++fi) {
+    const FactorRef& f = factors_[fi];
+    factor_cost[fi] = 8.0 + f.m + (factor_jac_[fi + 1] - factor_jac_[fi]);  // evaluation, whitening
+    for (int a = 0; a < f.count; ++a) {
+      const Entry& ea = entries_[f.first + a];
+      if (ea.var < 0) continue;
+      column_cost[ea.var] += f.m * ea.dim;  // gradient
+      for (int b = a; b < f.count; ++b) {
+        const Entry& eb = entries_[f.first + b];
+        if (eb.var >= 0) column_cost[std::max(ea.var, eb.var)] += f.m * ea.dim * eb.dim;
+      }
+    }
+  }
+  for (int v = 0; v < nv; ++v) column_cost[v] += vars_[v].dim * vars_[v].dim;  // zeroing
+  factor_parts_ = Partition(factor_cost, parts);
+  var_parts_ = Partition(column_cost, parts);
+  factor_chi2_.assign(factors_.size(), 0.0);
+  part_status_.assign(parts, 0);
+  pool_ = std::make_unique<ThreadPool>(parts);
+}
+
+Problem::~Problem() = default;
+
+int Problem::num_threads() const { return pool_->num_threads(); }
+
+template <typename F>
+void Problem::Parallel(F& f) const {
+  pool_->Run(f);
+}
+
+int Problem::LinearizeRange(int f0, int f1, double* res) const {
+  const bool jacobians = res != nullptr;
+  double scratch[kMaxResidualDim];
+  for (int fi = f0; fi < f1; ++fi) {
+    const FactorRef& f = factors_[fi];
+    double* r = jacobians ? res + f.row : scratch;
+    double* const* jp = jacobians ? jac_ptrs_.data() + f.first : nullptr;
+    // Factor::Linearize without its per-call variable_types(): the entries know the dims.
+    if (!f.factor->Evaluate(params_.data() + f.first, r, jp)) return 1;
+    const SqrtInformation& noise = f.factor->noise();
+    noise.WhitenVector(r);
+    double s = 0;
+    for (int i = 0; i < f.m; ++i) s += r[i] * r[i];
+    factor_chi2_[fi] = s;
+    if (jacobians) {
+      for (int a = 0; a < f.count; ++a) {
+        if (jp[a] != nullptr) noise.WhitenRowMajor(jp[a], entries_[f.first + a].dim);
+      }
+    }
+  }
+  if (jacobians) {
+    const double* j = jac_.data();
+    for (int i = factor_jac_[f0]; i < factor_jac_[f1]; ++i) {
+      if (!std::isfinite(j[i])) return 2;
+    }
+  }
+  return 0;
+}
+
+double Problem::SumChi2() const {
+  double chi2 = 0;
+  for (double c : factor_chi2_) chi2 += c;
+  return std::isfinite(chi2) ? chi2 : std::numeric_limits<double>::infinity();
 }
 
 double Problem::Chi2() const {
-  double chi2 = 0;
-  double r[kMaxResidualDim];
-  for (const FactorRef& f : factors_) {
-    if (!f.factor->Linearize(params_.data() + f.first, r, nullptr)) return std::numeric_limits<double>::infinity();
-    for (int i = 0; i < f.m; ++i) chi2 += r[i] * r[i];
+  auto part = [this](int k) { part_status_[k] = LinearizeRange(factor_parts_[k], factor_parts_[k + 1], nullptr); };
+  Parallel(part);
+  for (int st : part_status_) {
+    if (st == 1) return std::numeric_limits<double>::infinity();
   }
-  return std::isfinite(chi2) ? chi2 : std::numeric_limits<double>::infinity();
+  return SumChi2();
 }
 
 double Problem::Linearize() {
   jacobian_finite_ = false;
-  double chi2 = 0;
-  for (const FactorRef& f : factors_) {
-    double* r = res_.data() + f.row;
-    if (!f.factor->Linearize(params_.data() + f.first, r, jac_ptrs_.data() + f.first)) {
-      return std::numeric_limits<double>::infinity();
-    }
-    for (int i = 0; i < f.m; ++i) chi2 += r[i] * r[i];
+  double* res = res_.data();
+  auto part = [this, res](int k) { part_status_[k] = LinearizeRange(factor_parts_[k], factor_parts_[k + 1], res); };
+  Parallel(part);
+  bool finite = true;
+  for (int st : part_status_) {
+    if (st == 1) return std::numeric_limits<double>::infinity();
+    if (st == 2) finite = false;
   }
-  if (!std::isfinite(chi2)) return std::numeric_limits<double>::infinity();
-  jacobian_finite_ = true;
-  for (double v : jac_) {
-    if (!std::isfinite(v)) {
-      jacobian_finite_ = false;
-      break;
-    }
-  }
+  const double chi2 = SumChi2();
+  if (!std::isfinite(chi2)) return chi2;
+  jacobian_finite_ = finite;
   return chi2;
 }
 
@@ -110,7 +288,7 @@ void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions)
       }
     }
   }
-  std::vector<long> base(nv);
+  std::vector<long> base(nv + 1);
   std::vector<int> height(nv);
   long nnz = 0;
   for (int v = 0; v < nv; ++v) {
@@ -122,6 +300,7 @@ void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions)
     base[v] = nnz;
     nnz += static_cast<long>(hgt) * vars_[v].dim;
   }
+  base[nv] = nnz;
   if (nnz > std::numeric_limits<int>::max()) {
     throw InvalidArgument("the normal equations have more than 2^31 non-zeros; use a smaller graph");
   }
@@ -144,92 +323,108 @@ void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions)
     }
   }
   h->colptr[n_] = static_cast<int>(nnz);
-  // Where each factor's blocks land.
+  // Where each factor's blocks land, grouped by block column (factor order within one, so
+  // that every entry of H is summed in factor order).
   auto offset_in_column = [&](int row_var, int col_var) {
+    const auto it = std::lower_bound(rows[col_var].begin(), rows[col_var].end(), row_var);
     int off = 0;
-    for (int r : rows[col_var]) {
-      if (r == row_var) return off;
-      off += vars_[r].dim;
-    }
-    return -1;
+    for (auto r = rows[col_var].begin(); r != it; ++r) off += vars_[*r].dim;
+    return off;
   };
-  pairs_.clear();
-  for (const FactorRef& f : factors_) {
-    for (int a = 0; a < f.count; ++a) {
-      const int ea = f.first + a;
-      if (entries_[ea].var < 0) continue;
-      for (int b = a; b < f.count; ++b) {
-        const int eb = f.first + b;
-        if (entries_[eb].var < 0) continue;
-        const int va = entries_[ea].var, vb = entries_[eb].var;
-        const int re = va <= vb ? ea : eb;
-        const int ce = va <= vb ? eb : ea;
-        const int rv = entries_[re].var, cv = entries_[ce].var;
-        pairs_.push_back(Pair{re, ce, static_cast<int>(base[cv] + offset_in_column(rv, cv)), height[cv]});
+  column_pairs_.assign(nv + 1, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<int> next;
+    if (pass == 1) {
+      for (int v = 0; v < nv; ++v) column_pairs_[v + 1] += column_pairs_[v];
+      pairs_.resize(column_pairs_[nv]);
+      next.assign(column_pairs_.begin(), column_pairs_.end() - 1);
+    }
+    for (const FactorRef& f : factors_) {
+      for (int a = 0; a < f.count; ++a) {
+        const int ea = f.first + a;
+        if (entries_[ea].var < 0) continue;
+        for (int b = a; b < f.count; ++b) {
+          const int eb = f.first + b;
+          if (entries_[eb].var < 0) continue;
+          const int va = entries_[ea].var, vb = entries_[eb].var;
+          const int re = va <= vb ? ea : eb;
+          const int ce = va <= vb ? eb : ea;
+          const int rv = entries_[re].var, cv = entries_[ce].var;
+          if (pass == 0) {
+            ++column_pairs_[cv + 1];
+            continue;
+          }
+          const int rd = entries_[re].dim, cd = entries_[ce].dim;
+          // The same variable twice in one factor needs both orders of the cross terms.
+          const Kernel k = re != ce && rv == cv ? AnyBlock : ChooseKernel(f.m, rd, cd);
+          pairs_[next[cv]++] = Pair{re, ce, static_cast<int>(base[cv] + offset_in_column(rv, cv)), height[cv], f.m, k};
+        }
+      }
+    }
+  }
+  column_base_ = std::move(base);
+}
+
+void Problem::GradientRange(int v0, int v1, double* g, double* diag) const {
+  for (int v = v0; v < v1; ++v) {
+    double* gv = g + vars_[v].offset;
+    double* dv = diag != nullptr ? diag + vars_[v].offset : nullptr;
+    const int dim = vars_[v].dim;
+    for (int c = 0; c < dim; ++c) gv[c] = 0.0;
+    if (dv != nullptr) {
+      for (int c = 0; c < dim; ++c) dv[c] = 0.0;
+    }
+    for (int k = var_entry_start_[v]; k < var_entry_start_[v + 1]; ++k) {
+      const VarEntry& ve = var_entries_[k];
+      const double* J = jac_.data() + entries_[ve.entry].jac;
+      const double* r = res_.data() + ve.row;
+      for (int c = 0; c < dim; ++c) {
+        double s = 0, d = 0;
+        for (int i = 0; i < ve.m; ++i) {
+          s += J[i * dim + c] * r[i];
+          d += J[i * dim + c] * J[i * dim + c];
+        }
+        gv[c] += s;
+        if (dv != nullptr) dv[c] += d;
       }
     }
   }
 }
 
-void Problem::AddGradient(const FactorRef& f, double* g, double* diag) const {
-  const double* r = res_.data() + f.row;
-  for (int a = 0; a < f.count; ++a) {
-    const Entry& e = entries_[f.first + a];
-    if (e.var < 0) continue;
-    const double* J = jac_.data() + e.jac;
-    const int off = vars_[e.var].offset;
-    for (int c = 0; c < e.dim; ++c) {
-      double s = 0, d = 0;
-      for (int i = 0; i < f.m; ++i) {
-        s += J[i * e.dim + c] * r[i];
-        d += J[i * e.dim + c] * J[i * e.dim + c];
-      }
-      g[off + c] += s;
-      if (diag != nullptr) diag[off + c] += d;
+void Problem::AssembleColumns(int v0, int v1, double* hx, double* g) const {
+  std::fill(hx + column_base_[v0], hx + column_base_[v1], 0.0);
+  const double* jac = jac_.data();
+  for (int v = v0; v < v1; ++v) {
+    double* gv = g + vars_[v].offset;
+    std::fill(gv, gv + vars_[v].dim, 0.0);
+    for (int k = var_entry_start_[v]; k < var_entry_start_[v + 1]; ++k) {
+      const VarEntry& ve = var_entries_[k];
+      ve.kernel(jac + entries_[ve.entry].jac, res_.data() + ve.row, gv, ve.m, vars_[v].dim);
+    }
+  }
+  for (int k = column_pairs_[v0]; k < column_pairs_[v1]; ++k) {
+    const Pair& p = pairs_[k];
+    const Entry& er = entries_[p.row_entry];
+    const Entry& ec = entries_[p.col_entry];
+    double* blk = hx + p.pos;
+    p.kernel(jac + er.jac, jac + ec.jac, blk, p.ld, p.m, er.dim, ec.dim);
+    if (p.row_entry != p.col_entry && er.var == ec.var) {
+      // The same variable twice in one factor: its cross terms land on the diagonal block
+      // once per order.
+      AnyBlock(jac + ec.jac, jac + er.jac, blk, p.ld, p.m, ec.dim, er.dim);
     }
   }
 }
 
 void Problem::AssembleNormal(Csc* h, double* g) const {
-  std::fill(h->values.begin(), h->values.end(), 0.0);
-  std::fill(g, g + n_, 0.0);
   double* hx = h->values.data();
-  std::size_t pi = 0;
-  for (const FactorRef& f : factors_) {
-    AddGradient(f, g, nullptr);
-    // Pairs were generated in the same factor order.
-    for (; pi < pairs_.size() && pairs_[pi].row_entry < f.first + f.count; ++pi) {
-      const Pair& p = pairs_[pi];
-      const Entry& er = entries_[p.row_entry];
-      const Entry& ec = entries_[p.col_entry];
-      const double* Jr = jac_.data() + er.jac;
-      const double* Jc = jac_.data() + ec.jac;
-      double* blk = hx + p.pos;
-      for (int c = 0; c < ec.dim; ++c) {
-        for (int rr = 0; rr < er.dim; ++rr) {
-          double s = 0;
-          for (int i = 0; i < f.m; ++i) s += Jr[i * er.dim + rr] * Jc[i * ec.dim + c];
-          blk[c * p.ld + rr] += s;
-        }
-      }
-      if (p.row_entry != p.col_entry && er.var == ec.var) {
-        // The same variable twice in one factor: its cross terms land on the diagonal block
-        // once per order.
-        for (int c = 0; c < ec.dim; ++c)
-          for (int rr = 0; rr < er.dim; ++rr) {
-            double s = 0;
-            for (int i = 0; i < f.m; ++i) s += Jc[i * ec.dim + rr] * Jr[i * er.dim + c];
-            blk[c * p.ld + rr] += s;
-          }
-      }
-    }
-  }
+  auto part = [&](int k) { AssembleColumns(var_parts_[k], var_parts_[k + 1], hx, g); };
+  Parallel(part);
 }
 
 void Problem::Gradient(double* g, double* diag) const {
-  std::fill(g, g + n_, 0.0);
-  std::fill(diag, diag + n_, 0.0);
-  for (const FactorRef& f : factors_) AddGradient(f, g, diag);
+  auto part = [&](int k) { GradientRange(var_parts_[k], var_parts_[k + 1], g, diag); };
+  Parallel(part);
 }
 
 void Problem::BuildJacobianStructure(Csc* j, std::vector<int>* damping_positions) {
@@ -286,18 +481,23 @@ void Problem::BuildJacobianStructure(Csc* j, std::vector<int>* damping_positions
 }
 
 void Problem::AssembleJacobian(Csc* j, double* rhs) const {
-  for (const FactorRef& f : factors_) {
-    for (int a = 0; a < f.count; ++a) {
-      const Entry& e = entries_[f.first + a];
-      if (e.var < 0) continue;
-      const double* J = jac_.data() + e.jac;
-      for (int c = 0; c < e.dim; ++c) {
-        double* col = j->values.data() + j->colptr[vars_[e.var].offset + c] + e.qr_offset;
-        for (int i = 0; i < f.m; ++i) col[i] = J[i * e.dim + c];
+  // Every factor writes its own rows: the factor split needs no ordering.
+  auto part = [&](int k) {
+    for (int fi = factor_parts_[k]; fi < factor_parts_[k + 1]; ++fi) {
+      const FactorRef& f = factors_[fi];
+      for (int a = 0; a < f.count; ++a) {
+        const Entry& e = entries_[f.first + a];
+        if (e.var < 0) continue;
+        const double* J = jac_.data() + e.jac;
+        for (int c = 0; c < e.dim; ++c) {
+          double* col = j->values.data() + j->colptr[vars_[e.var].offset + c] + e.qr_offset;
+          for (int i = 0; i < f.m; ++i) col[i] = J[i * e.dim + c];
+        }
       }
+      for (int i = 0; i < f.m; ++i) rhs[f.row + i] = -res_[f.row + i];
     }
-  }
-  for (int i = 0; i < m_; ++i) rhs[i] = -res_[i];
+  };
+  Parallel(part);
   for (int i = 0; i < n_; ++i) rhs[m_ + i] = 0.0;
 }
 

@@ -3,6 +3,13 @@
 // factors with their parameter pointers and Jacobian workspace, and the sparsity
 // structure of H = J^T J (upper triangle, CSC) and of J itself (for QR).
 // Built once per solve; every iteration reuses it without allocating.
+//
+// Threads: Linearize and Chi2 split the factors, AssembleNormal, Gradient and
+// AssembleJacobian split the block columns (or the factors) into num_threads fixed parts.
+// Every entry of H, g and chi2 is summed in the same order whatever the number of threads
+// (H and g column by column in factor order; chi2 factor by factor), so results are
+// bit-identical for any num_threads.
+#include <memory>
 #include <set>
 #include <vector>
 
@@ -11,6 +18,8 @@
 
 namespace tether {
 namespace internal {
+
+class ThreadPool;
 
 /// Compressed sparse column matrix with int indices (as CHOLMOD and Eigen want them).
 struct Csc {
@@ -22,7 +31,10 @@ struct Csc {
 class Problem {
  public:
   /// `values` must outlive the Problem and must not gain variables while it lives.
-  Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed);
+  Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads = 1);
+  ~Problem();
+
+  int num_threads() const;
 
   int num_free() const { return static_cast<int>(vars_.size()); }
   int tangent_dim() const { return n_; }
@@ -73,20 +85,51 @@ class Problem {
     int first;  // first index into entries_/params_
     int count;
   };
+  // blk += Jr^T Jc for row-major m x rd and m x cd Jacobian blocks; blk has column stride ld.
+  using BlockKernel = void (*)(const double* jr, const double* jc, double* blk, int ld, int m, int rd, int cd);
   struct Pair {                // one block of H touched by one factor
     int row_entry, col_entry;  // entries giving the block's rows and columns
     int pos, ld;               // position of the block's (0,0) in the CSC values; column stride
+    int m;                     // the factor's residual dimension
+    BlockKernel kernel;
+  };
+  // g += J^T r for a row-major m x d Jacobian block.
+  using GradientKernel = void (*)(const double* j, const double* r, double* g, int m, int d);
+  struct VarEntry {  // one factor's use of a free variable, for the gradient
+    int entry;       // index into entries_
+    int row;         // the factor's first residual row
+    int m;
+    GradientKernel kernel;
   };
 
-  // g += J_f^T r_f and, where diag is not null, diag += the column norms of J_f squared.
-  void AddGradient(const FactorRef& f, double* g, double* diag) const;
+  // Factors [f0, f1): whitened residuals and each factor's chi2 into factor_chi2_; with res
+  // (= res_), the residuals go there and the Jacobians into jac_, else only chi2 is computed.
+  // Returns 0, 1 when a factor failed, 2 when some Jacobian entry is not finite.
+  int LinearizeRange(int f0, int f1, double* res) const;
+  // Block columns of variables [v0, v1) of H (zeroed first) and their g (and diag) entries.
+  void AssembleColumns(int v0, int v1, double* hx, double* g) const;
+  void GradientRange(int v0, int v1, double* g, double* diag) const;
+  // Sums factor_chi2_ in factor order; +inf when not finite.
+  double SumChi2() const;
+
+  template <typename F>
+  void Parallel(F& f) const;
 
   std::vector<Var> vars_;
   std::vector<FactorRef> factors_;
   std::vector<Entry> entries_;
   std::vector<const double*> params_;
   std::vector<double*> jac_ptrs_;
-  std::vector<Pair> pairs_;
+  std::vector<Pair> pairs_;            // grouped by block column, factor order within a column
+  std::vector<int> column_pairs_;      // pairs_ of block column v: [column_pairs_[v], column_pairs_[v + 1])
+  std::vector<long> column_base_;      // H values of block column v: [column_base_[v], column_base_[v + 1])
+  std::vector<VarEntry> var_entries_;  // grouped by variable, factor order within one
+  std::vector<int> var_entry_start_;
+  std::vector<int> factor_jac_;                // jac_ of factor f: [factor_jac_[f], factor_jac_[f + 1])
+  std::vector<int> factor_parts_, var_parts_;  // num_threads + 1 boundaries each
+  mutable std::vector<double> factor_chi2_;
+  mutable std::vector<int> part_status_;
+  std::unique_ptr<ThreadPool> pool_;
   std::vector<double> jac_, res_;
   std::vector<double> saved_;
   std::vector<int> qr_colptr_;

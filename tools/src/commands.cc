@@ -92,6 +92,11 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   }
   options.max_iterations = cmd.max_iterations;
   options.max_seconds = cmd.time_limit;
+  if (cmd.threads < 1 || cmd.threads > 256) {
+    err << "tether optimize: --threads must be between 1 and 256, got " << cmd.threads << "\n";
+    return 2;
+  }
+  options.num_threads = cmd.threads;
   std::string why;
   if (!options.IsValid(&why)) {
     err << "tether optimize: " << why << "\n";

@@ -76,6 +76,12 @@ struct SolverOptions {
   int max_step_halvings = 1;
   /// LM: give up (converged: no step lowers chi2) when lambda exceeds this.
   double max_lambda = 1e16;
+  /// Threads that evaluate the factors and assemble H and g (gn and lm; 1 to 256). The
+  /// results are bit-identical for any number. Default 1: the factorisation, not the
+  /// assembly, dominates a solve (CHOLMOD's BLAS has threads of its own), and tether is
+  /// often run several times at once (tests, benchmarks, a batch); docs/solvers.md has the
+  /// measurements.
+  int num_threads = 1;
   /// Called after every iteration (and once for iteration 0).
   std::function<void(const IterationSummary&)> callback;
 
@@ -94,9 +100,13 @@ struct SolverSummary {
   double total_seconds = 0;
   double setup_seconds = 0;      ///< symbolic analysis and structure
   double linearize_seconds = 0;  ///< evaluating factors and assembling
-  double solve_seconds = 0;      ///< numeric factorisation and solves
-  int num_variables = 0;         ///< free variables
-  int num_fixed = 0;             ///< variables held constant
+  double factorize_seconds = 0;  ///< numeric factorisations
+  double solve_seconds = 0;      ///< triangular solves (the step)
+  /// The last numeric factorisation alone (the final H has the same pattern and cost):
+  /// factorising it once per iteration is the floor of factorize_seconds.
+  double last_factorize_seconds = 0;
+  int num_variables = 0;  ///< free variables
+  int num_fixed = 0;      ///< variables held constant
   int num_factors = 0;
   int num_residuals = 0;
   int tangent_dim = 0;  ///< columns of J

@@ -16,6 +16,7 @@ struct OptimizeCommand {
   std::string init = "chordal";    ///< file | spanning-tree | chordal (see docs/initialisation.md)
   int max_iterations = 100;
   double time_limit = 0;                    ///< seconds, 0 for none
+  int threads = 1;                          ///< SolverOptions::num_threads (1 to 256)
   std::string repair_information = "none";  ///< none | nearest-pd | isotropic
   bool quiet = false;                       ///< no iteration table
   bool allow_partial_vertices = false;      ///< compose missing vertices from edges instead of failing
