@@ -8,11 +8,26 @@ namespace tether {
 
 namespace {
 
-bool IsSeparator(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
+// One table look-up per character: the split runs over every byte of a file.
+struct SeparatorTable {
+  bool is[256] = {};
+  constexpr SeparatorTable() {
+    for (unsigned char c : {' ', '\t', '\r', '\n', '\v', '\f'}) is[c] = true;
+  }
+};
+constexpr SeparatorTable kSeparators;
+
+bool IsSeparator(char c) { return kSeparators.is[static_cast<unsigned char>(c)]; }
 
 }  // namespace
 
 Fields::Fields(std::string_view file, long line_number, std::string_view line) : file_(file), line_(line_number) {
+  Reset(line_number, line);
+}
+
+void Fields::Reset(long line_number, std::string_view line) {
+  line_ = line_number;
+  fields_.clear();
   // Carriage returns (files written on Windows) and other blanks separate fields like spaces.
   std::size_t i = 0;
   while (i < line.size()) {

@@ -68,7 +68,8 @@ class Reader {
   }
 
   void Line(long number, std::string_view text) {
-    const Fields f(name_, number, text);
+    fields_.Reset(number, text);  // one Fields for every line: no allocation per line
+    const Fields& f = fields_;
     if (f.size() == 0 || f.tag()[0] == '#') return;
     const std::string_view tag = f.tag();
     if (tag == kVertexSE2) {
@@ -311,6 +312,7 @@ class Reader {
   const std::string& name_;
   const Registry& registry_;
   const ReadOptions& options_;
+  Fields fields_{name_, 0, {}};
   bool toro_by_name_ = false;
   ReadContext ctx_;
   Values out_values_;
@@ -350,14 +352,33 @@ std::string ErrnoText() { return std::strerror(errno); }
 
 GraphFile ReadGraph(std::istream& in, const std::string& name, const Registry& registry, const ReadOptions& options) {
   Reader reader(name, registry, options);
-  std::string line;
+  // Blocks of 64 KiB split at '\n' (getline per line cost more than parsing the line); a
+  // line cut by the block's end is carried over to the next block.
+  constexpr std::size_t kBlock = 1 << 16;
+  std::string buf;
+  std::size_t begin = 0;  // first unprocessed byte of buf
   long number = 0;
-  while (std::getline(in, line)) {
-    std::string_view text = line;
+  auto line = [&](std::string_view text) {
     if (number == 0 && text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 byte order mark
     reader.Line(++number, text);
+  };
+  for (;;) {
+    buf.erase(0, begin);
+    begin = 0;
+    const std::size_t old = buf.size();
+    buf.resize(old + kBlock);
+    in.read(&buf[old], kBlock);
+    buf.resize(old + static_cast<std::size_t>(in.gcount()));
+    const bool end = in.gcount() == 0;
+    std::size_t nl;
+    while ((nl = buf.find('\n', begin)) != std::string::npos) {
+      line(std::string_view(buf.data() + begin, nl - begin));
+      begin = nl + 1;
+    }
+    if (end) break;
   }
   if (in.bad()) throw IoError(name + ": read error after line " + std::to_string(number) + "; check the file");
+  if (begin < buf.size()) line(std::string_view(buf.data() + begin, buf.size() - begin));  // no final '\n'
   return reader.Finish();
 }
 

@@ -189,11 +189,14 @@ std::unique_ptr<Factor> Registry::Read(const FactorType& type, const Fields& f, 
       factor = type.read(f, ctx);
     } else {
       if (!type.make) f.Fail("factor type '" + type.name + "' has no reader; its plugin must give `make` or `read`");
-      f.ExpectCount(type.StandardFieldCount(), StandardLayout(type));
+      // The layout text is only needed for the message.
+      if (f.size() != type.StandardFieldCount() + 1) f.ExpectCount(type.StandardFieldCount(), StandardLayout(type));
       std::vector<Key> keys;
+      keys.reserve(type.variable_types.size());
       std::size_t i = 1;
       for (std::size_t k = 0; k < type.variable_types.size(); ++k) keys.push_back(f.Id(i++));
       std::vector<double> measurement;
+      measurement.reserve(type.measurement_size);
       for (int k = 0; k < type.measurement_size; ++k) measurement.push_back(f.Double(i++));
       const SqrtInformation noise = ctx.ReadUpperInformation(f, i, type.dim);
       factor = type.make(std::move(keys), measurement.data(), noise);

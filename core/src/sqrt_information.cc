@@ -26,12 +26,15 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
     if (why) *why = "information matrix is not symmetric";
     return false;
   }
-  Eigen::LLT<Eigen::MatrixXd> llt(omega);
+  // At most 6 x 6: matrices of that bounded size live on the stack (this runs for every
+  // edge of a file that is read).
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxResidualDim, kMaxResidualDim>;
+  Eigen::LLT<Small> llt(omega);
   bool ok = llt.info() == Eigen::Success;
   if (ok) {
     // LLT succeeds on matrices that are only semidefinite up to rounding; insist on a
     // strictly positive pivot relative to the scale.
-    const Eigen::MatrixXd L = llt.matrixL();
+    const Small L = llt.matrixL();
     for (int i = 0; i < n; ++i) ok = ok && L(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
   }
   if (!ok) {
@@ -45,7 +48,7 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
   }
   SqrtInformation r;
   r.dim_ = n;
-  const Eigen::MatrixXd U = llt.matrixU();
+  const Small U = llt.matrixU();
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) r.r_[i * n + j] = j >= i ? U(i, j) : 0.0;
   *out = r;

@@ -14,6 +14,9 @@ class Fields {
  public:
   /// Splits `line` at spaces and tabs. fields()[0] is the tag.
   Fields(std::string_view file, long line_number, std::string_view line);
+  /// Splits another line of the same file, reusing the storage (a reader that keeps one
+  /// Fields for all lines allocates nothing per line).
+  void Reset(long line_number, std::string_view line);
 
   std::size_t size() const { return fields_.size(); }
   std::string_view operator[](std::size_t i) const { return fields_[i]; }
