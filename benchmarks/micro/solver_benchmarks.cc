@@ -145,6 +145,9 @@ void FactorizeLoop(benchmark::State& state, const Graph* g) {
 void BM_CholmodFactorize_Manhattan10k(benchmark::State& state) { FactorizeLoop(state, Manhattan10k()); }
 BENCHMARK(BM_CholmodFactorize_Manhattan10k)->Unit(benchmark::kMicrosecond);
 
+void BM_CholmodFactorize_Intel(benchmark::State& state) { FactorizeLoop(state, Dataset("intel")); }
+BENCHMARK(BM_CholmodFactorize_Intel)->Unit(benchmark::kMicrosecond);
+
 void BM_CholmodFactorize_Ais2klinik(benchmark::State& state) { FactorizeLoop(state, Dataset("ais2klinik")); }
 BENCHMARK(BM_CholmodFactorize_Ais2klinik)->Unit(benchmark::kMicrosecond);
 
