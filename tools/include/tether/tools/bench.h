@@ -91,6 +91,10 @@ struct BenchRow {
 BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config);
 /// Runs one configuration on `file` in a forked child and collects its measurements and peak
 /// memory; a child that dies is reported as kCrashed with the signal in the message.
+/// Call it from a process that has not solved anything itself (as `tether bench` does): CHOLMOD
+/// runs on OpenMP, and a forked child of a process whose OpenMP threads exist waits for them
+/// forever (libgomp is not fork-safe). The child's peak memory starts from the caller's
+/// resident memory at the fork.
 BenchRun RunBenchInChild(const std::string& file, const BenchConfig& config);
 /// Fills the summary fields of `row` from its runs.
 void SummarizeBenchRow(BenchRow* row);
