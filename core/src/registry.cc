@@ -67,9 +67,11 @@ std::string Short(double v) {
 std::string FormatInformation(double v, double scale) {
   if (!(std::abs(v) > 1e-15 * scale)) return "0";  // also turns -0 into 0
   const int digits = std::clamp(15 - static_cast<int>(std::ceil(std::log10(scale / std::abs(v)) - 1e-9)), 1, 17);
+  // to_chars with a precision prints exactly as "%.*g" does, at a fraction of snprintf's cost
+  // (writing intel.g2o: 56M of its 82M instructions were snprintf).
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
+  return std::string(buf, r.ptr);
 }
 
 // What else a user can do about a clash: a plugin's types can be removed, built-in ones cannot.
