@@ -153,6 +153,11 @@ TEST_F(BenchTest, OneRowPerFileAndConfigurationWithEveryColumn) {
     EXPECT_LT(read, hi);
     EXPECT_LT(opt, hi);
     EXPECT_GT(std::stod(r.at("linearize_s")), 0);
+    EXPECT_GT(std::stod(r.at("factorize_s")), 0);
+    EXPECT_LT(std::stod(r.at("factorize_s")), opt);
+    EXPECT_GT(std::stod(r.at("floor_s")), 0);
+    EXPECT_GT(std::stod(r.at("optimize_over_floor")), 0);
+    EXPECT_EQ(r.at("threads"), "1");  // the solver's default
     EXPECT_GT(std::stod(r.at("peak_rss_mib")), 1.0);
     EXPECT_FALSE(r.at("blas").empty());
     EXPECT_EQ(r.at("blas"), ActiveBlasLibrary());
@@ -177,6 +182,11 @@ TEST_F(BenchTest, FinalChi2MatchesTetherOptimize) {
   const auto rows = ParseCsv(out_.str());
   ASSERT_EQ(rows.size(), 5u) << out_.str();  // gn and lm over two linear solvers, ceres over cholmod
   for (const auto& r : rows) {
+    // Ceres times its linear solver as a whole: no factorisation time apart, no floor.
+    const bool ceres = r.at("solver") == "ceres";
+    EXPECT_EQ(r.at("factorize_s").empty(), ceres) << r.at("solver");
+    EXPECT_EQ(r.at("floor_s").empty(), ceres) << r.at("solver");
+    EXPECT_EQ(r.at("optimize_over_floor").empty(), ceres) << r.at("solver");
     // The program, not RunOptimize in this process: a process that has solved with CHOLMOD
     // has OpenMP threads, which a forked child (the next bench run) cannot use.
     const std::string args = " optimize " + file + " -q --solver " + r.at("solver") + " --linear " + r.at("linear") +
@@ -197,6 +207,29 @@ TEST_F(BenchTest, FinalChi2MatchesTetherOptimize) {
     ASSERT_NE(it, std::string::npos);
     EXPECT_EQ(std::stoi(report.substr(it + 10)), std::stoi(r.at("iterations"))) << r.at("solver");
   }
+}
+
+// --threads: one row per thread count, the same result in each (assembly is bit-identical
+// for any number of threads).
+TEST_F(BenchTest, ThreadCountsAreConfigurations) {
+  BenchCommand cmd;
+  cmd.files = {Simulated("m.g2o", SimWorld::kManhattan, 300)};
+  cmd.solvers = "gn,lm";
+  cmd.threads = "1,2";
+  cmd.repeat = 1;
+  cmd.format = "csv";
+  ASSERT_EQ(Bench(cmd), 0) << err_.str();
+  const auto rows = ParseCsv(out_.str());
+  ASSERT_EQ(rows.size(), 4u) << out_.str();
+  EXPECT_EQ(rows[0].at("threads"), "1");
+  EXPECT_EQ(rows[1].at("threads"), "2");
+  EXPECT_EQ(rows[2].at("solver"), "lm");
+  EXPECT_EQ(rows[3].at("threads"), "2");
+  for (int i : {0, 2}) {
+    EXPECT_EQ(rows[i].at("final_chi2"), rows[i + 1].at("final_chi2"));
+    EXPECT_EQ(rows[i].at("iterations"), rows[i + 1].at("iterations"));
+  }
+  EXPECT_NE(err_.str().find("gn/cholmod/chordal/2t: run 1 of 1"), std::string::npos) << err_.str();
 }
 
 // The Markdown table: the BLAS line, a header, a rule and one row per configuration, every
@@ -319,15 +352,12 @@ TEST_F(BenchTest, BadUsageExitsTwoAndRunsNothing) {
         c.linear = "qr";
       },
       "no configuration left");
-  if (BenchSupportsThreads()) {
-    with(
-        "threads", [](BenchCommand& c) { c.threads = "1,0"; }, "--threads takes thread counts");
-    with(
-        "threads text", [](BenchCommand& c) { c.threads = "two"; }, "--threads takes thread counts");
-  } else {
-    with(
-        "threads", [](BenchCommand& c) { c.threads = "2"; }, "--threads is not available");
-  }
+  with(
+      "threads", [](BenchCommand& c) { c.threads = "1,0"; }, "bad thread count '0' in --threads");
+  with(
+      "threads text", [](BenchCommand& c) { c.threads = "two"; }, "bad thread count 'two' in --threads");
+  with(
+      "too many threads", [](BenchCommand& c) { c.threads = "100000"; }, "num_threads must be between");
   for (const Case& c : cases) {
     EXPECT_EQ(Bench(c.cmd), 2) << c.what;
     EXPECT_NE(err_.str().find(c.message), std::string::npos) << c.what << ": " << err_.str();

@@ -19,7 +19,6 @@
 #include <map>
 #include <ostream>
 #include <sstream>
-#include <type_traits>
 #include <utility>
 
 #include "tether/core/error.h"
@@ -36,46 +35,16 @@ using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Fields the solvers gain over time, detected at compile time so that this file builds with
-// and without them.
-template <typename O, typename = void>
-struct HasNumThreads : std::false_type {};
-template <typename O>
-struct HasNumThreads<O, std::void_t<decltype(std::declval<O&>().num_threads)>> : std::true_type {};
-
-template <typename S, typename = void>
-struct HasFactorizeSeconds : std::false_type {};
-template <typename S>
-struct HasFactorizeSeconds<S, std::void_t<decltype(std::declval<const S&>().factorize_seconds)>> : std::true_type {};
-
-template <typename O>
-void SetThreads(O* options, int threads) {
-  if constexpr (HasNumThreads<O>::value) {
-    if (threads > 0) options->num_threads = threads;
-  } else {
-    (void)options;
-    (void)threads;
-  }
-}
-
-template <typename O>
-std::string DefaultThreads() {
-  if constexpr (HasNumThreads<O>::value) {
-    return std::to_string(O{}.num_threads);
-  } else {
-    return "-";
-  }
-}
-
-// Fills the time split from the summary. Where the summary keeps the numeric factorisations
-// apart, solve_seconds is what remains of the linear solve (triangular solves, damping).
-template <typename S>
-void FillSplit(const S& s, BenchRun* r) {
+// The time split from the summary. The native solvers keep the numeric factorisations apart
+// from the triangular solves and time the last one (the floor); Ceres reports its linear
+// solver's time as one figure, so there the factorisation and the floor are not available.
+void FillSplit(const SolverSummary& s, BenchRun* r) {
   r->setup_seconds = s.setup_seconds;
   r->linearize_seconds = s.linearize_seconds;
   r->solve_seconds = s.solve_seconds;
-  if constexpr (HasFactorizeSeconds<S>::value) {
+  if (s.algorithm != Algorithm::kCeres) {
     r->factorize_seconds = s.factorize_seconds;
+    r->floor_seconds = s.last_factorize_seconds * s.iterations;
   }
 }
 
@@ -250,7 +219,7 @@ std::string CsvField(const std::string& s) {
 std::string Basename(const std::string& path) { return fs::path(path).filename().string(); }
 
 std::string ThreadsText(const BenchConfig& c) {
-  return c.threads > 0 ? std::to_string(c.threads) : DefaultThreads<SolverOptions>();
+  return std::to_string(c.threads > 0 ? c.threads : SolverOptions{}.num_threads);
 }
 
 // Splits "a,b,c"; returns false on an empty item.
@@ -349,8 +318,6 @@ std::string BenchConfig::Name() const {
   return s;
 }
 
-bool BenchSupportsThreads() { return HasNumThreads<SolverOptions>::value; }
-
 std::string ActiveBlasLibrary() {
   void* sym = ::dlsym(RTLD_DEFAULT, "dgemm_");
   if (sym == nullptr) return "none";
@@ -395,7 +362,7 @@ BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config) {
   SolverOptions options;
   options.algorithm = config.algorithm;
   options.linear_solver = config.linear;
-  SetThreads(&options, config.threads);
+  if (config.threads > 0) options.num_threads = config.threads;
   const SolverSummary s = Optimize(gf.graph, &gf.values, options);
   r.status = ToString(s.status);
   r.message = s.message;
@@ -522,7 +489,8 @@ std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, c
   std::ostringstream o;
   o << "CHOLMOD's BLAS (where dgemm_ resolves): `" << blas << "`. " << repeat << (repeat == 1 ? " run" : " runs")
     << " per configuration, each in a fresh child process; wall = read + initialise + solve + write; the "
-       "split, floor and ratio are medians over the runs; n/a: not reported by this build.\n\n";
+       "split, floor and ratio are medians over the runs; n/a: not measured apart (Ceres times its linear solver as a "
+       "whole).\n\n";
   std::string header = "|", rule = "|";
   for (const Column& c : kColumns) {
     header += std::string(" ") + c.md + " |";
@@ -580,19 +548,20 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   std::vector<int> threads = {0};
   if (!cmd.threads.empty()) {
-    if (!BenchSupportsThreads()) {
-      return usage("--threads is not available in this build: the solvers have no thread count option yet");
-    }
     if (!SplitList(cmd.threads, &items)) return usage("--threads '" + cmd.threads + "' is not a comma-separated list");
     threads.clear();
     for (const std::string& s : items) {
       char* end = nullptr;
       errno = 0;
       const long k = std::strtol(s.c_str(), &end, 10);
-      if (end == s.c_str() || *end != '\0' || errno != 0 || k < 1 || k > 1024) {
-        return usage("--threads takes thread counts from 1 to 1024; got '" + s + "'");
+      SolverOptions check;
+      check.num_threads = k < 1 || k > 1 << 20 ? 0 : static_cast<int>(k);
+      std::string why;
+      if (end == s.c_str() || *end != '\0' || errno != 0 || !check.IsValid(&why)) {
+        return usage("bad thread count '" + s +
+                     "' in --threads: " + (why.empty() ? std::string("num_threads must be a whole number") : why));
       }
-      threads.push_back(static_cast<int>(k));
+      threads.push_back(check.num_threads);
     }
   }
   if (cmd.repeat < 1) return usage("--repeat must be at least 1; got " + std::to_string(cmd.repeat));

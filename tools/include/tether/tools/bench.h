@@ -34,7 +34,7 @@ struct BenchConfig {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   LinearSolverType linear = LinearSolverType::kCholmod;
   InitMethod init = InitMethod::kChordal;
-  int threads = 0;  ///< 0: the solver's default (not set)
+  int threads = 0;  ///< SolverOptions::num_threads; 0: the solver's default
 
   /// "lm/cholmod/chordal", with "/2t" appended where threads are set.
   std::string Name() const;
@@ -66,11 +66,13 @@ struct BenchRun {
   double optimize_seconds = 0;  ///< the whole Optimize call (SolverSummary::total_seconds)
   double setup_seconds = 0;     ///< symbolic analysis and structure
   double linearize_seconds = 0;
-  double factorize_seconds = -1;  ///< numeric factorisations (-1: not reported by this build)
-  double solve_seconds = 0;       ///< triangular solves (with the factorisations where those are not apart)
+  double factorize_seconds = -1;  ///< numeric factorisations (-1: not apart, as with ceres)
+  double solve_seconds = 0;       ///< triangular solves (ceres: its whole linear solver time)
   double write_seconds = 0;
-  double floor_seconds = -1;  ///< one factorisation of the final H times iterations (-1: not available)
-  double peak_rss_mib = 0;    ///< the child's peak resident set (wait4), MiB
+  /// The last numeric factorisation (of the final H's pattern) times the iterations: what
+  /// the factorisations alone would cost (-1: not available, as with ceres).
+  double floor_seconds = -1;
+  double peak_rss_mib = 0;  ///< the child's peak resident set (wait4), MiB
 };
 
 /// One row of the table: a file, a configuration and its runs summarised.
@@ -102,8 +104,6 @@ void SummarizeBenchRow(BenchRow* row);
 /// The library the dgemm_ symbol (BLAS), which CHOLMOD's supernodal factorisation calls,
 /// resolves to in this process, with symbolic links resolved; "none" where no BLAS is loaded.
 std::string ActiveBlasLibrary();
-/// Whether this build's SolverOptions has a thread count (num_threads).
-bool BenchSupportsThreads();
 
 /// The table as Markdown (a line naming the BLAS, then the table) or CSV (a header row, then
 /// one row per configuration; numbers not available are empty fields).
