@@ -489,8 +489,8 @@ std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, c
   std::ostringstream o;
   o << "CHOLMOD's BLAS (where dgemm_ resolves): `" << blas << "`. " << repeat << (repeat == 1 ? " run" : " runs")
     << " per configuration, each in a fresh child process; wall = read + initialise + solve + write; the "
-       "split, floor and ratio are medians over the runs; n/a: not measured apart (Ceres times its linear solver as a "
-       "whole).\n\n";
+       "split and the floor are medians over the runs, the ratio is that of the medians; n/a: not measured apart "
+       "(Ceres times its linear solver as a whole).\n\n";
   std::string header = "|", rule = "|";
   for (const Column& c : kColumns) {
     header += std::string(" ") + c.md + " |";
