@@ -1,7 +1,35 @@
 #include "thread_pool.h"
 
+#include <chrono>
+
 namespace tether {
 namespace internal {
+
+namespace {
+
+// How long a thread spins on an atomic before it blocks.
+constexpr std::chrono::microseconds kSpin(50);
+
+void Relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#else
+  std::this_thread::yield();
+#endif
+}
+
+// Spins until done() or kSpin has passed; returns done().
+template <typename Done>
+bool SpinUntil(Done done) {
+  const auto until = std::chrono::steady_clock::now() + kSpin;
+  for (int i = 1;; ++i) {
+    if (done()) return true;
+    Relax();
+    if (i % 64 == 0 && std::chrono::steady_clock::now() > until) return done();
+  }
+}
+
+}  // namespace
 
 ThreadPool::ThreadPool(int num_threads) : num_threads_(num_threads < 1 ? 1 : num_threads) {
   errors_.resize(num_threads_);
@@ -21,27 +49,22 @@ ThreadPool::~ThreadPool() {
 void ThreadPool::Work(int part) {
   unsigned long seen = 0;
   for (;;) {
-    PartFn fn;
-    void* ctx;
-    {
+    const auto started = [&] { return stop_.load() || generation_.load(std::memory_order_acquire) != seen; };
+    if (!SpinUntil(started)) {
       std::unique_lock<std::mutex> lock(mutex_);
-      start_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      fn = fn_;
-      ctx = ctx_;
+      start_.wait(lock, started);
     }
+    if (stop_) return;
+    seen = generation_.load(std::memory_order_acquire);  // fn_ and ctx_ were written before it
     try {
-      fn(ctx, part);
+      fn_(ctx_, part);
     } catch (...) {
       errors_[part] = std::current_exception();
     }
-    bool last;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      last = --pending_ == 0;
+    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      std::lock_guard<std::mutex> lock(mutex_);  // the caller checks pending_ under the lock
+      done_.notify_one();
     }
-    if (last) done_.notify_one();
   }
 }
 
@@ -50,12 +73,13 @@ void ThreadPool::RunParts(PartFn fn, void* ctx) {
     fn(ctx, 0);
     return;
   }
+  fn_ = fn;
+  ctx_ = ctx;
+  pending_.store(num_threads_ - 1, std::memory_order_relaxed);
   {
+    // Under the lock, so that a worker that is about to block sees the new generation.
     std::lock_guard<std::mutex> lock(mutex_);
-    fn_ = fn;
-    ctx_ = ctx;
-    pending_ = num_threads_ - 1;
-    ++generation_;
+    generation_.fetch_add(1, std::memory_order_release);
   }
   start_.notify_all();
   try {
@@ -63,9 +87,10 @@ void ThreadPool::RunParts(PartFn fn, void* ctx) {
   } catch (...) {
     errors_[0] = std::current_exception();
   }
-  {
+  const auto finished = [&] { return pending_.load(std::memory_order_acquire) == 0; };
+  if (!SpinUntil(finished)) {
     std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [&] { return pending_ == 0; });
+    done_.wait(lock, finished);
   }
   for (std::exception_ptr& e : errors_) {
     if (e) {

@@ -6,6 +6,12 @@
 // pool, so a call creates no thread and allocates nothing (the solver calls it several
 // times per iteration). An exception thrown by a part is rethrown by Run on the caller
 // (the one of the lowest part when several throw).
+//
+// Hand-over: the caller and the workers first spin for a few tens of microseconds on atomics
+// before they block on a condition variable, so that parallel steps that follow each other
+// closely (linearise, then assemble) pay no sleep and wake-up between them; after a long
+// serial step (a factorisation) the workers are asleep and cost nothing.
+#include <atomic>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -42,9 +48,9 @@ class ThreadPool {
   std::condition_variable start_, done_;
   PartFn fn_ = nullptr;
   void* ctx_ = nullptr;
-  unsigned long generation_ = 0;  // incremented for every Run
-  int pending_ = 0;               // workers still running the current generation
-  bool stop_ = false;
+  std::atomic<unsigned long> generation_{0};  // incremented (under mutex_) for every Run
+  std::atomic<int> pending_{0};               // workers still running the current generation
+  std::atomic<bool> stop_{false};
 };
 
 }  // namespace internal
