@@ -3,7 +3,7 @@
 // operator new and counts every call, so it must stay apart from the other test programs.
 //
 // What it cannot see: CHOLMOD and SuiteSparseQR allocate their own work space with malloc
-// (inside every numeric factorisation); benchmarks/RESULTS.md has those counts. The ldlt
+// (CHOLMOD, for one, builds a permuted copy of H inside every numeric factorisation). The ldlt
 // path is Eigen's SimplicialLDLT, which allocates inside factorize (a test below bounds it).
 #include <gtest/gtest.h>
 
