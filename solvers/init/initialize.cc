@@ -13,6 +13,7 @@
 #include <set>
 #include <unordered_map>
 
+#include "../src/serial_openmp.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/core/variable.h"
@@ -175,6 +176,7 @@ class SpdSolver {
   SpdSolver() { ldlt_.cholmod().print = 0; }
 
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
+    internal::SerialOpenMp serial;  // CHOLMOD's OpenMP teams cost more than they give
     if (!analysed_) {
       ldlt_.analyzePattern(A);
       analysed_ = true;

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "linear_solver.h"
+#include "serial_openmp.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -65,6 +66,7 @@ class Cholmod : public SparseCholesky {
     cholmod_finish(&cc_);
   }
   void Analyze(const Csc& h) override {
+    SerialOpenMp serial;
     cholmod_sparse a = View(h, 1);
     if (L_) cholmod_free_factor(&L_, &cc_);
     L_ = cholmod_analyze(&a, &cc_);
@@ -76,7 +78,10 @@ class Cholmod : public SparseCholesky {
   }
   FactorResult Factorize(const Csc& h) override {
     cholmod_sparse a = View(h, 1);
-    cholmod_factorize(&a, L_, &cc_);
+    {
+      SerialOpenMp serial;
+      cholmod_factorize(&a, L_, &cc_);
+    }
     if (cc_.status == CHOLMOD_NOT_POSDEF || L_->minor < L_->n) return FactorResult::kNotPositiveDefinite;
     if (cc_.status < CHOLMOD_OK) return FactorResult::kFailed;
     if (!L_->is_super && !L_->is_ll) {
@@ -91,6 +96,7 @@ class Cholmod : public SparseCholesky {
     return FactorResult::kOk;
   }
   void Solve(const double* b, double* x) override {
+    SerialOpenMp serial;
     cholmod_dense bd = DenseView(const_cast<double*>(b), n_);
     if (!cholmod_solve2(CHOLMOD_A, L_, &bd, nullptr, &X_, nullptr, &Y_, &E_, &cc_) || X_ == nullptr) {
       throw Error("CHOLMOD could not solve (status " + std::to_string(cc_.status) + "); try --linear ldlt");
