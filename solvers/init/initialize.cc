@@ -1,6 +1,5 @@
 #include "tether/solvers/initialize.h"
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -9,11 +8,12 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <set>
 #include <unordered_map>
 
-#include "../src/serial_openmp.h"
+#include "../src/linear_solver.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/core/variable.h"
@@ -168,26 +168,28 @@ Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A
 }
 
 // Solves sparse symmetric positive-definite systems A X = B that share one sparsity pattern
-// (the rotation and the translation systems do): the ordering and symbolic analysis are done
-// once. Throws naming `what` when A is singular.
+// (the rotation and the translation systems do) with the solvers' CHOLMOD wrapper: the
+// ordering and symbolic analysis are done once, CHOLMOD picks simplicial or supernodal from
+// it (simplicial for the sparse 2D graphs, several times faster there) and a matrix that is
+// not positive definite is reported. Throws naming `what` when A is singular.
 class SpdSolver {
  public:
-  // A singular system is reported by the exception below, not by CHOLMOD on stderr.
-  SpdSolver() { ldlt_.cholmod().print = 0; }
-
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
-    internal::SerialOpenMp serial;  // CHOLMOD's OpenMP teams cost more than they give
+    UpperTriangle(A);
     if (!analysed_) {
-      ldlt_.analyzePattern(A);
+      chol_->Analyze(upper_);
       analysed_ = true;
     }
-    ldlt_.factorize(A);
-    if (ldlt_.info() != Eigen::Success) {
+    if (chol_->Factorize(upper_) != internal::FactorResult::kOk) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what +
                             " system is singular (a pose is tied to the others by measurements that fix too "
                             "little of it); use --init spanning-tree or --init file");
     }
-    Eigen::MatrixXd X = ldlt_.solve(B);
+    Eigen::MatrixXd X(B.rows(), B.cols());
+    for (Eigen::Index c = 0; c < B.cols(); ++c) {
+      const Eigen::VectorXd b = B.col(c);
+      chol_->Solve(b.data(), X.col(c).data());
+    }
     if (!X.allFinite()) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what + " system gave non-finite values");
     }
@@ -195,7 +197,24 @@ class SpdSolver {
   }
 
  private:
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>> ldlt_;
+  // The upper triangle of A (compressed, column-major) in the wrapper's layout.
+  void UpperTriangle(const Eigen::SparseMatrix<double>& A) {
+    upper_.rows = upper_.cols = static_cast<int>(A.cols());
+    upper_.colptr.assign(1, 0);
+    upper_.rowind.clear();
+    upper_.values.clear();
+    for (Eigen::Index c = 0; c < A.outerSize(); ++c) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it) {
+        if (it.row() > c) continue;
+        upper_.rowind.push_back(static_cast<int>(it.row()));
+        upper_.values.push_back(it.value());
+      }
+      upper_.colptr.push_back(static_cast<int>(upper_.rowind.size()));
+    }
+  }
+
+  std::unique_ptr<internal::SparseCholesky> chol_ = internal::MakeCholmod();
+  internal::Csc upper_;
   bool analysed_ = false;
 };
 
