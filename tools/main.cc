@@ -21,6 +21,11 @@ int main(int argc, char** argv) {
   optimize->add_option("--threads", opt.threads, "Threads assembling the normal equations (1 to 256)")
       ->capture_default_str();
   optimize
+      ->add_option("--max-reuse-iterations", opt.max_reuse_iterations,
+                   "Conjugate-gradient iterations a step may take with an earlier factorisation before H is "
+                   "factorised afresh (0: factorise every step)")
+      ->capture_default_str();
+  optimize
       ->add_option("--repair-information", opt.repair_information,
                    "none | nearest-pd | isotropic: what to do with information matrices that are not "
                    "positive definite")

@@ -37,7 +37,8 @@ double MaxAbs(const std::vector<double>& a) {
 // One linear solve of the damped system, whichever back-end is in use.
 class StepSolver {
  public:
-  StepSolver(internal::Problem* p, LinearSolverType type) : p_(p), type_(type) {
+  StepSolver(internal::Problem* p, LinearSolverType type, int max_reuse_iterations)
+      : p_(p), type_(type), max_reuse_iterations_(type == LinearSolverType::kQR ? 0 : max_reuse_iterations) {
     const int n = p->tangent_dim();
     g_.assign(n, 0.0);
     diag_.assign(n, 0.0);
@@ -52,6 +53,9 @@ class StepSolver {
       chol_->Analyze(mat_);
       undamped_diag_.assign(n, 0.0);
       neg_g_.assign(n, 0.0);
+      if (max_reuse_iterations_ > 0) {
+        for (std::vector<double>* v : {&r_, &z_, &p_dir_, &hp_}) v->assign(n, 0.0);
+      }
     }
   }
 
@@ -71,8 +75,12 @@ class StepSolver {
   }
 
   /// delta solving (H + lambda D) delta = -g with D = clamp(diag(H)); the numeric
-  /// factorisation's share of the time goes to *factorize_seconds.
-  internal::FactorResult Solve(double lambda, std::vector<double>* delta, double* factorize_seconds) {
+  /// factorisation's share of the time goes to *factorize_seconds. Where a factorisation of
+  /// an earlier H exists, the system is first solved by conjugate gradients preconditioned
+  /// with it (at most max_reuse_iterations); only if that does not converge is H factorised
+  /// afresh. *reused: whether the earlier factorisation did; *cg_iterations: its iterations.
+  internal::FactorResult Solve(double lambda, std::vector<double>* delta, double* factorize_seconds, bool* reused,
+                               int* cg_iterations) {
     const std::size_t n = damping_pos_.size();
     for (std::size_t i = 0; i < n; ++i) {
       const double d = std::clamp(diag_[i], 1e-6, 1e32);
@@ -82,6 +90,11 @@ class StepSolver {
         mat_.values[damping_pos_[i]] = undamped_diag_[i] + lambda * d;
       }
     }
+    *factorize_seconds = 0;
+    *cg_iterations = 0;
+    *reused = have_factor_ && max_reuse_iterations_ > 0 && Pcg(delta, cg_iterations);
+    if (*reused) return internal::FactorResult::kOk;
+    *cg_iterations = 0;
     internal::FactorResult r;
     const Clock::time_point tf = Clock::now();
     if (type_ == LinearSolverType::kQR) {
@@ -91,6 +104,7 @@ class StepSolver {
     } else {
       r = chol_->Factorize(mat_);
       *factorize_seconds = SecondsSince(tf);
+      have_factor_ = r == internal::FactorResult::kOk;
       if (r == internal::FactorResult::kOk) chol_->Solve(neg_g_.data(), delta->data());
     }
     return r;
@@ -100,11 +114,87 @@ class StepSolver {
   double ClampedDiag(std::size_t i) const { return std::clamp(diag_[i], 1e-6, 1e32); }
 
  private:
+  // y = H x, H symmetric given by its upper triangle (mat_, damping included). mat_ holds
+  // the diagonal blocks whole; their entries below the diagonal are skipped, as CHOLMOD
+  // skips them.
+  void MultiplyH(const std::vector<double>& x, std::vector<double>* y) const {
+    std::fill(y->begin(), y->end(), 0.0);
+    double* out = y->data();
+    for (int c = 0; c < mat_.cols; ++c) {
+      const double xc = x[c];
+      double acc = 0;
+      for (int k = mat_.colptr[c]; k < mat_.colptr[c + 1]; ++k) {
+        const int r = mat_.rowind[k];
+        const double v = mat_.values[k];
+        if (r > c) continue;
+        if (r == c) {
+          acc += v * xc;
+        } else {
+          out[r] += v * xc;
+          acc += v * x[r];
+        }
+      }
+      out[c] += acc;
+    }
+  }
+
+  // Conjugate gradients on H delta = -g, preconditioned with the factorisation of an earlier
+  // H (close to this one once the steps are small), started from that factorisation's solve.
+  // Converged when the error's H-norm, estimated by sqrt(r^T M^-1 r), is below
+  // kReuseTolerance times the step's, sqrt(b^T M^-1 b): the linear model's decrease is then
+  // exact to kReuseTolerance^2. False (delta unusable) when that is not reached within
+  // max_reuse_iterations_, when the residual shrinks too slowly to reach it in time, or on a
+  // curvature that is not positive.
+  bool Pcg(std::vector<double>* delta, int* iterations) {
+    constexpr double kReuseTolerance = 1e-3;
+    constexpr double kTryRatio = 1e-2;
+    std::vector<double>& x = *delta;
+    const std::size_t n = x.size();
+    chol_->Solve(neg_g_.data(), x.data());  // x0 = M^-1 b
+    const double bMb = Dot(neg_g_, x);
+    if (!(bMb > 0) || !std::isfinite(bMb)) return false;
+    MultiplyH(x, &hp_);
+    for (std::size_t i = 0; i < n; ++i) r_[i] = neg_g_[i] - hp_[i];
+    chol_->Solve(r_.data(), z_.data());
+    double rz = Dot(r_, z_);
+    const double target = kReuseTolerance * kReuseTolerance * bMb;
+    if (!std::isfinite(rz)) return false;
+    if (rz <= target) return true;
+    if (rz > kTryRatio * bMb) return false;
+    p_dir_ = z_;
+    const double rz0 = rz;
+    for (int k = 1; k <= max_reuse_iterations_; ++k) {
+      *iterations = k;
+      MultiplyH(p_dir_, &hp_);
+      const double curvature = Dot(p_dir_, hp_);
+      if (!(curvature > 0) || !std::isfinite(curvature)) return false;
+      const double alpha = rz / curvature;
+      for (std::size_t i = 0; i < n; ++i) {
+        x[i] += alpha * p_dir_[i];
+        r_[i] -= alpha * hp_[i];
+      }
+      chol_->Solve(r_.data(), z_.data());
+      const double rz_new = Dot(r_, z_);
+      if (!std::isfinite(rz_new)) return false;
+      if (rz_new <= target) return true;
+      // At the mean rate so far, would the remaining iterations get there?
+      const double rate = std::pow(rz_new / rz0, 1.0 / k);
+      if (!(rate < 1) || rz_new * std::pow(rate, max_reuse_iterations_ - k) > target) return false;
+      const double beta = rz_new / rz;
+      rz = rz_new;
+      for (std::size_t i = 0; i < n; ++i) p_dir_[i] = z_[i] + beta * p_dir_[i];
+    }
+    return false;
+  }
+
   internal::Problem* p_;
   LinearSolverType type_;
   internal::Csc mat_;
   std::vector<int> damping_pos_;
   std::vector<double> g_, neg_g_, diag_, undamped_diag_, rhs_;
+  int max_reuse_iterations_ = 0;
+  bool have_factor_ = false;                // chol_ holds the factorisation of an earlier H
+  std::vector<double> r_, z_, p_dir_, hp_;  // conjugate-gradient work (no allocation per step)
   std::unique_ptr<internal::SparseCholesky> chol_;
   std::unique_ptr<internal::SparseQR> qr_;
 };
@@ -170,7 +260,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
 
   std::unique_ptr<StepSolver> solver;
   try {
-    solver = std::make_unique<StepSolver>(&p, options.linear_solver);
+    solver = std::make_unique<StepSolver>(&p, options.linear_solver, options.max_reuse_iterations);
   } catch (const Error& e) {
     s.status = SolverStatus::kInvalidInput;
     s.message = e.what();
@@ -222,10 +312,14 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     it.lambda = lm ? lambda : 0.0;
     const Clock::time_point ts = Clock::now();
     double factorize = 0;
-    internal::FactorResult fr = solver->Solve(lm ? lambda : 0.0, &delta, &factorize);
+    internal::FactorResult fr =
+        solver->Solve(lm ? lambda : 0.0, &delta, &factorize, &it.reused_factorization, &it.cg_iterations);
     s.solve_seconds += SecondsSince(ts) - factorize;
     s.factorize_seconds += factorize;
-    s.last_factorize_seconds = factorize;
+    if (!it.reused_factorization) {
+      ++s.factorizations;
+      s.last_factorize_seconds = factorize;
+    }
     double step2 = 0;
     if (fr == internal::FactorResult::kOk) {
       for (double d : delta) step2 += d * d;

@@ -87,6 +87,7 @@ bool SolverOptions::IsValid(std::string* why) const {
   if (!(initial_lambda >= 0) || !std::isfinite(initial_lambda)) return fail("initial_lambda must be finite and >= 0");
   if (!(min_lambda > 0) || !std::isfinite(min_lambda)) return fail("min_lambda must be finite and > 0");
   if (max_step_halvings < 0) return fail("max_step_halvings must be >= 0");
+  if (max_reuse_iterations < 0) return fail("max_reuse_iterations must be >= 0");
   if (num_threads < 1 || num_threads > 256) return fail("num_threads must be between 1 and 256");
   if (!(max_lambda > initial_lambda) || !(max_lambda > min_lambda)) {
     return fail("max_lambda must exceed initial_lambda and min_lambda");
@@ -121,7 +122,9 @@ std::string SolverSummary::FullReport() const {
   o << "  initial chi2       " << buf << "\n";
   std::snprintf(buf, sizeof(buf), "%.9g", final_chi2);
   o << "  final chi2         " << buf << "\n";
-  o << "  iterations         " << iterations << " (" << accepted_iterations << " accepted)\n";
+  o << "  iterations         " << iterations << " (" << accepted_iterations << " accepted";
+  if (algorithm != Algorithm::kCeres) o << ", " << factorizations << " factorisations";
+  o << ")\n";
   std::snprintf(buf, sizeof(buf), "%.3f s (setup %.3f, linearise %.3f, factorise %.3f, solve %.3f)", total_seconds,
                 setup_seconds, linearize_seconds, factorize_seconds, solve_seconds);
   o << "  time               " << buf << "\n";

@@ -83,14 +83,17 @@ class HotLoopTest : public ::testing::TestWithParam<Case> {};
 
 // Allocations between the callback of iteration i and that of i + 1: everything one iteration
 // does after the first (the first may size solver work space, CHOLMOD's solve buffers).
-// Per-iteration allocation counts (operator new) of a solve with six iterations.
-std::vector<long> AllocationsPerIteration(const Case& c) {
+// Per-iteration allocation counts (operator new) of a solve with six iterations; steps reuse
+// an earlier factorisation as by default unless max_reuse_iterations says otherwise.
+std::vector<long> AllocationsPerIteration(const Case& c,
+                                          int max_reuse_iterations = SolverOptions().max_reuse_iterations) {
   const SimulatedGraph sim = Sim(c.world);
   Values values = sim.initial;
   SolverOptions o;
   o.algorithm = c.algorithm;
   o.linear_solver = c.linear;
   o.num_threads = c.threads;
+  o.max_reuse_iterations = max_reuse_iterations;
   o.function_tolerance = 0;  // run all iterations
   o.gradient_tolerance = 0;
   o.parameter_tolerance = 0;
@@ -111,15 +114,46 @@ TEST_P(HotLoopTest, IterationsAfterTheFirstAllocateNothing) {
   for (std::size_t i = 0; i < n.size(); ++i) EXPECT_EQ(n[i], 0) << "iteration " << i + 2 << " allocated";
 }
 
-// Eigen's SimplicialLDLT copies the matrix and sizes its work space inside every factorize
-// (and its solve makes a temporary): a fixed number of allocations per iteration, none of
-// them tether's, that must not grow.
-TEST(HotLoopLdlt, EigenLdltAllocatesTheSameFewBlocksEveryIteration) {
+// Eigen's SimplicialLDLT copies the matrix and sizes its work space inside every factorize:
+// a fixed number of allocations per factorisation, none of them tether's, that must not
+// grow (every step factorises here; a step that reuses the factorisation allocates nothing,
+// checked below).
+TEST(HotLoopLdlt, EigenLdltAllocatesTheSameFewBlocksEveryFactorisation) {
   const std::vector<long> n =
-      AllocationsPerIteration(Case{SimWorld::kLandmarks, Algorithm::kGaussNewton, LinearSolverType::kEigenLDLT, 2});
+      AllocationsPerIteration(Case{SimWorld::kLandmarks, Algorithm::kGaussNewton, LinearSolverType::kEigenLDLT, 2}, 0);
   ASSERT_GE(n.size(), 3u);
   for (std::size_t i = 1; i < n.size(); ++i) EXPECT_EQ(n[i], n[0]);
   EXPECT_LE(n[0], 16);
+}
+
+// Steps solved with an earlier factorisation (conjugate gradients) allocate nothing, with
+// either Cholesky back-end; the run has such steps.
+TEST(HotLoopReuse, StepsThatReuseAFactorisationAllocateNothing) {
+  for (LinearSolverType linear : {LinearSolverType::kCholmod, LinearSolverType::kEigenLDLT}) {
+    const SimulatedGraph sim = Sim(SimWorld::kManhattan);
+    Values values = sim.initial;
+    SolverOptions o;
+    o.linear_solver = linear;
+    o.function_tolerance = o.gradient_tolerance = o.parameter_tolerance = 0;
+    o.max_iterations = 6;
+    std::vector<long> at;
+    std::vector<char> reused;
+    at.reserve(64);
+    reused.reserve(64);
+    o.callback = [&](const IterationSummary& it) {
+      at.push_back(g_news.load());
+      reused.push_back(it.reused_factorization ? 1 : 0);
+    };
+    const SolverSummary s = Optimize(sim.graph, &values, o);
+    EXPECT_TRUE(s.IsSolutionUsable()) << s.message;
+    int checked = 0;
+    for (std::size_t i = 2; i < at.size(); ++i) {
+      if (!reused[i]) continue;
+      EXPECT_EQ(at[i] - at[i - 1], 0) << ToString(linear) << ": iteration " << i << " reused and allocated";
+      ++checked;
+    }
+    EXPECT_GE(checked, 1) << ToString(linear) << ": no step after the first two reused a factorisation";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -100,6 +100,36 @@ TEST_F(CliTest, InitChoosesTheInitialGuess) {
   EXPECT_FALSE(fs::exists(P("lago.g2o")));
 }
 
+// The table marks the steps solved with an earlier factorisation, the summary counts the
+// factorisations, and --max-reuse-iterations 0 factorises every step.
+TEST_F(CliTest, ReusedFactorisationsAreShownAndCanBeSwitchedOff) {
+  ASSERT_EQ(Tether("simulate sphere --poses 300 --seed 4 -o " + P("s.g2o")).code, 0);
+  CliRun reuse = Tether("optimize " + P("s.g2o") + " -o " + P("a.g2o"));
+  ASSERT_EQ(reuse.code, 0) << reuse.output;
+  EXPECT_NE(reuse.output.find("reused factorisation ("), std::string::npos) << reuse.output;
+  CliRun every = Tether("optimize " + P("s.g2o") + " --max-reuse-iterations 0 -o " + P("b.g2o"));
+  ASSERT_EQ(every.code, 0) << every.output;
+  EXPECT_EQ(every.output.find("reused factorisation"), std::string::npos) << every.output;
+  const auto counts = [](const std::string& out, int* iterations, int* factorisations) {
+    const std::size_t at = out.find("  iterations  ");
+    ASSERT_NE(at, std::string::npos) << out;
+    int accepted = 0;
+    ASSERT_EQ(std::sscanf(out.c_str() + at, " iterations %d (%d accepted, %d factorisations)", iterations, &accepted,
+                          factorisations),
+              3)
+        << out.substr(at, 80);
+  };
+  int it_reuse = 0, f_reuse = 0, it_every = 0, f_every = 0;
+  counts(reuse.output, &it_reuse, &f_reuse);
+  counts(every.output, &it_every, &f_every);
+  EXPECT_LT(f_reuse, it_reuse);
+  EXPECT_EQ(f_every, it_every);
+  CliRun bad = Tether("optimize " + P("s.g2o") + " --max-reuse-iterations -1 -o " + P("c.g2o"));
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("max_reuse_iterations must be >= 0"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(P("c.g2o")));
+}
+
 TEST_F(CliTest, SimulateIsDeterministic) {
   ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 9 -o " + P("a.g2o")).code, 0);
   ASSERT_EQ(Tether("simulate sphere --poses 200 --seed 9 -o " + P("b.g2o")).code, 0);

@@ -17,7 +17,7 @@ namespace tether {
 namespace {
 
 std::string Row(const IterationSummary& it) {
-  char buf[160];
+  char buf[200];
   char rel[32], lam[32], step[32];
   if (it.iteration == 0) {
     std::snprintf(rel, sizeof(rel), "%11s", "-");
@@ -31,8 +31,10 @@ std::string Row(const IterationSummary& it) {
   } else {
     std::snprintf(lam, sizeof(lam), "%9s", "-");
   }
-  std::snprintf(buf, sizeof(buf), "%5d  %16.9g  %s  %s  %s  %9.3f%s", it.iteration, it.chi2, rel, lam, step, it.seconds,
-                it.accepted ? "" : "  rejected");
+  char reuse[48] = "";
+  if (it.reused_factorization) std::snprintf(reuse, sizeof(reuse), "  reused factorisation (%d CG)", it.cg_iterations);
+  std::snprintf(buf, sizeof(buf), "%5d  %16.9g  %s  %s  %s  %9.3f%s%s", it.iteration, it.chi2, rel, lam, step,
+                it.seconds, it.accepted ? "" : "  rejected", reuse);
   return buf;
 }
 
@@ -97,6 +99,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     return 2;
   }
   options.num_threads = cmd.threads;
+  options.max_reuse_iterations = cmd.max_reuse_iterations;
   std::string why;
   if (!options.IsValid(&why)) {
     err << "tether optimize: " << why << "\n";

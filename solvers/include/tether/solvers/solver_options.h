@@ -46,6 +46,12 @@ struct IterationSummary {
   double seconds = 0;            ///< since the solve started
   bool accepted = true;          ///< LM: whether the step was kept
   int step_halvings = 0;         ///< LM: times an undamped step was halved (max_step_halvings)
+  /// The step was solved with the factorisation of an earlier H and conjugate gradients
+  /// (max_reuse_iterations) instead of a new factorisation.
+  bool reused_factorization = false;
+  /// Conjugate-gradient iterations of that solve (0 where the earlier factorisation's own
+  /// solve was accurate enough, or where H was factorised afresh).
+  int cg_iterations = 0;
 };
 
 struct SolverOptions {
@@ -82,6 +88,13 @@ struct SolverOptions {
   /// often run several times at once (tests, benchmarks, a batch); docs/solvers.md has the
   /// measurements.
   int num_threads = 1;
+  /// cholmod and ldlt: the step is first solved by conjugate gradients preconditioned with
+  /// the factorisation of an earlier H, at most this many iterations, and H is factorised
+  /// afresh only where that does not converge (to 1e-6 in the H-norm of the step, so that the
+  /// linear model's decrease is exact to 1e-12). Near the optimum H hardly changes and a
+  /// few iterations replace a factorisation; 0 factorises every step. docs/solvers.md has the
+  /// measurements behind the default.
+  int max_reuse_iterations = 8;
   /// Called after every iteration (and once for iteration 0).
   std::function<void(const IterationSummary&)> callback;
 
@@ -97,6 +110,7 @@ struct SolverSummary {
   double final_chi2 = 0;
   int iterations = 0;  ///< iterations tried (accepted or not)
   int accepted_iterations = 0;
+  int factorizations = 0;  ///< numeric factorisations (iterations less those that reused one)
   double total_seconds = 0;
   double setup_seconds = 0;      ///< symbolic analysis and structure
   double linearize_seconds = 0;  ///< evaluating factors and assembling
