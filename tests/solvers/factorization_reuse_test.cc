@@ -5,19 +5,14 @@
 
 #include <cmath>
 
+#include "testing/simulated.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/tools/simulate.h"
 
 namespace tether {
 namespace {
 
-SimulatedGraph Sim(SimWorld w, int poses) {
-  SimulateOptions o;
-  o.world = w;
-  o.poses = poses;
-  o.seed = 11;
-  return Simulate(o);
-}
+SimulatedGraph Sim(SimWorld w, int poses) { return testing::SimulateWorld(w, poses, 11); }
 
 struct Case {
   SimWorld world;

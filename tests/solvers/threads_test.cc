@@ -7,6 +7,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "testing/simulated.h"
 #include "tether/factors/between_se2.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/tools/simulate.h"
@@ -14,14 +15,7 @@
 namespace tether {
 namespace {
 
-SimulatedGraph Sim(SimWorld world, int poses) {
-  SimulateOptions o;
-  o.world = world;
-  o.poses = poses;
-  o.seed = 7;
-  o.landmarks = 60;
-  return Simulate(o);
-}
+SimulatedGraph Sim(SimWorld world, int poses) { return testing::SimulateWorld(world, poses, 7, 60); }
 
 // Every parameter of every variable, bit for bit.
 void ExpectBitIdentical(const Values& a, const Values& b) {
