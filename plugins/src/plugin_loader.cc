@@ -133,19 +133,28 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     throw PluginError("plugin " + path + " ('" + name +
                       "'): registration threw something that is not a std::exception; nothing of it was registered");
   }
-  // Commit all types at once: a trial copy takes them first, so a conflict leaves the
-  // registry exactly as it was.
-  Registry trial = registry_;
+  // All types or none: a trial copy takes them first, so a conflict leaves the registry
+  // exactly as it was. Then the same types go into the registry itself, added beside the
+  // entries already there: a FactorType found before the load stays where it is (replacing
+  // the registry by the copy would free every one of them).
   LoadedPlugin loaded{name, d->version ? d->version : "", path, {}};
-  try {
-    for (const FactorType& t : registrar.factor_types()) {
-      trial.Register(t);
-      loaded.type_names.push_back(t.name);
+  {
+    Registry trial = registry_;
+    try {
+      for (const FactorType& t : registrar.factor_types()) {
+        trial.Register(t);
+        loaded.type_names.push_back(t.name);
+      }
+    } catch (const Error& e) {
+      throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
     }
-  } catch (const Error& e) {
-    throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
   }
-  registry_ = std::move(trial);
+  try {
+    for (const FactorType& t : registrar.factor_types()) registry_.Register(t);
+  } catch (...) {
+    registry_.RemoveOwner(name);  // not expected: the trial took the same types
+    throw;
+  }
   loaded_.push_back(std::move(loaded));
   return loaded_.back();
 }

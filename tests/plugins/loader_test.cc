@@ -205,6 +205,31 @@ TEST_F(LoaderTest, PluginFactorsOutliveTheLoaderAndTheRegistry) {
   EXPECT_EQ(copy->Measurement(), (std::vector<double>{1, 2}));
 }
 
+TEST_F(LoaderTest, TypesFoundBeforeALoadStayValidAfterIt) {
+  // Lifetime rule: a FactorType found in the registry stays where it is until its owner is
+  // removed; loading another plugin (or failing to) moves none of them.
+  const FactorType* builtin = registry_.FindByTag("EDGE_SE2");
+  ASSERT_NE(builtin, nullptr);
+  loader_.Load(TestPlugin("good"));
+  const FactorType* good = registry_.FindByTag("TEST_GOOD_PRIOR");
+  ASSERT_NE(good, nullptr);
+  EXPECT_EQ(registry_.FindByTag("EDGE_SE2"), builtin);
+  Refused(TestPlugin("dup_builtin_tag"));  // a refusal on a conflict does not move them either
+  loader_.Load(TestPlugin("dup_tag_a"));
+  const FactorType* shared = registry_.FindByTag("TEST_SHARED_TAG");
+  ASSERT_NE(shared, nullptr);
+  Refused(TestPlugin("dup_tag_b"));
+  EXPECT_EQ(registry_.FindByTag("TEST_SHARED_TAG"), shared);
+  EXPECT_EQ(registry_.FindByTag("EDGE_SE2"), builtin);
+  EXPECT_EQ(registry_.FindByTag("TEST_GOOD_PRIOR"), good);
+  // And they still work: a factor made through the pointer found first.
+  const double z[2] = {1, 2};
+  const std::unique_ptr<Factor> f = good->make({3}, z, SqrtInformation::Identity(2));
+  Values values;
+  values.InsertPoint2(3, Eigen::Vector2d(1, 2));
+  EXPECT_DOUBLE_EQ(f->Chi2(values), 0.0);
+}
+
 TEST_F(LoaderTest, RemoveOwnerUnregistersAPluginAndLoadingItAgainRegistersItAgain) {
   const std::string before = Snapshot(registry_);
   const LoadedPlugin first = loader_.Load(TestPlugin("good"));

@@ -61,6 +61,8 @@ class Registry {
   /// Removes every type registered by `owner`; returns how many.
   int RemoveOwner(const std::string& owner);
 
+  /// The pointers stay valid until that type's owner is removed (RemoveOwner) or the registry
+  /// is destroyed; registering other types does not move them.
   const FactorType* FindByTag(const std::string& tag) const;
   const FactorType* FindByName(const std::string& name) const;
   const std::map<std::string, FactorType>& types() const { return by_name_; }

@@ -9,7 +9,9 @@
 // Lifetime: a loaded plugin stays loaded for the rest of the process (it is never
 // dlclose'd), so factors it created stay valid whatever happens to the loader. Its types
 // stay registered until Registry::RemoveOwner(plugin name), which is only safe once no
-// factor of those types exists.
+// factor of those types exists. A FactorType pointer or reference found in the registry
+// (FindByTag, FindByName) stays valid until its own owner is removed: loading other plugins,
+// or failing to, moves no registered type.
 #include <string>
 #include <vector>
 
