@@ -670,6 +670,10 @@ TEST(ExamplePluginsCliTest, OptimizeReadsAndWritesPluginTags) {
   const std::string written = slurp(out), output = slurp(log);
   for (const std::string& path : {in, out, log}) std::remove(path.c_str());
   ASSERT_EQ(status, 0) << command << "\n" << output;
+  // One line per plugin, the count in words that agree with it.
+  EXPECT_NE(output.find("loaded plugin range_2d"), std::string::npos) << output;
+  EXPECT_NE(output.find("(1 factor type)\n"), std::string::npos) << output;
+  EXPECT_NE(output.find("(2 factor types)\n"), std::string::npos) << output;
   EXPECT_NE(written.find("EDGE_RANGE_SE2_XY 0 10 5.0990195135927845 100\n"), std::string::npos) << written;
   EXPECT_NE(written.find("EDGE_POSITION_PRIOR_SE2 0 0 0 100 0 100\n"), std::string::npos) << written;
   // The solution: poses at (0,0), (1,0), (2,0) with the beacon at (1, 5).

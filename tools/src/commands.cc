@@ -47,8 +47,9 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
   for (const std::string& p : plugins) {
     try {
       const LoadedPlugin l = loader->Load(p);
-      out << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << l.type_names.size()
-          << " factor types)\n";
+      const std::size_t n = l.type_names.size();
+      out << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << n
+          << (n == 1 ? " factor type)\n" : " factor types)\n");
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
       return false;
