@@ -134,8 +134,8 @@ void Registry::Register(FactorType type) {
     const auto same_tag = tag_to_name_.find(type.tag);
     if (same_tag != tag_to_name_.end()) {
       throw InvalidArgument("cannot register factor type " + Owned(type) + ": the g2o tag '" + type.tag +
-                            "' is taken already by " + Owned(by_name_.at(same_tag->second)) +
-                            "; choose another tag" + UnloadHint(by_name_.at(same_tag->second)));
+                            "' is taken already by " + Owned(by_name_.at(same_tag->second)) + "; choose another tag" +
+                            UnloadHint(by_name_.at(same_tag->second)));
     }
     if (type.tag.find_first_of(" \t\r\n") != std::string::npos || type.tag[0] == '#') {
       incomplete("the g2o tag '" + type.tag + "' contains blanks or starts with '#'; use one word");
@@ -155,9 +155,26 @@ void Registry::Register(FactorType type) {
       incomplete("it has a g2o tag but neither `measurement` (standard layout) nor `write`; give one of them");
     }
   }
-  if (!type.tag.empty()) tag_to_name_[type.tag] = type.name;
-  const std::string name = type.name;
-  by_name_.emplace(name, std::move(type));
+  // The type first, then its tag: if adding the tag runs out of memory, the type is taken out
+  // again and the registry is as it was.
+  const std::string name = type.name, tag = type.tag;
+  const auto added = by_name_.emplace(name, std::move(type)).first;
+  if (!tag.empty()) {
+    try {
+      tag_to_name_.emplace(tag, name);
+    } catch (...) {
+      by_name_.erase(added);
+      throw;
+    }
+  }
+}
+
+bool Registry::Remove(const std::string& name) {
+  const auto it = by_name_.find(name);
+  if (it == by_name_.end()) return false;
+  if (!it->second.tag.empty()) tag_to_name_.erase(it->second.tag);
+  by_name_.erase(it);
+  return true;
 }
 
 int Registry::RemoveOwner(const std::string& owner) {

@@ -149,10 +149,17 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
     }
   }
+  loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
+  std::size_t committed = 0;
   try {
-    for (const FactorType& t : registrar.factor_types()) registry_.Register(t);
+    for (const FactorType& t : registrar.factor_types()) {
+      registry_.Register(t);
+      ++committed;
+    }
   } catch (...) {
-    registry_.RemoveOwner(name);  // not expected: the trial took the same types
+    // Not expected (the trial took the same types), short of memory: take back exactly
+    // what this load added.
+    for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     throw;
   }
   loaded_.push_back(std::move(loaded));

@@ -176,19 +176,29 @@ class SpdSolver {
  public:
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
     UpperTriangle(A);
-    if (!analysed_) {
-      chol_->Analyze(upper_);
-      analysed_ = true;
+    Eigen::MatrixXd X(B.rows(), B.cols());
+    internal::FactorResult r = internal::FactorResult::kFailed;
+    try {
+      if (!analysed_) {
+        chol_->Analyze(upper_);
+        analysed_ = true;
+      }
+      r = chol_->Factorize(upper_);
+      for (Eigen::Index c = 0; r == internal::FactorResult::kOk && c < B.cols(); ++c) {
+        const Eigen::VectorXd b = B.col(c);
+        chol_->Solve(b.data(), X.col(c).data());
+      }
+    } catch (const Error&) {
+      r = internal::FactorResult::kFailed;  // CHOLMOD itself failed (out of memory)
     }
-    if (chol_->Factorize(upper_) != internal::FactorResult::kOk) {
+    if (r == internal::FactorResult::kFailed) {
+      throw InvalidArgument(std::string("chordal initialisation: CHOLMOD failed on the ") + what +
+                            " system (out of memory?); use --init spanning-tree or --init file");
+    }
+    if (r != internal::FactorResult::kOk) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what +
                             " system is singular (a pose is tied to the others by measurements that fix too "
                             "little of it); use --init spanning-tree or --init file");
-    }
-    Eigen::MatrixXd X(B.rows(), B.cols());
-    for (Eigen::Index c = 0; c < B.cols(); ++c) {
-      const Eigen::VectorXd b = B.col(c);
-      chol_->Solve(b.data(), X.col(c).data());
     }
     if (!X.allFinite()) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what + " system gave non-finite values");

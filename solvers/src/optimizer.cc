@@ -110,6 +110,15 @@ class StepSolver {
     return r;
   }
 
+  /// The linear model's decrease of chi2 along d, -2 g.d - d^T H d (H undamped; dDd = d^T D d).
+  /// For a step solved exactly, (H + lambda D) d = -g turns it into -g.d + lambda d^T D d; a
+  /// step from conjugate gradients is exact only to their tolerance, so H d is formed.
+  double PredictedDecrease(const std::vector<double>& d, double lambda, double dDd, bool reused) {
+    if (!reused) return -Dot(g_, d) + lambda * dDd;
+    MultiplyH(d, &hp_);  // (H + lambda D) d
+    return -2 * Dot(g_, d) - (Dot(d, hp_) - lambda * dDd);
+  }
+
   const std::vector<double>& gradient() const { return g_; }
   double ClampedDiag(std::size_t i) const { return std::clamp(diag_[i], 1e-6, 1e32); }
 
@@ -361,7 +370,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     // Predicted decrease of the linear model: -2 g.d - d^T H d = -g.d + lambda d^T D d.
     double dDd = 0;
     for (int i = 0; i < n; ++i) dDd += delta[i] * delta[i] * solver->ClampedDiag(i);
-    const double predicted = -Dot(solver->gradient(), delta) + lambda * dDd;
+    const double predicted = solver->PredictedDecrease(delta, lambda, dDd, it.reused_factorization);
     const double x_norm = p.ParameterNorm();
     if (lm) p.Save();
     p.Retract(delta.data());

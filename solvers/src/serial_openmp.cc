@@ -28,7 +28,8 @@ Runtime FindRuntime() {
     if (handle == nullptr) continue;
     r.get = reinterpret_cast<GetLevels>(dlsym(handle, "omp_get_max_active_levels"));
     r.set = reinterpret_cast<SetLevels>(dlsym(handle, "omp_set_max_active_levels"));
-    dlclose(handle);  // RTLD_NOLOAD took a reference; the library stays loaded by its owner
+    // The handle (a reference RTLD_NOLOAD took) is kept for good: the pointers above must
+    // stay valid even if whoever loaded the runtime unloads it.
   }
   if (r.get == nullptr || r.set == nullptr) r = Runtime{};
   return r;

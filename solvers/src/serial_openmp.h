@@ -12,8 +12,10 @@
 // parallel regions that thread opens (CHOLMOD's) get a team of one thread; at the end of the
 // outermost one the thread's value is put back. The setting is per thread (OpenMP 5, and
 // libgomp since GCC 11): other threads' regions are not touched. Construct and destroy on the
-// same thread (a scoped local). The runtime is found among the libraries already loaded (the one
-// CHOLMOD brought in); where none is loaded, nothing happens.
+// same thread (a scoped local). (With an older runtime that keeps the setting process-wide,
+// two solves on different threads that overlap can leave it at 0 for the process: OpenMP
+// regions elsewhere then run with one thread. Debian 12's GCC 12 keeps it per thread.) The runtime is found among the
+// libraries already loaded (the one CHOLMOD brought in); where none is loaded, nothing happens.
 namespace tether {
 namespace internal {
 

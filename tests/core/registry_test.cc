@@ -218,6 +218,23 @@ TEST(RegistryTest, RemoveOwnerRemovesOnlyThatOwnersTypesAndFreesTheirTags) {
   EXPECT_EQ(r.FindByTag("TAG_A")->owner, "plug2");
 }
 
+TEST(RegistryTest, RemoveTakesOutOneTypeAndItsTagAndLeavesTheOthersInPlace) {
+  Registry r = Builtins();
+  r.Register(StandardPointPriorType("A", "TAG_A", "plug"));
+  r.Register(StandardPointPriorType("B", "TAG_B", "plug"));
+  const FactorType* b = r.FindByName("B");
+  const FactorType* between = r.FindByName("BetweenSE2");
+  EXPECT_TRUE(r.Remove("A"));
+  EXPECT_EQ(r.FindByName("A"), nullptr);
+  EXPECT_EQ(r.FindByTag("TAG_A"), nullptr);
+  EXPECT_EQ(r.FindByName("B"), b);
+  EXPECT_EQ(r.FindByTag("TAG_B"), b);
+  EXPECT_EQ(r.FindByName("BetweenSE2"), between);
+  EXPECT_FALSE(r.Remove("A"));
+  EXPECT_NO_THROW(r.Register(StandardPointPriorType("A2", "TAG_A", "plug")));
+  EXPECT_EQ(r.FindByTag("TAG_A")->name, "A2");
+}
+
 TEST(RegistryTest, ReadsStandardEdgeSE2) {
   const Registry r = Builtins();
   const Fields f("g.g2o", 4, "EDGE_SE2 3 8 0.5 -0.25 0.1 10 1 2 20 3 30");

@@ -60,6 +60,9 @@ class Registry {
   void Register(FactorType type);
   /// Removes every type registered by `owner`; returns how many.
   int RemoveOwner(const std::string& owner);
+  /// Removes the type of that name (and its tag); false if there is none. Only safe once no
+  /// factor of the type exists.
+  bool Remove(const std::string& name);
 
   /// The pointers stay valid until that type's owner is removed (RemoveOwner) or the registry
   /// is destroyed; registering other types does not move them.

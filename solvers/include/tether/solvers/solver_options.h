@@ -90,9 +90,9 @@ struct SolverOptions {
   int num_threads = 1;
   /// cholmod and ldlt: the step is first solved by conjugate gradients preconditioned with
   /// the factorisation of an earlier H, at most this many iterations, and H is factorised
-  /// afresh only where that does not converge (to 1e-6 in the H-norm of the step, so that the
-  /// linear model's decrease is exact to 1e-12). Near the optimum H hardly changes and a
-  /// few iterations replace a factorisation; 0 factorises every step. docs/solvers.md has the
+  /// afresh only where that does not converge (to 1e-3 of the step in the H-norm, as estimated
+  /// with the earlier factorisation; the linear model's decrease is then within about 1e-6). Near the optimum H hardly
+  /// changes and a few iterations replace a factorisation; 0 factorises every step. docs/solvers.md has the
   /// measurements behind the default.
   int max_reuse_iterations = 8;
   /// Called after every iteration (and once for iteration 0).
@@ -115,7 +115,8 @@ struct SolverSummary {
   double setup_seconds = 0;      ///< symbolic analysis and structure
   double linearize_seconds = 0;  ///< evaluating factors and assembling
   double factorize_seconds = 0;  ///< numeric factorisations
-  double solve_seconds = 0;      ///< triangular solves (the step)
+  double solve_seconds = 0;      ///< solving for the step: triangular solves, and the conjugate
+                                 ///< gradients of steps that reuse a factorisation (tried or not)
   /// The last numeric factorisation alone (the final H has the same pattern and cost):
   /// factorising it once per iteration is the floor of factorize_seconds.
   double last_factorize_seconds = 0;
