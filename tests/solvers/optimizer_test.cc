@@ -104,7 +104,7 @@ TEST(OptimizerTest, LinearSolversAgree) {
 TEST(OptimizerTest, LevenbergMarquardtNeverRaisesChi2) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
-  SolverOptions o;  // the default starts undamped, so that rejections happen
+  SolverOptions o;          // the default starts undamped, so that rejections happen
   o.max_step_halvings = 0;  // (with halvings, this start has no rejections)
   int rejected = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
