@@ -326,24 +326,29 @@ class Reader {
   long first_odd_quaternion_line_ = 0;
 };
 
-void WriteVertex(std::ostream& out, Key k, VarType t, const double* p) {
+// Appends a vertex line (with its newline) to *line.
+void AppendVertex(std::string* line, Key k, VarType t, const double* p) {
   switch (t) {
     case VarType::kSE2:
-      out << kVertexSE2;
+      line->append(kVertexSE2);
       break;
     case VarType::kSE3:
-      out << kVertexSE3;
+      line->append(kVertexSE3);
       break;
     case VarType::kPoint2:
-      out << kVertexXY;
+      line->append(kVertexXY);
       break;
     case VarType::kPoint3:
-      out << kVertexXYZ;
+      line->append(kVertexXYZ);
       break;
   }
-  out << ' ' << k;
-  for (int i = 0; i < AmbientDim(t); ++i) out << ' ' << FormatDouble(p[i]);
-  out << '\n';
+  line->push_back(' ');
+  AppendKey(line, k);
+  for (int i = 0; i < AmbientDim(t); ++i) {
+    line->push_back(' ');
+    AppendDouble(line, p[i]);
+  }
+  line->push_back('\n');
 }
 
 std::string ErrnoText() { return std::strerror(errno); }
@@ -393,15 +398,36 @@ GraphFile ReadGraphFile(const std::string& path, const Registry& registry, const
 }
 
 void WriteG2o(std::ostream& out, const Values& values, const FactorGraph& graph, const Registry& registry) {
-  for (Key k : values.keys()) WriteVertex(out, k, values.TypeOf(k), values.Params(k));
-  for (Key k : graph.fixed()) out << kFix << ' ' << k << '\n';
+  // Lines are gathered in one buffer, handed to the stream every 64 KiB or so.
+  std::string buf;
+  buf.reserve(1 << 17);
+  const auto flush = [&](bool always) {
+    if (always || buf.size() >= (1 << 16)) {
+      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
+    }
+  };
+  for (Key k : values.keys()) {
+    AppendVertex(&buf, k, values.TypeOf(k), values.Params(k));
+    flush(false);
+  }
+  for (Key k : graph.fixed()) {
+    buf.append(kFix);
+    buf.push_back(' ');
+    AppendKey(&buf, k);
+    buf.push_back('\n');
+    flush(false);
+  }
   for (std::size_t i = 0; i < graph.size(); ++i) {
     try {
-      out << registry.Write(graph.at(i)) << '\n';
+      registry.AppendLine(graph.at(i), &buf);
     } catch (const InvalidArgument& e) {
       throw InvalidArgument("factor #" + std::to_string(i) + ": " + e.what());
     }
+    buf.push_back('\n');
+    flush(false);
   }
+  flush(true);
   if (!out) throw IoError("writing the g2o graph failed (stream error); check the disk space and the output");
 }
 

@@ -64,14 +64,17 @@ std::string Short(double v) {
 // units in the 16th digit of that scale; printing to 15 digits of it gives the file's numbers
 // back (10 rather than 10.000000000000002, 0.050542 rather than 0.0505420000000001) and loses
 // nothing the square root kept.
-std::string FormatInformation(double v, double scale) {
-  if (!(std::abs(v) > 1e-15 * scale)) return "0";  // also turns -0 into 0
+void AppendInformation(std::string* s, double v, double scale) {
+  if (!(std::abs(v) > 1e-15 * scale)) {  // also turns -0 into 0
+    s->push_back('0');
+    return;
+  }
   const int digits = std::clamp(15 - static_cast<int>(std::ceil(std::log10(scale / std::abs(v)) - 1e-9)), 1, 17);
   // to_chars with a precision prints exactly as "%.*g" does, at a fraction of snprintf's cost
   // (writing intel.g2o: 56M of its 82M instructions were snprintf).
   char buf[40];
   const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
-  return std::string(buf, r.ptr);
+  s->append(buf, r.ptr);
 }
 
 // What else a user can do about a clash: a plugin's types can be removed, built-in ones cannot.
@@ -82,11 +85,23 @@ std::string UnloadHint(const FactorType& holder) {
 
 }  // namespace
 
-std::string FormatDouble(double v) {
+void AppendDouble(std::string* s, double v) {
   // std::to_chars without a format gives the shortest text that reads back as the same double.
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
+  s->append(buf, r.ptr);
+}
+
+void AppendKey(std::string* s, Key k) {
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, k);
+  s->append(buf, r.ptr);
+}
+
+std::string FormatDouble(double v) {
+  std::string s;
+  AppendDouble(&s, v);
+  return s;
 }
 
 SqrtInformation ReadContext::FromInformation(const Fields& f, Eigen::MatrixXd omega) {
@@ -229,6 +244,12 @@ std::unique_ptr<Factor> Registry::Read(const FactorType& type, const Fields& f, 
 }
 
 std::string Registry::Write(const Factor& factor) const {
+  std::string s;
+  AppendLine(factor, &s);
+  return s;
+}
+
+void Registry::AppendLine(const Factor& factor, std::string* line) const {
   const FactorType* type = FindByName(factor.type_name());
   if (!type) {
     throw InvalidArgument("cannot write a factor of type '" + factor.type_name() +
@@ -238,21 +259,32 @@ std::string Registry::Write(const Factor& factor) const {
     throw InvalidArgument("cannot write a factor of type '" + type->name +
                           "': it has no g2o tag, so g2o files cannot hold it");
   }
-  if (type->write) return type->write(factor);
+  if (type->write) {
+    line->append(type->write(factor));
+    return;
+  }
   const std::vector<double> m = type->measurement ? type->measurement(factor) : factor.Measurement();
   if (static_cast<int>(m.size()) != type->measurement_size) {
     throw InvalidArgument("cannot write a factor of type '" + type->name + "': its measurement has " +
                           std::to_string(m.size()) + " numbers, the type declares " +
                           std::to_string(type->measurement_size));
   }
-  std::string s = type->tag;
-  for (Key k : factor.keys()) s += " " + std::to_string(k);
-  for (double v : m) s += " " + FormatDouble(v);
+  line->append(type->tag);
+  for (Key k : factor.keys()) {
+    line->push_back(' ');
+    AppendKey(line, k);
+  }
+  for (double v : m) {
+    line->push_back(' ');
+    AppendDouble(line, v);
+  }
   const Eigen::MatrixXd info = factor.noise().Information();
-  for (int i = 0; i < info.rows(); ++i)
-    for (int j = i; j < info.cols(); ++j)
-      s += " " + FormatInformation(info(i, j), std::sqrt(std::abs(info(i, i) * info(j, j))));
-  return s;
+  for (int i = 0; i < info.rows(); ++i) {
+    for (int j = i; j < info.cols(); ++j) {
+      line->push_back(' ');
+      AppendInformation(line, info(i, j), std::sqrt(std::abs(info(i, i) * info(j, j))));
+    }
+  }
 }
 
 }  // namespace tether

@@ -442,6 +442,21 @@ TEST(RegistryTest, WritesTheInformationAsTheFileHadIt) {
   }
 }
 
+// AppendLine adds to what the buffer holds, the same text as Write, for the standard layout
+// and a custom writer alike.
+TEST(RegistryTest, AppendLineAppendsWhatWriteReturns) {
+  Registry r = Builtins();
+  r.Register(PointPriorType());
+  const PointPrior custom(5, Eigen::Vector2d(1.5, 2.5), SqrtInformation::Isotropic(2, 0.5));
+  const BetweenSE2 standard(3, 4, SE2d(0.5, -0.25, 0.1), SqrtInformation::Isotropic(3, 2.0));
+  std::string buf = "before|";
+  r.AppendLine(standard, &buf);
+  buf += "|";
+  r.AppendLine(custom, &buf);
+  EXPECT_EQ(buf, "before|" + r.Write(standard) + "|" + r.Write(custom));
+  EXPECT_EQ(r.Write(standard), "EDGE_SE2 3 4 0.5 -0.25 0.1 0.25 0 0 0.25 0 0.25");  // sigma 2
+}
+
 TEST(RegistryTest, WriteThenReadGivesTheSameFactor) {
   const Registry r = Builtins();
   Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Random();

@@ -74,6 +74,8 @@ class Registry {
   std::unique_ptr<Factor> Read(const FactorType& type, const Fields& f, ReadContext& ctx) const;
   /// Writes a factor as one g2o line (without newline); throws if its type has no tag.
   std::string Write(const Factor& factor) const;
+  /// The same line appended to *line (a buffer the caller reuses: no string per call).
+  void AppendLine(const Factor& factor, std::string* line) const;
 
  private:
   std::map<std::string, FactorType> by_name_;
@@ -82,5 +84,9 @@ class Registry {
 
 /// Formats a double with enough digits to read back the same value.
 std::string FormatDouble(double v);
+/// The same text appended to *s.
+void AppendDouble(std::string* s, double v);
+/// A key's decimal text appended to *s.
+void AppendKey(std::string* s, Key k);
 
 }  // namespace tether
