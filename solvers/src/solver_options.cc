@@ -123,7 +123,9 @@ std::string SolverSummary::FullReport() const {
   std::snprintf(buf, sizeof(buf), "%.9g", final_chi2);
   o << "  final chi2         " << buf << "\n";
   o << "  iterations         " << iterations << " (" << accepted_iterations << " accepted";
-  if (algorithm != Algorithm::kCeres) o << ", " << factorizations << " factorisations";
+  if (algorithm != Algorithm::kCeres) {
+    o << ", " << factorizations << (factorizations == 1 ? " factorisation" : " factorisations");
+  }
   o << ")\n";
   std::snprintf(buf, sizeof(buf), "%.3f s (setup %.3f, linearise %.3f, factorise %.3f, solve %.3f)", total_seconds,
                 setup_seconds, linearize_seconds, factorize_seconds, solve_seconds);
