@@ -86,22 +86,59 @@ Eigen::MatrixXd SqrtInformation::Information() const {
   return r.transpose() * r;
 }
 
-void SqrtInformation::WhitenVector(double* v) const {
-  // R is upper triangular: row i only reads entries i..n-1, so in-place works top-down.
-  for (int i = 0; i < dim_; ++i) {
-    double s = 0;
-    for (int j = i; j < dim_; ++j) s += r_[i * dim_ + j] * v[j];
-    v[i] = s;
+namespace {
+
+// M = R M for a row-major M of D rows and C columns, in place. R is upper triangular: row i
+// only reads rows i..D-1 of M, so top-down works. D and C known at compile time (the sizes of
+// the built-in factors) let the compiler unroll it; the same sums in the same order as the
+// general loop.
+template <int D, int C>
+void WhitenFixed(const double* r, double* m) {
+  for (int i = 0; i < D; ++i) {
+    for (int c = 0; c < C; ++c) {
+      double s = 0;
+      for (int j = i; j < D; ++j) s += r[i * D + j] * m[j * C + c];
+      m[i * C + c] = s;
+    }
   }
 }
 
-void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
-  for (int i = 0; i < dim_; ++i) {
+void WhitenAny(const double* r, int dim, double* m, int cols) {
+  for (int i = 0; i < dim; ++i) {
     for (int c = 0; c < cols; ++c) {
       double s = 0;
-      for (int j = i; j < dim_; ++j) s += r_[i * dim_ + j] * m[j * cols + c];
+      for (int j = i; j < dim; ++j) s += r[i * dim + j] * m[j * cols + c];
       m[i * cols + c] = s;
     }
+  }
+}
+
+}  // namespace
+
+void SqrtInformation::WhitenVector(double* v) const { WhitenRowMajor(v, 1); }
+
+void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
+  // The residual and Jacobian blocks of the built-in factors: SE2 (3; 3 columns), SE2 to a
+  // point (2; 3 and 2), SE3 (6; 6), SE3 to a point (3; 6 and 3), the residual itself (1).
+  switch (cols < 8 ? dim_ * 8 + cols : -1) {
+    case 3 * 8 + 1:
+      return WhitenFixed<3, 1>(r_, m);
+    case 3 * 8 + 3:
+      return WhitenFixed<3, 3>(r_, m);
+    case 2 * 8 + 1:
+      return WhitenFixed<2, 1>(r_, m);
+    case 2 * 8 + 2:
+      return WhitenFixed<2, 2>(r_, m);
+    case 2 * 8 + 3:
+      return WhitenFixed<2, 3>(r_, m);
+    case 6 * 8 + 1:
+      return WhitenFixed<6, 1>(r_, m);
+    case 6 * 8 + 6:
+      return WhitenFixed<6, 6>(r_, m);
+    case 3 * 8 + 6:
+      return WhitenFixed<3, 6>(r_, m);
+    default:
+      return WhitenAny(r_, dim_, m, cols);
   }
 }
 
