@@ -88,59 +88,46 @@ Eigen::MatrixXd SqrtInformation::Information() const {
 
 namespace {
 
-// M = R M for a row-major M of D rows and C columns, in place. R is upper triangular: row i
-// only reads rows i..D-1 of M, so top-down works. D and C known at compile time (the sizes of
-// the built-in factors) let the compiler unroll it; the same sums in the same order as the
-// general loop.
+// M = R M for a row-major M of `dim` rows and `cols` columns, in place. R is upper
+// triangular: row i only reads rows i..dim-1 of M, so top-down works. Where D and C are
+// positive they are the sizes, known at compile time (those of the built-in factors), and the
+// compiler unrolls the loops; the sums are the same, in the same order, either way.
 template <int D, int C>
-void WhitenFixed(const double* r, double* m) {
-  for (int i = 0; i < D; ++i) {
-    for (int c = 0; c < C; ++c) {
+void Whiten(const double* r, int dim, double* m, int cols) {
+  const int rows = D > 0 ? D : dim, n = C > 0 ? C : cols;
+  for (int i = 0; i < rows; ++i) {
+    for (int c = 0; c < n; ++c) {
       double s = 0;
-      for (int j = i; j < D; ++j) s += r[i * D + j] * m[j * C + c];
-      m[i * C + c] = s;
+      for (int j = i; j < rows; ++j) s += r[i * rows + j] * m[j * n + c];
+      m[i * n + c] = s;
     }
   }
 }
 
-void WhitenAny(const double* r, int dim, double* m, int cols) {
-  for (int i = 0; i < dim; ++i) {
-    for (int c = 0; c < cols; ++c) {
-      double s = 0;
-      for (int j = i; j < dim; ++j) s += r[i * dim + j] * m[j * cols + c];
-      m[i * cols + c] = s;
-    }
+using WhitenFn = void (*)(const double*, int, double*, int);
+
+// The kernel for `dim` rows and `cols` columns: the residual and Jacobian blocks of the
+// built-in factors (SE2: 3 x 3; SE2 to a point: 2 x 3 and 2 x 2; SE3: 6 x 6; SE3 to a point:
+// 3 x 6 and 3 x 3; residuals: dim x 1) have their own, anything else the general one.
+WhitenFn KernelFor(int dim, int cols) {
+  struct Entry {
+    int dim, cols;
+    WhitenFn fn;
+  };
+  static constexpr Entry kFixed[] = {{3, 1, Whiten<3, 1>}, {3, 3, Whiten<3, 3>}, {2, 1, Whiten<2, 1>},
+                                     {2, 2, Whiten<2, 2>}, {2, 3, Whiten<2, 3>}, {6, 1, Whiten<6, 1>},
+                                     {6, 6, Whiten<6, 6>}, {3, 6, Whiten<3, 6>}};
+  for (const Entry& e : kFixed) {
+    if (e.dim == dim && e.cols == cols) return e.fn;
   }
+  return Whiten<0, 0>;
 }
 
 }  // namespace
 
 void SqrtInformation::WhitenVector(double* v) const { WhitenRowMajor(v, 1); }
 
-void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
-  // The residual and Jacobian blocks of the built-in factors: SE2 (3; 3 columns), SE2 to a
-  // point (2; 3 and 2), SE3 (6; 6), SE3 to a point (3; 6 and 3), the residual itself (1).
-  switch (cols < 8 ? dim_ * 8 + cols : -1) {
-    case 3 * 8 + 1:
-      return WhitenFixed<3, 1>(r_, m);
-    case 3 * 8 + 3:
-      return WhitenFixed<3, 3>(r_, m);
-    case 2 * 8 + 1:
-      return WhitenFixed<2, 1>(r_, m);
-    case 2 * 8 + 2:
-      return WhitenFixed<2, 2>(r_, m);
-    case 2 * 8 + 3:
-      return WhitenFixed<2, 3>(r_, m);
-    case 6 * 8 + 1:
-      return WhitenFixed<6, 1>(r_, m);
-    case 6 * 8 + 6:
-      return WhitenFixed<6, 6>(r_, m);
-    case 3 * 8 + 6:
-      return WhitenFixed<3, 6>(r_, m);
-    default:
-      return WhitenAny(r_, dim_, m, cols);
-  }
-}
+void SqrtInformation::WhitenRowMajor(double* m, int cols) const { KernelFor(dim_, cols)(r_, dim_, m, cols); }
 
 const char* ToString(InformationRepair r) {
   switch (r) {
