@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "../src/gauge.h"
+#include "../src/serial_openmp.h"
 #include "tether/core/error.h"
 #include "tether/solvers/ceres_problem.h"
 
@@ -191,7 +192,13 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   s.setup_seconds = SecondsSince(t0);
 
   ceres::Solver::Summary cs;
-  ceres::Solve(co, &problem->problem(), &cs);
+  {
+    // Ceres' SPARSE_NORMAL_CHOLESKY factorises with CHOLMOD on this thread: hold CHOLMOD's
+    // OpenMP teams to one thread as the native solvers do (Ceres' own threads are C++
+    // threads, untouched).
+    internal::SerialOpenMp serial;
+    ceres::Solve(co, &problem->problem(), &cs);
+  }
 
   s.setup_seconds += cs.preprocessor_time_in_seconds;
   s.linearize_seconds = cs.residual_evaluation_time_in_seconds + cs.jacobian_evaluation_time_in_seconds;

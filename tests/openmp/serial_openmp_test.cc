@@ -81,7 +81,7 @@ TEST_F(SerialOpenMpTest, AGuardOnAnotherThreadLeavesThisThreadAlone) {
   EXPECT_EQ(TeamSize(4), 4);
 }
 
-// The CHOLMOD paths (chordal initialisation, analysis, factorisation, solve) leave the
+// The CHOLMOD paths (chordal initialisation, analysis, factorisation, solve; Ceres) leave the
 // runtime as they found it.
 TEST_F(SerialOpenMpTest, ChordalAndCholmodSolveLeaveTheSettingAlone) {
   SimulateOptions so;
@@ -99,6 +99,15 @@ TEST_F(SerialOpenMpTest, ChordalAndCholmodSolveLeaveTheSettingAlone) {
   EXPECT_EQ(s.status, SolverStatus::kConverged) << s.message;
   EXPECT_EQ(omp_get_max_active_levels(), 3);
   EXPECT_EQ(TeamSize(4), 4);
+  // The Ceres adapter (CHOLMOD inside Ceres) too, and its callback runs while the guard lives.
+  Values again = sim.initial;
+  options.algorithm = Algorithm::kCeres;
+  int levels_in_callback = -1;
+  options.callback = [&](const IterationSummary&) { levels_in_callback = omp_get_max_active_levels(); };
+  const SolverSummary c = Optimize(graph, &again, options);
+  EXPECT_EQ(c.status, SolverStatus::kConverged) << c.message;
+  EXPECT_EQ(levels_in_callback, 0);
+  EXPECT_EQ(omp_get_max_active_levels(), 3);
 }
 
 }  // namespace
