@@ -23,7 +23,9 @@
 // - callback: called with every Ceres iteration, mapped to IterationSummary: chi2 = 2 * cost,
 //   relative_decrease = change of chi2 over chi2 before the step, lambda = 1 / (the trust
 //   region radius the step was computed with), step_norm = Ceres' step norm, seconds since
-//   OptimizeWithCeres started, accepted = Ceres' step_is_successful;
+//   OptimizeWithCeres started, accepted = Ceres' step_is_successful (it runs inside
+//   ceres::Solve, where OpenMP regions on the calling thread get one thread: CHOLMOD's teams
+//   are held to one thread there, see docs/solvers.md);
 // - LM damping: Ceres' LM regularises with diag(J^T J) / radius, the radius being the inverse
 //   of tether's lambda; the radius starts at 1 / max(initial_lambda, min_lambda), never
 //   exceeds 1 / min_lambda and the solve ends once it falls below 1 / max_lambda. Ceres cannot
