@@ -367,7 +367,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
       break;
     }
     it.step_norm = std::sqrt(step2);
-    // Predicted decrease of the linear model: -2 g.d - d^T H d = -g.d + lambda d^T D d.
+    // Predicted decrease of the linear model, -2 g.d - d^T H d (StepSolver::PredictedDecrease).
     double dDd = 0;
     for (int i = 0; i < n; ++i) dDd += delta[i] * delta[i] * solver->ClampedDiag(i);
     const double predicted = solver->PredictedDecrease(delta, lambda, dDd, it.reused_factorization);
