@@ -345,17 +345,30 @@ class Chordal {
     }
   }
 
+  // Block (fi, fj) = m of a symmetric system, kept only where the solver reads it: the upper
+  // triangle (SpdSolver drops the rest). An off-diagonal block below it goes in as block
+  // (fj, fi) = m^T, its mirror.
+  static void AddUpperBlock(int fi, int fj, const Matrix& m, std::vector<Eigen::Triplet<double>>* triplets) {
+    const bool mirror = fi > fj;
+    for (int r = 0; r < D; ++r) {
+      for (int c = 0; c < D; ++c) {
+        if (mirror) {
+          triplets->emplace_back(D * fj + c, D * fi + r, m(r, c));
+        } else if (fi < fj || r <= c) {
+          triplets->emplace_back(D * fi + r, D * fj + c, m(r, c));
+        }
+      }
+    }
+  }
+
   // With y_i = column c of R_i^T, R_j = R_i R becomes y_j = R^T y_i for each column c: one
   // sparse system with D right-hand sides, unknowns D per free pose.
   void SolveRotations() {
     if (num_free_ == 0) return;
     std::vector<Eigen::Triplet<double>> triplets;
     Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(D * num_free_, D);
-    triplets.reserve(edges_.size() * 4 * D * D);
-    const auto add_block = [&](int fi, int fj, const Matrix& m) {
-      for (int r = 0; r < D; ++r)
-        for (int c = 0; c < D; ++c) triplets.emplace_back(D * fi + r, D * fj + c, m(r, c));
-    };
+    triplets.reserve(edges_.size() * 3 * D * D);
+    const auto add_block = [&](int fi, int fj, const Matrix& m) { AddUpperBlock(fi, fj, m, &triplets); };
     for (const Edge& e : edges_) {
       const Matrix M = e.R.transpose();  // residual y_j - M y_i
       const int fi = free_[e.i], fj = free_[e.j];
@@ -363,8 +376,7 @@ class Chordal {
       if (fi >= 0) add_block(fi, fi, I);  // kappa M^T M = kappa I
       if (fj >= 0) add_block(fj, fj, I);
       if (fi >= 0 && fj >= 0) {
-        add_block(fi, fj, -e.kappa * M.transpose());
-        add_block(fj, fi, -e.kappa * M);
+        add_block(fi, fj, -e.kappa * M.transpose());  // block (j, i) is its transpose
       } else if (fj >= 0) {
         rhs.block(D * fj, 0, D, D) += e.kappa * M * R_[e.i].transpose();
       } else if (fi >= 0) {
@@ -385,11 +397,8 @@ class Chordal {
     if (num_free_ == 0) return;
     std::vector<Eigen::Triplet<double>> triplets;
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(D * num_free_);
-    triplets.reserve(edges_.size() * 4 * D * D);
-    const auto add_block = [&](int fi, int fj, const Matrix& m) {
-      for (int r = 0; r < D; ++r)
-        for (int c = 0; c < D; ++c) triplets.emplace_back(D * fi + r, D * fj + c, m(r, c));
-    };
+    triplets.reserve(edges_.size() * 3 * D * D);
+    const auto add_block = [&](int fi, int fj, const Matrix& m) { AddUpperBlock(fi, fj, m, &triplets); };
     for (const Edge& e : edges_) {
       const Matrix W = R_[e.j] * e.translation_w * R_[e.j].transpose();
       const Vector c = R_[e.i] * e.t;  // residual t_j - t_i - c
@@ -403,8 +412,7 @@ class Chordal {
         rhs.segment<D>(D * fj) += W * c;
       }
       if (fi >= 0 && fj >= 0) {
-        add_block(fi, fj, -W);
-        add_block(fj, fi, -W);
+        add_block(fi, fj, -W);  // W is symmetric: block (j, i) is the same
       } else if (fj >= 0) {
         rhs.segment<D>(D * fj) += W * t_[e.i];
       } else if (fi >= 0) {
