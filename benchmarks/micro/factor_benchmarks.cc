@@ -31,7 +31,7 @@ void LinearizeLoop(benchmark::State& state, const Factor& f, const std::vector<s
     jac[k].assign(f.dim() * cols[k], 0.0);
     jp.push_back(jac[k].data());
   }
-  double r[kMaxResidualDim];
+  double r[kInlineResidualDim];
   for (auto _ : state) {
     f.Evaluate(p.data(), r, jp.data());
     f.noise().WhitenVector(r);

@@ -25,10 +25,10 @@ void Factor::CheckShape() const {
     throw InvalidArgument(type_name() + " factor has " + std::to_string(keys_.size()) + " keys but its type takes " +
                           std::to_string(n) + "; build it with the right keys");
   }
-  if (dim() < 1 || dim() > kMaxResidualDim || dim() != residual_dim()) {
+  if (dim() < 1 || dim() != residual_dim()) {
     throw InvalidArgument(type_name() + " factor has a noise model of dimension " + std::to_string(dim()) +
                           " for an error of dimension " + std::to_string(residual_dim()) +
-                          "; give it a noise model of the error's dimension (1 to 6)");
+                          "; give it a noise model of the error's dimension");
   }
 }
 
@@ -50,11 +50,17 @@ std::vector<const double*> Factor::GatherParams(const Values& values) const {
   return p;
 }
 
+std::string Factor::Describe() const {
+  std::string s = type_name() + ", keys";
+  for (std::size_t i = 0; i < keys_.size(); ++i) s += (i ? ", " : " ") + KeyToString(keys_[i]);
+  return s;
+}
+
 double Factor::Chi2(const Values& values) const {
   CheckShape();
   const std::vector<const double*> p = GatherParams(values);
-  double r[kMaxResidualDim];
-  if (!Linearize(p.data(), r, nullptr)) return std::numeric_limits<double>::infinity();
+  std::vector<double> r(static_cast<std::size_t>(dim()));
+  if (!Linearize(p.data(), r.data(), nullptr)) return std::numeric_limits<double>::infinity();
   double s = 0;
   for (int i = 0; i < dim(); ++i) s += r[i] * r[i];
   return s;

@@ -26,17 +26,11 @@ namespace tether {
 namespace {
 
 // The tags this file reads itself; every other edge tag comes from the registry.
-constexpr std::string_view kVertexSE2 = "VERTEX_SE2";
-constexpr std::string_view kVertexSE3 = "VERTEX_SE3:QUAT";
-constexpr std::string_view kVertexXY = "VERTEX_XY";
-constexpr std::string_view kVertexXYZ = "VERTEX_TRACKXYZ";
 constexpr std::string_view kFix = "FIX";
 constexpr std::string_view kToroVertex = "VERTEX2";
 constexpr std::string_view kToroEdge = "EDGE2";
 constexpr std::string_view kToroEquiv = "EQUIV";
 
-// Quaternions further than this from unit length are normalised with a warning.
-constexpr double kQuaternionNormWarning = 1e-3;
 // At most this many pieces are described in the "disconnected" message.
 constexpr std::size_t kPiecesListed = 5;
 
@@ -65,6 +59,17 @@ class Reader {
     ctx_.repair = options.repair;
     toro_by_name_ =
         options.format == FileFormat::kToro || (options.format == FileFormat::kAuto && EndsWith(name, ".graph"));
+    for (const auto& [vname, type] : registry.variable_types()) {
+      const VariableType& d = Describe(type);
+      if (d.tag.empty()) continue;
+      std::string layout = "id";
+      if (!d.parameter_names.empty()) {
+        layout += " " + d.parameter_names;
+      } else {
+        for (int i = 0; i < d.ambient_dim; ++i) layout += " p" + std::to_string(i + 1);
+      }
+      vertex_tags_.push_back(VertexTag{d.tag, type, std::move(layout), 0, 0});
+    }
   }
 
   void Line(long number, std::string_view text) {
@@ -72,20 +77,8 @@ class Reader {
     const Fields& f = fields_;
     if (f.size() == 0 || f.tag()[0] == '#') return;
     const std::string_view tag = f.tag();
-    if (tag == kVertexSE2) {
-      f.ExpectCount(4, "id x y theta");
-      const double p[3] = {f.Double(2), f.Double(3), SE2d(0, 0, f.Double(4)).theta()};
-      Vertex(f, kVertexSE2, VarType::kSE2, p);
-    } else if (tag == kVertexSE3) {
-      VertexSE3(f);
-    } else if (tag == kVertexXY) {
-      f.ExpectCount(3, "id x y");
-      const double p[2] = {f.Double(2), f.Double(3)};
-      Vertex(f, kVertexXY, VarType::kPoint2, p);
-    } else if (tag == kVertexXYZ) {
-      f.ExpectCount(4, "id x y z");
-      const double p[3] = {f.Double(2), f.Double(3), f.Double(4)};
-      Vertex(f, kVertexXYZ, VarType::kPoint3, p);
+    if (VertexTag* v = FindVertexTag(tag)) {
+      ReadVertex(f, *v);
     } else if (tag == kFix) {
       if (f.size() < 2) f.Fail("FIX needs at least one id after the tag (FIX id [id ...]); fix or remove the line");
       for (std::size_t i = 1; i < f.size(); ++i) fixes_.push_back({f.Id(i), number});
@@ -127,10 +120,11 @@ class Reader {
                              "): TORO's EQUIV says two ids are the same pose; tether does not merge them, so each "
                              "id stays a separate variable linked only by its edges");
     }
-    if (odd_quaternions_ > 0) {
-      out.warnings.push_back(name_ + ": normalised " + Plural(odd_quaternions_, "quaternion", "quaternions") +
-                             " of VERTEX_SE3:QUAT lines that were far from unit length (first at line " +
-                             std::to_string(first_odd_quaternion_line_) + ")");
+    for (const VertexTag& v : vertex_tags_) {
+      if (v.canonicalized == 0) continue;
+      out.warnings.push_back(name_ + ": " + Describe(v.type).canonicalize_note + " on " +
+                             Plural(v.canonicalized, "line", "lines") + " " + v.tag + " (first at line " +
+                             std::to_string(v.first_canonicalized_line) + ")");
     }
     if (ctx_.repaired_informations > 0) {
       out.warnings.push_back(name_ + ": repaired " +
@@ -145,6 +139,38 @@ class Reader {
   }
 
  private:
+  // A vertex tag of the registry, with what reading its lines needs.
+  struct VertexTag {
+    std::string tag;
+    VarType type;
+    std::string layout;  // "id x y theta", for messages
+    std::size_t canonicalized;
+    long first_canonicalized_line;
+  };
+
+  VertexTag* FindVertexTag(std::string_view tag) {
+    for (VertexTag& v : vertex_tags_)
+      if (v.tag == tag) return &v;
+    return nullptr;
+  }
+
+  void ReadVertex(const Fields& f, VertexTag& v) {
+    const VariableType& d = Describe(v.type);
+    f.ExpectCount(1 + static_cast<std::size_t>(d.ambient_dim), v.layout);
+    params_.resize(static_cast<std::size_t>(d.ambient_dim));
+    for (int i = 0; i < d.ambient_dim; ++i) params_[i] = f.Double(2 + static_cast<std::size_t>(i));
+    if (d.canonicalize) {
+      bool changed = false;
+      try {
+        changed = d.canonicalize(params_.data());
+      } catch (const InvalidArgument& e) {
+        f.Fail(v.tag + " " + e.what() + "; fix the line");
+      }
+      if (changed && v.canonicalized++ == 0) v.first_canonicalized_line = f.line_number();
+    }
+    Vertex(f, v.tag, v.type, params_.data());
+  }
+
   bool IsToroTag(std::string_view tag) const {
     if (tag != kToroVertex && tag != kToroEdge && tag != kToroEquiv) return false;
     if (options_.format == FileFormat::kG2o) return false;
@@ -183,8 +209,9 @@ class Reader {
   }
 
   void UnknownTag(const Fields& f) const {
-    std::string known = std::string(kVertexSE2) + " " + std::string(kVertexSE3) + " " + std::string(kVertexXY) + " " +
-                        std::string(kVertexXYZ) + " " + std::string(kFix);
+    std::string known;
+    for (const VertexTag& v : vertex_tags_) known += v.tag + " ";
+    known += std::string(kFix);
     for (const auto& [name, type] : registry_.types())
       if (!type.tag.empty()) known += " " + type.tag;
     if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV";
@@ -224,23 +251,6 @@ class Reader {
     info.vertex_line = f.line_number();
     ++vertex_lines_;
     out_values_.InsertParams(key, t, params);
-  }
-
-  void VertexSE3(const Fields& f) {
-    f.ExpectCount(8, "id x y z qx qy qz qw");
-    double p[7];
-    for (int i = 0; i < 7; ++i) p[i] = f.Double(2 + i);
-    const double norm = std::sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5] + p[6] * p[6]);
-    if (!(norm > 1e-12)) {
-      f.Fail(
-          "VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion, fix the "
-          "line");
-    }
-    if (std::abs(norm - 1.0) > kQuaternionNormWarning && odd_quaternions_++ == 0) {
-      first_odd_quaternion_line_ = f.line_number();
-    }
-    for (int i = 3; i < 7; ++i) p[i] /= norm;
-    Vertex(f, kVertexSE3, VarType::kSE3, p);
   }
 
   void Edge(const Fields& f, std::string_view stable_tag, std::unique_ptr<Factor> factor) {
@@ -322,29 +332,21 @@ class Reader {
   std::size_t vertex_lines_ = 0;
   std::size_t equiv_lines_ = 0;
   long first_equiv_line_ = 0;
-  std::size_t odd_quaternions_ = 0;
-  long first_odd_quaternion_line_ = 0;
+  std::vector<VertexTag> vertex_tags_;
+  std::vector<double> params_;  // one vertex line's parameters (reused)
 };
 
 // Appends a vertex line (with its newline) to *line.
 void AppendVertex(std::string* line, Key k, VarType t, const double* p) {
-  switch (t) {
-    case VarType::kSE2:
-      line->append(kVertexSE2);
-      break;
-    case VarType::kSE3:
-      line->append(kVertexSE3);
-      break;
-    case VarType::kPoint2:
-      line->append(kVertexXY);
-      break;
-    case VarType::kPoint3:
-      line->append(kVertexXYZ);
-      break;
+  const VariableType& d = Describe(t);
+  if (d.tag.empty()) {
+    throw InvalidArgument("cannot write variable " + KeyToString(k) + " of type '" + d.name +
+                          "': the type has no g2o vertex tag, so g2o files cannot hold it");
   }
+  line->append(d.tag);
   line->push_back(' ');
   AppendKey(line, k);
-  for (int i = 0; i < AmbientDim(t); ++i) {
+  for (int i = 0; i < d.ambient_dim; ++i) {
     line->push_back(' ');
     AppendDouble(line, p[i]);
   }
@@ -515,7 +517,7 @@ int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
 
   // New values are collected aside and inserted at the end, in key order, so that a failure
   // leaves `values` untouched.
-  std::unordered_map<Key, std::array<double, 7>> fresh;
+  std::unordered_map<Key, std::vector<double>> fresh;
   const auto known = [&](Key k) -> const double* {
     if (values->Has(k)) return values->Params(k);
     const auto it = fresh.find(k);
@@ -526,26 +528,26 @@ int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
     if (nodes.count(k)) queue.push_back(k);
   if (queue.empty()) {
     const Key anchor = missing.front();
-    IdentityParams(nodes.at(anchor).type, fresh[anchor].data());
+    std::vector<double>& a = fresh[anchor];
+    a.resize(static_cast<std::size_t>(AmbientDim(nodes.at(anchor).type)));
+    IdentityParams(nodes.at(anchor).type, a.data());
     queue.push_back(anchor);
   }
   while (!queue.empty()) {
     const Key k = queue.front();
     queue.pop_front();
-    std::array<double, 7> kp;
     const VarType kt = nodes.at(k).type;
-    std::copy(known(k), known(k) + AmbientDim(kt), kp.begin());
+    const std::vector<double> kp(known(k), known(k) + AmbientDim(kt));
     for (std::uint32_t fi : nodes.at(k).factors) {
       const Factor& f = graph.at(fi);
       const std::vector<Key>& fk = f.keys();
       const std::size_t at = static_cast<std::size_t>(std::find(fk.begin(), fk.end(), k) - fk.begin());
       for (std::size_t u = 0; u < fk.size(); ++u) {
         if (u == at || known(fk[u])) continue;
-        std::array<double, 7> out;
+        std::vector<double> out(static_cast<std::size_t>(AmbientDim(nodes.at(fk[u]).type)));
         if (!f.Predict(at, kp.data(), u, out.data())) continue;
-        const int n = AmbientDim(nodes.at(fk[u]).type);
-        if (!std::all_of(out.begin(), out.begin() + n, [](double v) { return std::isfinite(v); })) continue;
-        fresh[fk[u]] = out;
+        if (!std::all_of(out.begin(), out.end(), [](double v) { return std::isfinite(v); })) continue;
+        fresh[fk[u]] = std::move(out);
         queue.push_back(fk[u]);
       }
     }

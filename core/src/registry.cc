@@ -14,18 +14,12 @@ namespace tether {
 namespace {
 
 // Names of a variable type's parameters, as g2o's vertex lines list them.
-const char* ParameterNames(VarType t) {
-  switch (t) {
-    case VarType::kSE2:
-      return "x y theta";
-    case VarType::kSE3:
-      return "x y z qx qy qz qw";
-    case VarType::kPoint2:
-      return "x y";
-    case VarType::kPoint3:
-      return "x y z";
-  }
-  return "";
+std::string ParameterNames(VarType t) { return Describe(t).parameter_names; }
+
+std::string TypeList(const std::vector<VarType>& types) {
+  std::string s = "(";
+  for (std::size_t i = 0; i < types.size(); ++i) s += (i ? ", " : "") + std::string(ToString(types[i]));
+  return s + ")";
 }
 
 // "id1 id2 x y theta I11 I12 I13 I22 I23 I33": the standard layout, for messages.
@@ -156,11 +150,18 @@ void Registry::Register(FactorType type) {
       incomplete("the g2o tag '" + type.tag + "' contains blanks or starts with '#'; use one word");
     }
   }
-  if (type.dim < 1 || type.dim > kMaxResidualDim) {
-    incomplete("its residual dimension is " + std::to_string(type.dim) + "; it must be 1 to " +
-               std::to_string(kMaxResidualDim));
-  }
+  if (type.dim < 1) incomplete("its residual dimension is " + std::to_string(type.dim) + "; it must be at least 1");
   if (type.variable_types.empty()) incomplete("it lists no variable types; a factor needs at least one key");
+  for (VarType v : type.variable_types) {
+    if (!IsKnown(v)) {
+      incomplete("variable type id " + std::to_string(static_cast<int>(v)) +
+                 " is not registered; register the variable type first");
+    }
+  }
+  if (!type.tag.empty() && vertex_tag_to_name_.count(type.tag) != 0) {
+    incomplete("the g2o tag '" + type.tag + "' is the vertex tag of variable type '" +
+               vertex_tag_to_name_.at(type.tag) + "'; choose another tag");
+  }
   if (type.measurement_size < 0) incomplete("its measurement_size is negative");
   if (!type.tag.empty()) {
     if (!type.read && !type.make) {
@@ -170,6 +171,7 @@ void Registry::Register(FactorType type) {
       incomplete("it has a g2o tag but neither `measurement` (standard layout) nor `write`; give one of them");
     }
   }
+  if (type.make) CheckAgainstProbe(type);
   // The type first, then its tag: if adding the tag runs out of memory, the type is taken out
   // again and the registry is as it was.
   const std::string name = type.name, tag = type.tag;
@@ -182,6 +184,107 @@ void Registry::Register(FactorType type) {
       throw;
     }
   }
+}
+
+Registry::Registry() {
+  RegisterVariable<SE2d>();
+  RegisterVariable<SE3d>();
+  RegisterVariable<Eigen::Vector2d>();
+  RegisterVariable<Eigen::Vector3d>();
+}
+
+void Registry::CheckAgainstProbe(const FactorType& type) const {
+  const auto refuse = [&](const std::string& field, const std::string& what) {
+    throw InvalidArgument("cannot register factor type " + Owned(type) + ": " + field + " mismatch: " + what);
+  };
+  // A probe factor: keys 0..k-1, the identity of the last variable type as measurement where
+  // the sizes agree (zeros otherwise), unit noise.
+  const std::size_t n = type.variable_types.size();
+  std::vector<Key> keys(n);
+  for (std::size_t i = 0; i < n; ++i) keys[i] = i;
+  std::vector<double> m(static_cast<std::size_t>(type.measurement_size), 0.0);
+  const VarType last = type.variable_types.back();
+  if (AmbientDim(last) == type.measurement_size) IdentityParams(last, m.data());
+  std::unique_ptr<Factor> probe;
+  try {
+    probe = type.make(keys, m.data(), SqrtInformation::Identity(type.dim));
+  } catch (const std::exception& e) {
+    throw InvalidArgument("cannot register factor type " + Owned(type) +
+                          ": its factory `make` threw on a probe factor (identity measurement, unit noise): " +
+                          e.what() + "; `make` must accept the type's standard arguments");
+  }
+  if (!probe) {
+    throw InvalidArgument("cannot register factor type " + Owned(type) + ": its factory `make` returned no factor");
+  }
+  if (probe->type_name() != type.name) {
+    refuse("name", "the entry says '" + type.name + "' but its factors' type_name() is '" + probe->type_name() +
+                       "'; make them the same (the writer finds a factor's type by that name)");
+  }
+  if (probe->residual_dim() != type.dim) {
+    refuse("dimension", "the entry says " + std::to_string(type.dim) + " but its factors' residual_dim() is " +
+                            std::to_string(probe->residual_dim()) + "; make them the same");
+  }
+  if (probe->variable_types() != type.variable_types) {
+    refuse("variable types", "the entry says " + TypeList(type.variable_types) + " but its factors' variable_types() " +
+                                 "are " + TypeList(probe->variable_types()) + "; make them the same");
+  }
+}
+
+VarType Registry::RegisterVariable(const VariableType& type) {
+  const auto refuse = [&](const std::string& what) {
+    throw InvalidArgument("cannot register variable type '" + type.name + "' (owner '" + type.owner + "'): " + what);
+  };
+  if (variables_.count(type.name) != 0) {
+    refuse("the name is taken already (owner '" + variable_owner_.at(type.name) + "'); choose another name");
+  }
+  if (!type.tag.empty()) {
+    if (type.tag.find_first_of(" \t\r\n") != std::string::npos || type.tag[0] == '#') {
+      refuse("the g2o tag '" + type.tag + "' contains blanks or starts with '#'; use one word");
+    }
+    const auto v = vertex_tag_to_name_.find(type.tag);
+    if (v != vertex_tag_to_name_.end()) {
+      refuse("the g2o tag '" + type.tag + "' is taken already by variable type '" + v->second + "' (owner '" +
+             variable_owner_.at(v->second) + "'); choose another tag");
+    }
+    const auto f = tag_to_name_.find(type.tag);
+    if (f != tag_to_name_.end()) {
+      refuse("the g2o tag '" + type.tag + "' is taken already by factor type " + Owned(by_name_.at(f->second)) +
+             "; choose another tag");
+    }
+  }
+  const VarType id = InternVariableType(type);  // checks sizes and functions
+  variables_.emplace(type.name, id);
+  try {
+    variable_owner_.emplace(type.name, type.owner);
+    if (!type.tag.empty()) vertex_tag_to_name_.emplace(type.tag, type.name);
+  } catch (...) {
+    variables_.erase(type.name);
+    variable_owner_.erase(type.name);
+    throw;
+  }
+  return id;
+}
+
+bool Registry::RemoveVariable(const std::string& name) {
+  const auto it = variables_.find(name);
+  if (it == variables_.end()) return false;
+  const std::string& tag = Describe(it->second).tag;
+  if (!tag.empty()) vertex_tag_to_name_.erase(tag);
+  variable_owner_.erase(name);
+  variables_.erase(it);
+  return true;
+}
+
+bool Registry::FindVariableByTag(const std::string& tag, VarType* type) const {
+  const auto it = vertex_tag_to_name_.find(tag);
+  if (it == vertex_tag_to_name_.end()) return false;
+  *type = variables_.at(it->second);
+  return true;
+}
+
+std::string Registry::VariableOwner(const std::string& name) const {
+  const auto it = variable_owner_.find(name);
+  return it == variable_owner_.end() ? std::string() : it->second;
 }
 
 bool Registry::Remove(const std::string& name) {
@@ -203,6 +306,10 @@ int Registry::RemoveOwner(const std::string& owner) {
       ++it;
     }
   }
+  std::vector<std::string> variables;
+  for (const auto& [name, who] : variable_owner_)
+    if (who == owner) variables.push_back(name);
+  for (const std::string& name : variables) removed += RemoveVariable(name) ? 1 : 0;
   return removed;
 }
 

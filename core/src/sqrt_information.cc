@@ -9,11 +9,20 @@
 
 namespace tether {
 
+namespace {
+std::string NotPositiveDefinite(const Eigen::MatrixXd& omega) {
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(omega, Eigen::EigenvaluesOnly);
+  std::ostringstream s;
+  s << "information matrix is not positive definite (smallest eigenvalue " << es.eigenvalues()(0) << ")";
+  return s.str();
+}
+}  // namespace
+
 bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why) {
   const int n = static_cast<int>(omega.rows());
-  if (n < 1 || n > kMaxResidualDim || omega.cols() != n) {
+  if (n < 1 || omega.cols() != n) {
     if (why)
-      *why = "information matrix must be square with 1 to 6 rows, got " + std::to_string(omega.rows()) + "x" +
+      *why = "information matrix must be square with at least 1 row, got " + std::to_string(omega.rows()) + "x" +
              std::to_string(omega.cols());
     return false;
   }
@@ -26,9 +35,10 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
     if (why) *why = "information matrix is not symmetric";
     return false;
   }
+  if (n > kInlineResidualDim) return FromLarge(omega, scale, out, why);
   // At most 6 x 6: matrices of that bounded size live on the stack (this runs for every
   // edge of a file that is read).
-  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxResidualDim, kMaxResidualDim>;
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kInlineResidualDim, kInlineResidualDim>;
   Eigen::LLT<Small> llt(omega);
   bool ok = llt.info() == Eigen::Success;
   if (ok) {
@@ -38,21 +48,58 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
     for (int i = 0; i < n; ++i) ok = ok && L(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
   }
   if (!ok) {
-    if (why) {
-      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(omega, Eigen::EigenvaluesOnly);
-      std::ostringstream s;
-      s << "information matrix is not positive definite (smallest eigenvalue " << es.eigenvalues()(0) << ")";
-      *why = s.str();
-    }
+    if (why) *why = NotPositiveDefinite(omega);
     return false;
   }
   SqrtInformation r;
-  r.dim_ = n;
+  r.Resize(n);
   const Small U = llt.matrixU();
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) r.r_[i * n + j] = j >= i ? U(i, j) : 0.0;
   *out = r;
   return true;
+}
+
+bool SqrtInformation::FromLarge(const Eigen::MatrixXd& omega, double scale, SqrtInformation* out, std::string* why) {
+  const int n = static_cast<int>(omega.rows());
+  Eigen::LLT<Eigen::MatrixXd> llt(omega);
+  bool ok = llt.info() == Eigen::Success;
+  const Eigen::MatrixXd U = llt.matrixU();
+  for (int i = 0; ok && i < n; ++i) ok = U(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
+  if (!ok) {
+    if (why) *why = NotPositiveDefinite(omega);
+    return false;
+  }
+  SqrtInformation r;
+  r.Resize(n);
+  double* d = r.data();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) d[i * n + j] = j >= i ? U(i, j) : 0.0;
+  *out = std::move(r);
+  return true;
+}
+
+void SqrtInformation::Resize(int dim) {
+  dim_ = dim;
+  std::fill(r_, r_ + kInlineResidualDim * kInlineResidualDim, 0.0);
+  big_.assign(dim > kInlineResidualDim ? static_cast<std::size_t>(dim) * dim : 0, 0.0);
+}
+
+SqrtInformation SqrtInformation::FromSigmas(const Eigen::VectorXd& sigmas) {
+  const int n = static_cast<int>(sigmas.size());
+  if (n < 1) throw InvalidArgument("SqrtInformation::FromSigmas: give at least one sigma");
+  SqrtInformation r;
+  r.Resize(n);
+  for (int i = 0; i < n; ++i) {
+    if (!(sigmas[i] > 0) || !std::isfinite(sigmas[i])) {
+      std::ostringstream s;
+      s << "SqrtInformation::FromSigmas: sigma of axis " << i << " is " << sigmas[i]
+        << "; every sigma must be finite and positive";
+      throw InvalidArgument(s.str());
+    }
+    r.data()[i * n + i] = 1.0 / sigmas[i];
+  }
+  return r;
 }
 
 SqrtInformation SqrtInformation::FromInformation(const Eigen::MatrixXd& omega) {
@@ -65,19 +112,19 @@ SqrtInformation SqrtInformation::FromInformation(const Eigen::MatrixXd& omega) {
 SqrtInformation SqrtInformation::Identity(int dim) { return Isotropic(dim, 1.0); }
 
 SqrtInformation SqrtInformation::Isotropic(int dim, double sigma) {
-  if (dim < 1 || dim > kMaxResidualDim || !(sigma > 0) || !std::isfinite(sigma)) {
-    throw InvalidArgument("SqrtInformation::Isotropic: need 1 <= dim <= 6 and a finite sigma > 0");
+  if (dim < 1 || !(sigma > 0) || !std::isfinite(sigma)) {
+    throw InvalidArgument("SqrtInformation::Isotropic: need dim >= 1 and a finite sigma > 0");
   }
   SqrtInformation r;
-  r.dim_ = dim;
-  for (int i = 0; i < dim; ++i) r.r_[i * dim + i] = 1.0 / sigma;
+  r.Resize(dim);
+  for (int i = 0; i < dim; ++i) r.data()[i * dim + i] = 1.0 / sigma;
   return r;
 }
 
 Eigen::MatrixXd SqrtInformation::R() const {
   Eigen::MatrixXd m(dim_, dim_);
   for (int i = 0; i < dim_; ++i)
-    for (int j = 0; j < dim_; ++j) m(i, j) = r_[i * dim_ + j];
+    for (int j = 0; j < dim_; ++j) m(i, j) = data()[i * dim_ + j];
   return m;
 }
 
@@ -127,7 +174,7 @@ WhitenFn KernelFor(int dim, int cols) {
 
 void SqrtInformation::WhitenVector(double* v) const { WhitenRowMajor(v, 1); }
 
-void SqrtInformation::WhitenRowMajor(double* m, int cols) const { KernelFor(dim_, cols)(r_, dim_, m, cols); }
+void SqrtInformation::WhitenRowMajor(double* m, int cols) const { KernelFor(dim_, cols)(data(), dim_, m, cols); }
 
 const char* ToString(InformationRepair r) {
   switch (r) {

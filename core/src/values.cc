@@ -1,11 +1,27 @@
 #include "tether/core/values.h"
 
+#include <algorithm>
+#include <ostream>
+
 #include "tether/core/error.h"
 
 namespace tether {
 
+namespace {
+const std::vector<double>& EmptyData() {
+  static const std::vector<double> empty;
+  return empty;
+}
+}  // namespace
+
 void Values::InsertParams(Key k, VarType type, const double* params) {
-  std::vector<double>& d = data_[static_cast<int>(type)];
+  if (!IsKnown(type)) {
+    throw InvalidArgument("Values::Insert: key " + KeyToString(k) + " has variable type id " +
+                          std::to_string(static_cast<int>(type)) + ", which is not registered");
+  }
+  const std::size_t t = static_cast<std::size_t>(type);
+  if (data_.size() <= t) data_.resize(t + 1);
+  std::vector<double>& d = data_[t];
   const int n = AmbientDim(type);
   const auto index = static_cast<std::uint32_t>(d.size() / n);
   if (!slots_.emplace(k, Slot{type, index}).second) {
@@ -16,18 +32,28 @@ void Values::InsertParams(Key k, VarType type, const double* params) {
   order_.push_back(k);
 }
 
-void Values::Insert(Key k, const SE2d& v) {
-  double p[3];
-  v.ToParams(p);
-  InsertParams(k, VarType::kSE2, p);
+bool Values::Erase(Key k) {
+  const auto it = slots_.find(k);
+  if (it == slots_.end()) return false;
+  const Slot s = it->second;
+  std::vector<double>& d = data_[static_cast<std::size_t>(s.type)];
+  const std::size_t n = static_cast<std::size_t>(AmbientDim(s.type));
+  const std::uint32_t last = static_cast<std::uint32_t>(d.size() / n - 1);
+  if (s.index != last) {
+    // The type's last variable moves into the freed slot.
+    std::copy(d.begin() + last * n, d.begin() + (last + 1) * n, d.begin() + s.index * n);
+    for (auto& kv : slots_) {
+      if (kv.second.type == s.type && kv.second.index == last) {
+        kv.second.index = s.index;
+        break;
+      }
+    }
+  }
+  d.resize(last * n);
+  slots_.erase(it);
+  order_.erase(std::find(order_.begin(), order_.end(), k));
+  return true;
 }
-void Values::Insert(Key k, const SE3d& v) {
-  double p[7];
-  v.ToParams(p);
-  InsertParams(k, VarType::kSE3, p);
-}
-void Values::InsertPoint2(Key k, const Eigen::Vector2d& p) { InsertParams(k, VarType::kPoint2, p.data()); }
-void Values::InsertPoint3(Key k, const Eigen::Vector3d& p) { InsertParams(k, VarType::kPoint3, p.data()); }
 
 Values::Slot Values::SlotOf(Key k) const {
   const auto it = slots_.find(k);
@@ -40,52 +66,49 @@ Values::Slot Values::SlotOf(Key k) const {
 
 const double* Values::Params(Key k) const {
   const Slot s = SlotOf(k);
-  return data_[static_cast<int>(s.type)].data() + static_cast<std::size_t>(s.index) * AmbientDim(s.type);
+  return data_[static_cast<std::size_t>(s.type)].data() + static_cast<std::size_t>(s.index) * AmbientDim(s.type);
 }
 double* Values::Params(Key k) {
   const Slot s = SlotOf(k);
-  return data_[static_cast<int>(s.type)].data() + static_cast<std::size_t>(s.index) * AmbientDim(s.type);
+  return data_[static_cast<std::size_t>(s.type)].data() + static_cast<std::size_t>(s.index) * AmbientDim(s.type);
 }
 
-namespace {
-void ExpectType(const Values& v, Key k, VarType want) {
-  const VarType got = v.TypeOf(k);
+void Values::ExpectType(Key k, VarType want) const {
+  const VarType got = TypeOf(k);
   if (got != want) {
     throw InvalidArgument("Values: key " + KeyToString(k) + " holds " + std::string(ToString(got)) + ", not " +
                           std::string(ToString(want)));
   }
-}
-}  // namespace
-
-SE2d Values::AtSE2(Key k) const {
-  ExpectType(*this, k, VarType::kSE2);
-  return SE2d::FromParams(Params(k));
-}
-SE3d Values::AtSE3(Key k) const {
-  ExpectType(*this, k, VarType::kSE3);
-  return SE3d::FromParams(Params(k));
-}
-Eigen::Vector2d Values::AtPoint2(Key k) const {
-  ExpectType(*this, k, VarType::kPoint2);
-  return Eigen::Vector2d(Params(k));
-}
-Eigen::Vector3d Values::AtPoint3(Key k) const {
-  ExpectType(*this, k, VarType::kPoint3);
-  return Eigen::Vector3d(Params(k));
-}
-void Values::Update(Key k, const SE2d& v) {
-  ExpectType(*this, k, VarType::kSE2);
-  v.ToParams(Params(k));
-}
-void Values::Update(Key k, const SE3d& v) {
-  ExpectType(*this, k, VarType::kSE3);
-  v.ToParams(Params(k));
 }
 
 void Values::Retract(Key k, const double* delta) {
   const VarType t = TypeOf(k);
   double* p = Params(k);
   RetractParams<double>(t, p, delta, p);
+}
+
+std::size_t Values::Count(VarType t) const { return Data(t).size() / AmbientDim(t); }
+
+const std::vector<double>& Values::Data(VarType t) const {
+  const std::size_t i = static_cast<std::size_t>(t);
+  return i < data_.size() ? data_[i] : EmptyData();
+}
+
+std::vector<double>& Values::MutableData(VarType t) {
+  const std::size_t i = static_cast<std::size_t>(t);
+  if (data_.size() <= i) data_.resize(i + 1);
+  return data_[i];
+}
+
+std::ostream& operator<<(std::ostream& os, const Values& values) {
+  for (Key k : values.keys()) {
+    const VarType t = values.TypeOf(k);
+    const double* p = values.Params(k);
+    os << KeyToString(k) << ' ' << ToString(t) << " (";
+    for (int i = 0; i < AmbientDim(t); ++i) os << (i ? ", " : "") << p[i];
+    os << ")\n";
+  }
+  return os;
 }
 
 }  // namespace tether

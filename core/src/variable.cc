@@ -1,26 +1,140 @@
 #include "tether/core/variable.h"
 
+#include <array>
+#include <cmath>
+#include <mutex>
+
+#include "tether/core/error.h"
+
 namespace tether {
 
-std::string_view ToString(VarType t) {
-  switch (t) {
-    case VarType::kSE2:
-      return "SE2";
-    case VarType::kSE3:
-      return "SE3";
-    case VarType::kPoint2:
-      return "Point2";
-    case VarType::kPoint3:
-      return "Point3";
+namespace internal {
+const int kBuiltinAmbient[kNumBuiltinVarTypes] = {3, 7, 2, 3};
+const int kBuiltinTangent[kNumBuiltinVarTypes] = {3, 6, 2, 3};
+}  // namespace internal
+
+namespace {
+
+// Quaternions further than this from unit length are reported when normalised.
+constexpr double kQuaternionNormWarning = 1e-3;
+
+// The process-wide table. Entries are never freed or moved, so a description found once
+// stays valid; readers need no lock (an id is only handed out after its entry is stored).
+class Table {
+ public:
+  Table() {
+    Add(DescribeVariable<SE2d>());
+    Add(DescribeVariable<SE3d>());
+    Add(DescribeVariable<Eigen::Vector2d>());
+    Add(DescribeVariable<Eigen::Vector3d>());
   }
-  return "unknown";
+
+  VarType Intern(const VariableType& t) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const int n = size_.load(std::memory_order_relaxed);
+    for (int i = 0; i < n; ++i) {
+      const VariableType& e = *entries_[i];
+      if (e.name != t.name) continue;
+      if (e.ambient_dim != t.ambient_dim || e.tangent_dim != t.tangent_dim) {
+        throw InvalidArgument("variable type '" + t.name + "' exists already with " + Sizes(e) + " (owner '" + e.owner +
+                              "'), not " + Sizes(t) + "; give the new type another name");
+      }
+      return static_cast<VarType>(i);
+    }
+    if (n >= kMaxVarTypes) {
+      throw InvalidArgument("cannot register variable type '" + t.name + "': the process holds " +
+                            std::to_string(kMaxVarTypes) + " variable types already");
+    }
+    return Add(t);
+  }
+
+  const VariableType* Get(VarType t) const {
+    const int i = static_cast<int>(t);
+    return i < size_.load(std::memory_order_acquire) ? entries_[i] : nullptr;
+  }
+  int size() const { return size_.load(std::memory_order_acquire); }
+
+ private:
+  static std::string Sizes(const VariableType& t) {
+    return "ambient size " + std::to_string(t.ambient_dim) + " and tangent size " + std::to_string(t.tangent_dim);
+  }
+  VarType Add(const VariableType& t) {
+    const int n = size_.load(std::memory_order_relaxed);
+    entries_[n] = new VariableType(t);  // never freed: ids and descriptions live as long as the process
+    size_.store(n + 1, std::memory_order_release);
+    return static_cast<VarType>(n);
+  }
+
+  std::mutex mutex_;
+  std::array<const VariableType*, kMaxVarTypes> entries_{};
+  std::atomic<int> size_{0};
+};
+
+Table& GetTable() {
+  static Table* table = new Table();  // never destroyed: plugins may outlive static destruction order
+  return *table;
+}
+
+void Check(bool ok, const VariableType& t, const std::string& what) {
+  if (!ok) {
+    throw InvalidArgument("cannot register variable type '" + t.name + "' (owner '" + t.owner + "'): " + what);
+  }
+}
+
+}  // namespace
+
+bool VariableTraits<SE2d>::Canonicalize(double* x) {
+  x[2] = WrapAngle(x[2]);
+  return false;
+}
+
+bool VariableTraits<SE3d>::Canonicalize(double* x) {
+  const double norm = std::sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5] + x[6] * x[6]);
+  if (!(norm > 1e-12)) {
+    throw InvalidArgument("quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion");
+  }
+  for (int i = 3; i < 7; ++i) x[i] /= norm;
+  return std::abs(norm - 1.0) > kQuaternionNormWarning;
+}
+
+VarType InternVariableType(const VariableType& t) {
+  Check(!t.name.empty(), t, "the name is empty; give the type a unique name");
+  Check(t.ambient_dim >= 1 && t.tangent_dim >= 1, t,
+        "its sizes are ambient " + std::to_string(t.ambient_dim) + ", tangent " + std::to_string(t.tangent_dim) +
+            "; both must be at least 1");
+  Check(t.tangent_dim <= t.ambient_dim, t, "its tangent size exceeds its ambient size");
+  Check(t.retract && t.local && t.identity, t, "it needs retract (box-plus), local (box-minus) and identity");
+  return GetTable().Intern(t);
+}
+
+bool IsKnown(VarType t) { return GetTable().Get(t) != nullptr; }
+
+const VariableType& Describe(VarType t) { return *GetTable().Get(t); }
+
+namespace internal {
+VarType FindRegisteredVarType(const char* name) {
+  VarType t;
+  if (FromString(name, &t)) return t;
+  throw InvalidArgument(std::string("variable type '") + name +
+                        "' is not registered; register it (Registry::RegisterVariable, or load the plugin that "
+                        "defines it) before making factors or values of it");
+}
+}  // namespace internal
+
+void IdentityParams(VarType t, double* p) { Describe(t).identity(p); }
+
+std::string_view ToString(VarType t) {
+  const VariableType* d = GetTable().Get(t);
+  if (d == nullptr) return "unknown";
+  return d->name;
 }
 
 bool FromString(std::string_view name, VarType* t) {
-  for (int i = 0; i < kNumVarTypes; ++i) {
-    const VarType v = static_cast<VarType>(i);
-    if (ToString(v) == name) {
-      *t = v;
+  const Table& table = GetTable();
+  const int n = table.size();
+  for (int i = 0; i < n; ++i) {
+    if (table.Get(static_cast<VarType>(i))->name == name) {
+      *t = static_cast<VarType>(i);
       return true;
     }
   }
@@ -32,17 +146,19 @@ void LocalParams(VarType type, const double* x, const double* y, double* delta) 
     case VarType::kSE2: {
       const Eigen::Vector3d d = SE2d::FromParams(x).Local(SE2d::FromParams(y));
       for (int i = 0; i < 3; ++i) delta[i] = d[i];
-      break;
+      return;
     }
     case VarType::kSE3: {
       const Eigen::Matrix<double, 6, 1> d = SE3d::FromParams(x).Local(SE3d::FromParams(y));
       for (int i = 0; i < 6; ++i) delta[i] = d[i];
-      break;
+      return;
     }
     case VarType::kPoint2:
     case VarType::kPoint3:
       for (int i = 0; i < AmbientDim(type); ++i) delta[i] = y[i] - x[i];
-      break;
+      return;
+    default:
+      Describe(type).local(x, y, delta);
   }
 }
 

@@ -22,6 +22,12 @@ std::vector<std::string> CompareFingerprints(const BuildFingerprint& t, const Bu
   return diffs;
 }
 
+void PluginRegistrar::AddVariableType(VariableType type) {
+  type.owner = plugin_;
+  InternVariableType(type);
+  variables_.push_back(std::move(type));
+}
+
 void PluginRegistrar::AddFactorType(FactorType type) {
   type.owner = plugin_;
   types_.push_back(std::move(type));

@@ -74,10 +74,13 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     if (it->path != path) continue;
     // Loading the same file twice is harmless. But where its types were removed since
     // (Registry::RemoveOwner), it is registered afresh below, as a new loader would do.
-    const bool registered = std::all_of(it->type_names.begin(), it->type_names.end(), [&](const std::string& n) {
-      const FactorType* t = registry_.FindByName(n);
-      return t != nullptr && t->owner == it->name;
-    });
+    const bool registered = std::all_of(it->type_names.begin(), it->type_names.end(),
+                                        [&](const std::string& n) {
+                                          const FactorType* t = registry_.FindByName(n);
+                                          return t != nullptr && t->owner == it->name;
+                                        }) &&
+                            std::all_of(it->variable_names.begin(), it->variable_names.end(),
+                                        [&](const std::string& n) { return registry_.VariableOwner(n) == it->name; });
     if (registered) return *it;
     loaded_.erase(it);
     break;
@@ -137,10 +140,14 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
   // exactly as it was. Then the same types go into the registry itself, added beside the
   // entries already there: a FactorType found before the load stays where it is (replacing
   // the registry by the copy would free every one of them).
-  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}};
+  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}};
   {
     Registry trial = registry_;
     try {
+      for (const VariableType& t : registrar.variable_types()) {
+        trial.RegisterVariable(t);
+        loaded.variable_names.push_back(t.name);
+      }
       for (const FactorType& t : registrar.factor_types()) {
         trial.Register(t);
         loaded.type_names.push_back(t.name);
@@ -150,8 +157,12 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     }
   }
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
-  std::size_t committed = 0;
+  std::size_t variables = 0, committed = 0;
   try {
+    for (const VariableType& t : registrar.variable_types()) {
+      registry_.RegisterVariable(t);
+      ++variables;
+    }
     for (const FactorType& t : registrar.factor_types()) {
       registry_.Register(t);
       ++committed;
@@ -160,6 +171,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     // Not expected (the trial took the same types), short of memory: take back exactly
     // what this load added.
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
+    for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
     throw;
   }
   loaded_.push_back(std::move(loaded));

@@ -48,35 +48,39 @@ int NumThreads(const O& options) {
 // Checks the start as the native solver does: a finite chi2, and finite Jacobians with respect
 // to the free variables. Returns an empty string when it is fine, otherwise why not.
 std::string CheckStart(const FactorGraph& graph, const Values& values, const CeresProblem& problem) {
-  std::vector<double> jac;
+  std::vector<double> jac, r;
   std::vector<double*> ptrs;
-  double r[kMaxResidualDim];
-  double chi2 = 0;
-  bool jacobian_finite = true;
-  for (const auto& f : graph.factors()) {
-    const std::vector<VarType> types = f->variable_types();
-    const std::vector<const double*> p = f->GatherParams(values);
-    jac.assign(static_cast<std::size_t>(f->dim()) * 6 * types.size(), 0.0);
+  for (std::size_t fi = 0; fi < graph.size(); ++fi) {
+    const Factor& f = graph.at(fi);
+    const std::vector<VarType> types = f.variable_types();
+    const std::vector<const double*> p = f.GatherParams(values);
+    std::size_t total = 0;
+    for (VarType t : types) total += static_cast<std::size_t>(f.dim()) * TangentDim(t);
+    jac.assign(total, 0.0);
+    r.assign(static_cast<std::size_t>(f.dim()), 0.0);
     ptrs.resize(types.size());
+    std::size_t off = 0;
     for (std::size_t k = 0; k < types.size(); ++k) {
-      ptrs[k] = problem.IsConstant(f->keys()[k]) ? nullptr : jac.data() + k * f->dim() * 6;
+      ptrs[k] = problem.IsConstant(f.keys()[k]) ? nullptr : jac.data() + off;
+      off += static_cast<std::size_t>(f.dim()) * TangentDim(types[k]);
     }
-    if (!f->Linearize(p.data(), r, ptrs.data())) {
-      chi2 = std::numeric_limits<double>::infinity();
-      break;
+    const std::string where = "factor " + std::to_string(fi) + " (" + f.Describe() + ")";
+    const bool ok = f.Linearize(p.data(), r.data(), ptrs.data());
+    if (!ok || !std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) {
+      return "chi2 at the initial values is not finite: " + where +
+             (ok ? " has a non-finite error" : " fails to evaluate") + "; check the initial values and measurements";
     }
-    for (int i = 0; i < f->dim(); ++i) chi2 += r[i] * r[i];
     for (std::size_t k = 0; k < types.size(); ++k) {
       if (ptrs[k] == nullptr) continue;
-      for (int i = 0; i < f->dim() * TangentDim(types[k]); ++i) {
-        jacobian_finite = jacobian_finite && std::isfinite(ptrs[k][i]);
+      for (int i = 0; i < f.dim() * TangentDim(types[k]); ++i) {
+        if (!std::isfinite(ptrs[k][i])) {
+          return "the Jacobian at the initial values is not finite: " + where +
+                 " has a non-finite Jacobian with respect to " + KeyToString(f.keys()[k]) +
+                 "; check the initial values";
+        }
       }
     }
   }
-  if (!std::isfinite(chi2)) {
-    return "chi2 at the initial values is not finite; check the initial values and measurements";
-  }
-  if (!jacobian_finite) return "the Jacobian at the initial values is not finite; check the initial values";
   return "";
 }
 

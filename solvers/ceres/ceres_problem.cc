@@ -1,5 +1,6 @@
 #include "tether/solvers/ceres_problem.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -51,6 +52,21 @@ void RetractJacobian(VarType type, const double* x, double* jacobian) {
     case VarType::kPoint3:
       p.setIdentity();
       break;
+    default: {
+      // A registered type: central differences of its box-plus. Exactness is not needed here:
+      // Ceres multiplies by P only after the cost function has multiplied by L, a left
+      // inverse of this same P (see the header), so J_a P = J_t whatever P's rounding.
+      std::vector<double> d(static_cast<std::size_t>(t), 0.0), plus(a), minus(a);
+      constexpr double h = 1e-6;
+      for (int c = 0; c < t; ++c) {
+        d[c] = h;
+        RetractParams<double>(type, x, d.data(), plus.data());
+        d[c] = -h;
+        RetractParams<double>(type, x, d.data(), minus.data());
+        d[c] = 0.0;
+        for (int r = 0; r < a; ++r) p(r, c) = (plus[r] - minus[r]) / (2 * h);
+      }
+    }
   }
 }
 
@@ -73,6 +89,12 @@ void RetractJacobianLeftInverse(VarType type, const double* x, double* jacobian)
     case VarType::kPoint3:
       l.setIdentity();
       break;
+    default: {
+      // A registered type: the pseudo-inverse (P^T P)^-1 P^T of its P.
+      RowMajor p(a, t);
+      RetractJacobian(type, x, p.data());
+      l = (p.transpose() * p).ldlt().solve(p.transpose());
+    }
   }
 }
 
@@ -112,6 +134,8 @@ FactorCostFunction::FactorCostFunction(const Factor* factor, EvaluationErrors* e
   set_num_residuals(factor->dim());
   const std::vector<Key>& keys = factor->keys();
   for (std::size_t k = 0; k < keys.size(); ++k) {
+    tangent_offset_.push_back(tangent_total_);
+    tangent_total_ += TangentDim(types_[k]);
     const auto seen = std::find(block_keys_.begin(), block_keys_.end(), keys[k]);
     if (seen != block_keys_.end()) {
       block_of_.push_back(static_cast<int>(seen - block_keys_.begin()));
@@ -130,16 +154,19 @@ bool FactorCostFunction::Evaluate(const double* const* parameters, double* resid
     std::vector<const double*> params;
     std::vector<double*> tangent_ptrs;
     std::vector<double> tangent;
+    std::vector<double> left_inverse;
   };
   thread_local Workspace w;
   const std::size_t nk = block_of_.size();
   const int m = num_residuals();
   w.params.resize(nk);
   w.tangent_ptrs.assign(nk, nullptr);
-  w.tangent.resize(nk * m * 6);
+  w.tangent.resize(static_cast<std::size_t>(tangent_total_) * m);
   for (std::size_t k = 0; k < nk; ++k) {
     w.params[k] = parameters[block_of_[k]];
-    if (jacobians != nullptr && jacobians[block_of_[k]] != nullptr) w.tangent_ptrs[k] = w.tangent.data() + k * m * 6;
+    if (jacobians != nullptr && jacobians[block_of_[k]] != nullptr) {
+      w.tangent_ptrs[k] = w.tangent.data() + static_cast<std::size_t>(tangent_offset_[k]) * m;
+    }
   }
   try {
     if (!factor_->Linearize(w.params.data(), residuals, jacobians != nullptr ? w.tangent_ptrs.data() : nullptr)) {
@@ -154,15 +181,15 @@ bool FactorCostFunction::Evaluate(const double* const* parameters, double* resid
   }
   if (jacobians == nullptr) return true;
   // J_a = J_t L(x), summed over the keys that share a block.
-  double left_inverse[6 * 7];
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     if (jacobians[b] == nullptr) continue;
     const VarType type = block_types_[b];
     const int a = AmbientDim(type), t = TangentDim(type);
     Eigen::Map<RowMajor> ja(jacobians[b], m, a);
     ja.setZero();
-    RetractJacobianLeftInverse(type, parameters[b], left_inverse);
-    const Eigen::Map<const RowMajor> l(left_inverse, t, a);
+    w.left_inverse.resize(static_cast<std::size_t>(t) * a);
+    RetractJacobianLeftInverse(type, parameters[b], w.left_inverse.data());
+    const Eigen::Map<const RowMajor> l(w.left_inverse.data(), t, a);
     for (std::size_t k = 0; k < nk; ++k) {
       if (block_of_[k] != static_cast<int>(b)) continue;
       ja.noalias() += Eigen::Map<const RowMajor>(w.tangent_ptrs[k], m, t) * l;
@@ -174,7 +201,7 @@ bool FactorCostFunction::Evaluate(const double* const* parameters, double* resid
 ceres::Problem::Options CeresProblem::ProblemOptions() {
   ceres::Problem::Options o;
   o.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // the two manifolds are members
+  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // the manifolds are members
   return o;
 }
 
@@ -190,6 +217,12 @@ CeresProblem::CeresProblem(const FactorGraph& graph, const Values& values, const
       f.GatherParams(values);  // throws for missing or mistyped keys
     } catch (const InvalidArgument& e) {
       throw InvalidArgument("factor " + std::to_string(fi) + ": " + e.what());
+    }
+    if (f.loss() != nullptr) {
+      throw InvalidArgument("factor " + std::to_string(fi) + " (" + f.Describe() + ") carries the robust loss '" +
+                            f.loss()->name() +
+                            "', which the Ceres adapter does not map yet; remove it (set_loss(nullptr)) to solve "
+                            "the plain least-squares problem");
     }
     used.insert(f.keys().begin(), f.keys().end());
   }
@@ -217,8 +250,11 @@ CeresProblem::CeresProblem(const FactorGraph& graph, const Values& values, const
   // params_ never reallocates from here on: Ceres keeps pointers into it.
   for (std::size_t i = 0; i < keys_.size(); ++i) {
     ceres::Manifold* manifold = nullptr;
-    if (types_[i] == VarType::kSE2) manifold = &se2_manifold_;
-    if (types_[i] == VarType::kSE3) manifold = &se3_manifold_;
+    if (!IsPoint(types_[i])) {  // points are Euclidean; poses and registered types get their box-plus
+      std::unique_ptr<VariableManifold>& m = manifolds_[types_[i]];
+      if (!m) m = std::make_unique<VariableManifold>(types_[i]);
+      manifold = m.get();
+    }
     double* block = params_.data() + offsets_[i];
     problem_.AddParameterBlock(block, AmbientDim(types_[i]), manifold);
     if (constant_[i]) problem_.SetParameterBlockConstant(block);

@@ -112,6 +112,13 @@ void SpanningTree(const FactorGraph& graph, Values* values, InitSummary* s) {
       anchor_keys.insert(k);
     }
   }
+  // Variables of registered types (neither pose nor point: a scale, a bias) keep their values
+  // and seed the composition too: the built-in measurements cannot predict them.
+  for (const auto& [k, type] : used) {
+    if (IsPose(type) || IsPoint(type) || !values->Has(k) || seed.Has(k)) continue;
+    seed.InsertParams(k, type, values->Params(k));
+    anchor_keys.insert(k);
+  }
   InitializeSpanningTree(graph, &seed);  // throws for a variable it cannot reach
   for (const auto& [k, type] : used) {
     if (!values->Has(k)) {
@@ -289,11 +296,12 @@ class Chordal {
       if (!f->Predict(0, a.data(), 1, b.data())) continue;
       if (!std::all_of(b.begin(), b.begin() + AmbientDim(Traits::kType), [](double v) { return std::isfinite(v); }))
         continue;
-      std::array<double, kMaxResidualDim> r;
-      std::array<double, kMaxResidualDim * kTangent> ja, jb;
+      if (f->dim() > kInlineResidualDim) continue;  // the pose-pose factors this start reads have at most 6
+      std::array<double, kInlineResidualDim> r;
+      std::array<double, kInlineResidualDim * kTangent> ja, jb;
       const double* params[2] = {a.data(), b.data()};
       double* jac[2] = {ja.data(), jb.data()};
-      if (f->dim() > kMaxResidualDim || !f->Linearize(params, r.data(), jac)) continue;
+      if (!f->Linearize(params, r.data(), jac)) continue;
       const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, kTangent, Eigen::RowMajor>> J(jb.data(), f->dim(),
                                                                                                  kTangent);
       const Eigen::Matrix<double, kTangent, kTangent> info = J.transpose() * J;
@@ -455,7 +463,7 @@ void PointsFromPoses(const FactorGraph& graph, Values* values, InitSummary* s) {
     for (std::size_t known = 0; known < 2; ++known) {
       const std::size_t unknown = 1 - known;
       const Key pk = f->keys()[known], qk = f->keys()[unknown];
-      if (!IsPose(types[known]) || IsPose(types[unknown]) || graph.IsFixed(qk) || !values->Has(pk)) continue;
+      if (!IsPose(types[known]) || !IsPoint(types[unknown]) || graph.IsFixed(qk) || !values->Has(pk)) continue;
       Params out;
       if (!f->Predict(known, values->Params(pk), unknown, out.data())) continue;
       const int n = AmbientDim(types[unknown]);

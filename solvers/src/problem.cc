@@ -103,6 +103,39 @@ std::vector<int> Partition(const std::vector<double>& cost, int parts) {
 
 }  // namespace
 
+std::string Problem::DescribeNonFinite() const {
+  std::vector<double> r(static_cast<std::size_t>(max_m_));
+  std::vector<double> jac;
+  std::vector<double*> jp;
+  for (std::size_t fi = 0; fi < factors_.size(); ++fi) {
+    const FactorRef& f = factors_[fi];
+    jac.assign(static_cast<std::size_t>(factor_jac_[fi + 1] - factor_jac_[fi]) + 1, 0.0);
+    jp.assign(static_cast<std::size_t>(f.count), nullptr);
+    std::vector<int> size(static_cast<std::size_t>(f.count), 0);
+    int off = 0;
+    for (int a = 0; a < f.count; ++a) {
+      const Entry& e = entries_[f.first + a];
+      if (e.var < 0) continue;
+      jp[a] = jac.data() + off;
+      size[a] = f.m * e.dim;
+      off += size[a];
+    }
+    const std::string where = "factor " + std::to_string(fi) + " (" + f.factor->Describe() + ")";
+    if (!f.factor->Linearize(params_.data() + f.first, r.data(), jp.data())) return where + " fails to evaluate";
+    for (int i = 0; i < f.m; ++i) {
+      if (!std::isfinite(r[i])) return where + " has a non-finite error";
+    }
+    for (int a = 0; a < f.count; ++a) {
+      for (int i = 0; i < size[a]; ++i) {
+        if (!std::isfinite(jp[a][i])) {
+          return where + " has a non-finite Jacobian with respect to " + KeyToString(f.factor->keys()[a]);
+        }
+      }
+    }
+  }
+  return "";
+}
+
 Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads)
     : values_(values) {
   // Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR
@@ -129,6 +162,12 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
       f.CheckShape();  // keys against types, noise against error dimension
     } catch (const InvalidArgument& e) {
       throw InvalidArgument("factor " + std::to_string(fi) + ": " + e.what());
+    }
+    if (f.loss() != nullptr) {
+      throw InvalidArgument("factor " + std::to_string(fi) + " (" + f.Describe() + ") carries the robust loss '" +
+                            f.loss()->name() +
+                            "', which this solver does not apply yet; remove it (set_loss(nullptr)) to solve the "
+                            "plain least-squares problem");
     }
     const std::vector<const double*> p = f.GatherParams(*values);  // throws for missing/mistyped keys
     const int first = static_cast<int>(entries_.size());
@@ -200,6 +239,8 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
   var_parts_ = Partition(column_cost, parts);
   factor_chi2_.assign(factors_.size(), 0.0);
   part_status_.assign(parts, 0);
+  for (const FactorRef& f : factors_) max_m_ = std::max(max_m_, f.m);
+  scratch_.assign(static_cast<std::size_t>(parts) * max_m_, 0.0);
   pool_ = std::make_unique<ThreadPool>(parts);
 }
 
@@ -212,9 +253,10 @@ void Problem::Parallel(F& f) const {
   pool_->Run(f);
 }
 
-int Problem::LinearizeRange(int f0, int f1, double* res) const {
+int Problem::LinearizeRange(int part, double* res) const {
+  const int f0 = factor_parts_[part], f1 = factor_parts_[part + 1];
   const bool jacobians = res != nullptr;
-  double scratch[kMaxResidualDim];
+  double* scratch = scratch_.data() + static_cast<std::size_t>(part) * max_m_;
   for (int fi = f0; fi < f1; ++fi) {
     const FactorRef& f = factors_[fi];
     double* r = jacobians ? res + f.row : scratch;
@@ -248,7 +290,7 @@ double Problem::SumChi2() const {
 }
 
 double Problem::Chi2() const {
-  auto part = [this](int k) { part_status_[k] = LinearizeRange(factor_parts_[k], factor_parts_[k + 1], nullptr); };
+  auto part = [this](int k) { part_status_[k] = LinearizeRange(k, nullptr); };
   Parallel(part);
   for (int st : part_status_) {
     if (st == 1) return std::numeric_limits<double>::infinity();
@@ -259,7 +301,7 @@ double Problem::Chi2() const {
 double Problem::Linearize() {
   jacobian_finite_ = false;
   double* res = res_.data();
-  auto part = [this, res](int k) { part_status_[k] = LinearizeRange(factor_parts_[k], factor_parts_[k + 1], res); };
+  auto part = [this, res](int k) { part_status_[k] = LinearizeRange(k, res); };
   Parallel(part);
   bool finite = true;
   for (int st : part_status_) {

@@ -11,6 +11,7 @@
 // bit-identical for any num_threads.
 #include <memory>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "tether/core/factor_graph.h"
@@ -46,6 +47,9 @@ class Problem {
   /// Whether every Jacobian entry came out finite is kept in jacobian_finite().
   double Linearize();
   bool jacobian_finite() const { return jacobian_finite_; }
+  /// The first factor whose error or Jacobian is not finite at the current values, as
+  /// "factor 12 (BetweenSE2, keys 3, 4) has a non-finite error"; empty where none is.
+  std::string DescribeNonFinite() const;
   /// H (upper, full diagonal blocks) into h.values and g = J^T r; needs BuildNormalStructure.
   void AssembleNormal(Csc* h, double* g) const;
   /// g = J^T r and the diagonal of J^T J.
@@ -102,10 +106,11 @@ class Problem {
     GradientKernel kernel;
   };
 
-  // Factors [f0, f1): whitened residuals and each factor's chi2 into factor_chi2_; with res
+  // Factors of one part: whitened residuals and each factor's chi2 into factor_chi2_; with res
   // (= res_), the residuals go there and the Jacobians into jac_, else only chi2 is computed.
   // Returns 0, 1 when a factor failed, 2 when some Jacobian entry is not finite.
-  int LinearizeRange(int f0, int f1, double* res) const;
+  // `part` is the index of the thread's part of the factors (factor_parts_).
+  int LinearizeRange(int part, double* res) const;
   // Block columns of variables [v0, v1) of H (zeroed first) and their g (and diag) entries.
   void AssembleColumns(int v0, int v1, double* hx, double* g) const;
   void GradientRange(int v0, int v1, double* g, double* diag) const;
@@ -128,6 +133,8 @@ class Problem {
   std::vector<int> factor_jac_;                // jac_ of factor f: [factor_jac_[f], factor_jac_[f + 1])
   std::vector<int> factor_parts_, var_parts_;  // num_threads + 1 boundaries each
   mutable std::vector<double> factor_chi2_;
+  mutable std::vector<double> scratch_;  // one residual per part, for chi2 alone
+  int max_m_ = 0;                        // the largest residual dimension
   mutable std::vector<int> part_status_;
   std::unique_ptr<ThreadPool> pool_;
   std::vector<double> jac_, res_;

@@ -151,8 +151,8 @@ TEST(GraphIoTest, ReadsA2DGraphWithCommentsBlankLinesFixAndCarriageReturns) {
       "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
       "FIX 0\n");
   EXPECT_EQ(g.values.keys(), (std::vector<Key>{0, 1, 2}));
-  ExpectSE2Near(g.values.AtSE2(1), SE2d(1.5, -2, 0.25), 0);
-  EXPECT_NEAR(g.values.AtSE2(2).theta(), 4 - 2 * M_PI, 1e-15);
+  ExpectSE2Near(g.values.At<SE2d>(1), SE2d(1.5, -2, 0.25), 0);
+  EXPECT_NEAR(g.values.At<SE2d>(2).theta(), 4 - 2 * M_PI, 1e-15);
   ASSERT_EQ(g.graph.size(), 2u);
   EXPECT_EQ(g.graph.at(0).type_name(), "BetweenSE2");
   EXPECT_EQ(g.graph.at(0).keys(), (std::vector<Key>{0, 1}));
@@ -195,19 +195,21 @@ TEST(GraphIoTest, ReadsSE3AndNormalisesQuaternions) {
       info6 + "\n");
   EXPECT_EQ(g.values.size(), 4u);
   EXPECT_EQ(g.graph.size(), 3u);
-  for (Key k = 0; k < 4; ++k) EXPECT_NEAR(g.values.AtSE3(k).quaternion().norm(), 1.0, 1e-15);
+  for (Key k = 0; k < 4; ++k) EXPECT_NEAR(g.values.At<SE3d>(k).quaternion().norm(), 1.0, 1e-15);
   EXPECT_NEAR(g.values.Params(3)[6], 1.0, 1e-15);
   EXPECT_NEAR(g.values.Params(2)[5], 0.6, 1e-15);
-  EXPECT_EQ(g.values.AtSE3(1).translation(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(g.values.At<SE3d>(1).translation(), Eigen::Vector3d(1, 2, 3));
   // Only the quaternion far from unit length (line 4) is reported.
   ASSERT_EQ(g.warnings.size(), 1u);
-  EXPECT_CONTAINS(g.warnings[0], "t.g2o: normalised 1 quaternion of VERTEX_SE3:QUAT lines");
+  EXPECT_CONTAINS(g.warnings[0],
+                  "t.g2o: normalised quaternions that were far from unit length on 1 line VERTEX_SE3:QUAT (first at "
+                  "line 4)");
   EXPECT_CONTAINS(g.warnings[0], "first at line 4");
 }
 
 TEST(GraphIoTest, ZeroQuaternionIsAnError) {
   EXPECT_EQ(ReadError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 7 1 2 3 0 0 0 0\n"),
-            "t.g2o:2: VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion, "
+            "t.g2o:2: VERTEX_SE3:QUAT quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion; "
             "fix the "
             "line");
 }
@@ -219,7 +221,7 @@ TEST(GraphIoTest, ReadsPoint2Landmarks) {
       "EDGE_SE2_XY 0 100 2 3 1 0 1\n"
       "EDGE_PRIOR_SE2 0 0 0 0 1 0 0 1 0 1\n");
   EXPECT_EQ(g.values.TypeOf(100), VarType::kPoint2);
-  EXPECT_EQ(g.values.AtPoint2(100), Eigen::Vector2d(2, 3));
+  EXPECT_EQ(g.values.At<Eigen::Vector2d>(100), Eigen::Vector2d(2, 3));
   ASSERT_EQ(g.graph.size(), 2u);
   EXPECT_EQ(g.graph.at(0).type_name(), "PosePoint2");
   EXPECT_EQ(g.graph.at(1).type_name(), "PriorSE2");
@@ -229,8 +231,10 @@ TEST(GraphIoTest, ReadsPoint2Landmarks) {
 Registry WithTrackXyz() {
   Registry r;
   RegisterBuiltinFactors(r);
+  // PosePoint3 has no g2o tag of its own; the test gives it one (the name stays, as the probe
+  // factor made by `make` checks it).
   FactorType t = *r.FindByName("PosePoint3");
-  t.name = "TestPosePoint3";
+  r.Remove("PosePoint3");
   t.tag = "EDGE_SE3_TRACKXYZ";
   t.owner = "test";
   r.Register(t);
@@ -245,7 +249,7 @@ TEST(GraphIoTest, ReadsPoint3Vertices) {
       "EDGE_SE3_TRACKXYZ 0 5 1 2 3 1 0 0 1 0 1\n",
       "t.g2o", {}, r);
   EXPECT_EQ(g.values.TypeOf(5), VarType::kPoint3);
-  EXPECT_EQ(g.values.AtPoint3(5), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(g.values.At<Eigen::Vector3d>(5), Eigen::Vector3d(1, 2, 3));
   EXPECT_EQ(g.graph.size(), 1u);
 }
 
@@ -333,9 +337,9 @@ TEST(GraphIoTest, AllowPartialVerticesInitialisesTheMissingOnesFromEdges) {
   EXPECT_EQ(g.initialised_by_spanning_tree, 2);
   EXPECT_EQ(g.values.keys(), (std::vector<Key>{0, 1, 2}));
   const SE2d x0(1, 2, 0.5);
-  ExpectSE2Near(g.values.AtSE2(0), x0, 0);
-  ExpectSE2Near(g.values.AtSE2(1), x0 * SE2d(1, 0, 0.1));
-  ExpectSE2Near(g.values.AtSE2(2), x0 * SE2d(1, 0, 0.1) * SE2d(0.5, 0.5, -0.2));
+  ExpectSE2Near(g.values.At<SE2d>(0), x0, 0);
+  ExpectSE2Near(g.values.At<SE2d>(1), x0 * SE2d(1, 0, 0.1));
+  ExpectSE2Near(g.values.At<SE2d>(2), x0 * SE2d(1, 0, 0.1) * SE2d(0.5, 0.5, -0.2));
 }
 
 TEST(GraphIoTest, AnIdWithTwoTypesIsAnError) {
@@ -403,11 +407,11 @@ TEST(GraphIoTest, EdgesOnlyFileIsInitialisedByComposingAlongASpanningTree) {
   const GraphFile g = Read(text);
   EXPECT_EQ(g.initialised_by_spanning_tree, 4);  // the anchor and the three others
   EXPECT_EQ(g.values.keys(), (std::vector<Key>{0, 1, 2, 3}));
-  ExpectSE2Near(g.values.AtSE2(0), SE2d(), 0);
+  ExpectSE2Near(g.values.At<SE2d>(0), SE2d(), 0);
   // Breadth first from 0: 1 through edge 0-1, 3 through edge 3-0 (inverted), 2 through 1-2.
-  ExpectSE2Near(g.values.AtSE2(1), z01);
-  ExpectSE2Near(g.values.AtSE2(3), z30.Inverse());
-  ExpectSE2Near(g.values.AtSE2(2), z01 * z12);
+  ExpectSE2Near(g.values.At<SE2d>(1), z01);
+  ExpectSE2Near(g.values.At<SE2d>(3), z30.Inverse());
+  ExpectSE2Near(g.values.At<SE2d>(2), z01 * z12);
   // The tree edges are satisfied exactly.
   EXPECT_NEAR(g.graph.at(0).Chi2(g.values), 0, 1e-20);
   EXPECT_NEAR(g.graph.at(1).Chi2(g.values), 0, 1e-20);
@@ -429,9 +433,9 @@ TEST(GraphIoTest, EdgesOnlySE3File) {
   };
   const GraphFile g = Read(line(5, 6, z01) + line(6, 7, z12));
   EXPECT_EQ(g.initialised_by_spanning_tree, 3);
-  ExpectSE3Near(g.values.AtSE3(5), SE3d());
-  ExpectSE3Near(g.values.AtSE3(6), z01);
-  ExpectSE3Near(g.values.AtSE3(7), z01 * z12);
+  ExpectSE3Near(g.values.At<SE3d>(5), SE3d());
+  ExpectSE3Near(g.values.At<SE3d>(6), z01);
+  ExpectSE3Near(g.values.At<SE3d>(7), z01 * z12);
 }
 
 TEST(GraphIoTest, HugeIdsCostNoMemoryProportionalToTheId) {
@@ -439,14 +443,14 @@ TEST(GraphIoTest, HugeIdsCostNoMemoryProportionalToTheId) {
                            Edge(4000000000, 18446744073709551615u, 2, 2, 0) + Edge(0, 4000000000, 1, 2, 0) +
                            "FIX 18446744073709551615\n");
   EXPECT_EQ(g.values.size(), 3u);
-  ExpectSE2Near(g.values.AtSE2(18446744073709551615u), SE2d(3, 4, 0), 0);
+  ExpectSE2Near(g.values.At<SE2d>(18446744073709551615u), SE2d(3, 4, 0), 0);
   EXPECT_TRUE(g.graph.IsFixed(18446744073709551615u));
   EXPECT_EQ(g.graph.at(0).keys(), (std::vector<Key>{4000000000, 18446744073709551615u}));
   // Edges only, with huge ids: the spanning tree uses hash maps too.
   const GraphFile e = Read(Edge(4000000000, 18446744073709551615u, 2, 2, 0) + Edge(3000000000, 4000000000, 1, 0, 0));
   EXPECT_EQ(e.initialised_by_spanning_tree, 3);
-  ExpectSE2Near(e.values.AtSE2(3000000000), SE2d(), 0);
-  ExpectSE2Near(e.values.AtSE2(18446744073709551615u), SE2d(3, 2, 0));
+  ExpectSE2Near(e.values.At<SE2d>(3000000000), SE2d(), 0);
+  ExpectSE2Near(e.values.At<SE2d>(18446744073709551615u), SE2d(3, 2, 0));
   // Write and read back: ids survive as they are.
   std::ostringstream out;
   WriteG2o(out, g.values, g.graph, DefaultRegistry());
@@ -466,10 +470,10 @@ TEST(GraphIoTest, InitializeSpanningTreeStartsFromExistingValues) {
   values.Insert(11, x11);
   EXPECT_EQ(InitializeSpanningTree(graph, &values), 3);
   EXPECT_EQ(values.keys(), (std::vector<Key>{11, 10, 12, 20}));  // new keys appended in key order
-  ExpectSE2Near(values.AtSE2(10), x11 * SE2d(1, 0, 0.5).Inverse());
-  ExpectSE2Near(values.AtSE2(12), x11 * SE2d(0, 1, -0.5).Inverse());
-  const Eigen::Vector2d l = values.AtSE2(12) * Eigen::Vector2d(2, 0);
-  EXPECT_LT((values.AtPoint2(20) - l).norm(), 1e-12);
+  ExpectSE2Near(values.At<SE2d>(10), x11 * SE2d(1, 0, 0.5).Inverse());
+  ExpectSE2Near(values.At<SE2d>(12), x11 * SE2d(0, 1, -0.5).Inverse());
+  const Eigen::Vector2d l = values.At<SE2d>(12) * Eigen::Vector2d(2, 0);
+  EXPECT_LT((values.At<Eigen::Vector2d>(20) - l).norm(), 1e-12);
   // Nothing missing: nothing to do.
   EXPECT_EQ(InitializeSpanningTree(graph, &values), 0);
 }
@@ -552,7 +556,7 @@ TEST(GraphIoTest, APluginTagNamedLikeAToroTagWinsOutsideTorofiles) {
   Registry r;
   RegisterBuiltinFactors(r);
   FactorType t = *r.FindByName("BetweenSE2");
-  t.name = "PluginEdge2";
+  r.Remove("BetweenSE2");
   t.tag = "EDGE2";
   t.owner = "plugin";
   r.Register(t);
@@ -572,9 +576,9 @@ TEST(GraphIoTest, APluginTagNamedLikeAToroTagWinsOutsideTorofiles) {
 TEST(GraphIoTest, WritesVerticesThenFixThenEdges) {
   Values values;
   values.Insert(3, SE2d(1, 2, 0.5));
-  values.InsertPoint2(1, Eigen::Vector2d(0.1, -0.2));
+  values.Insert(1, Eigen::Vector2d(0.1, -0.2));
   values.Insert(7, SE3d(Eigen::Quaterniond(1, 0, 0, 0), Eigen::Vector3d(1, 2, 3)));
-  values.InsertPoint3(2, Eigen::Vector3d(4, 5, 6));
+  values.Insert(2, Eigen::Vector3d(4, 5, 6));
   FactorGraph graph;
   graph.Add(std::make_unique<PosePoint2>(3, 1, Eigen::Vector2d(0.5, 0.25), SqrtInformation::Identity(2)));
   graph.Fix(7);

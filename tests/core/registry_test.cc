@@ -41,8 +41,9 @@ std::vector<std::string> Split(const std::string& line) {
 // A plugin-style factor with its own file form: "TEST_POINT_PRIOR id x y sigma".
 class PointPrior : public Factor {
  public:
-  PointPrior(Key k, const Eigen::Vector2d& z, SqrtInformation n) : Factor({k}, n), z_(z) {}
-  std::string type_name() const override { return "TestPointPrior"; }
+  PointPrior(Key k, const Eigen::Vector2d& z, SqrtInformation n, std::string name = "TestPointPrior")
+      : Factor({k}, n), z_(z), name_(std::move(name)) {}
+  std::string type_name() const override { return name_; }
   std::vector<VarType> variable_types() const override { return {VarType::kPoint2}; }
   bool Evaluate(const double* const* p, double* e, double* const* jac) const override {
     e[0] = p[0][0] - z_.x();
@@ -57,6 +58,7 @@ class PointPrior : public Factor {
 
  private:
   Eigen::Vector2d z_;
+  std::string name_;
 };
 
 FactorType PointPriorType(const std::string& owner = "testplugin") {
@@ -89,8 +91,8 @@ FactorType StandardPointPriorType(const std::string& name, const std::string& ta
   t.dim = 2;
   t.variable_types = {VarType::kPoint2};
   t.measurement_size = 2;
-  t.make = [](std::vector<Key> k, const double* m, SqrtInformation n) {
-    return std::make_unique<PointPrior>(k[0], Eigen::Vector2d(m[0], m[1]), n);
+  t.make = [name](std::vector<Key> k, const double* m, SqrtInformation n) {
+    return std::make_unique<PointPrior>(k[0], Eigen::Vector2d(m[0], m[1]), n, name);
   };
   t.measurement = [](const Factor& f) { return f.Measurement(); };
   return t;
@@ -164,9 +166,7 @@ TEST(RegistryTest, IncompleteDescriptionsAreRejected) {
   {
     FactorType t = StandardPointPriorType("A", "T1", "p");
     t.dim = 0;
-    EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { r.Register(t); }), "residual dimension is 0; it must be 1 to 6");
-    t.dim = 7;
-    EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { r.Register(t); }), "residual dimension is 7");
+    EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { r.Register(t); }), "residual dimension is 0; it must be at least 1");
   }
   {
     FactorType t = StandardPointPriorType("A", "T1", "p");

@@ -22,7 +22,7 @@ TEST(KeyTest, SymbolsPrintReadably) {
 TEST(ValuesTest, TypedStorageIsContiguousPerType) {
   Values v;
   v.Insert(Symbol('x', 0), SE2d(1, 2, 0.5));
-  v.InsertPoint2(Symbol('l', 0), Eigen::Vector2d(3, 4));
+  v.Insert(Symbol('l', 0), Eigen::Vector2d(3, 4));
   v.Insert(Symbol('x', 1), SE2d(5, 6, -0.5));
   v.Insert(7, SE3d(SO3d::Exp(Eigen::Vector3d(0.1, 0.2, 0.3)), Eigen::Vector3d(1, 2, 3)));
   EXPECT_EQ(v.size(), 4u);
@@ -34,8 +34,8 @@ TEST(ValuesTest, TypedStorageIsContiguousPerType) {
   EXPECT_EQ(se2[3], 5.0);
   EXPECT_EQ(v.Params(Symbol('x', 1)), se2.data() + 3);
   EXPECT_EQ(v.keys()[1], Symbol('l', 0));
-  EXPECT_TRUE(v.AtSE3(7).quaternion().isApprox(SO3d::Exp(Eigen::Vector3d(0.1, 0.2, 0.3)).quaternion()));
-  EXPECT_EQ(v.AtPoint2(Symbol('l', 0)).y(), 4.0);
+  EXPECT_TRUE(v.At<SE3d>(7).quaternion().isApprox(SO3d::Exp(Eigen::Vector3d(0.1, 0.2, 0.3)).quaternion()));
+  EXPECT_EQ(v.At<Eigen::Vector2d>(Symbol('l', 0)).y(), 4.0);
 }
 
 TEST(ValuesTest, ErrorsNameTheKey) {
@@ -48,12 +48,12 @@ TEST(ValuesTest, ErrorsNameTheKey) {
     EXPECT_NE(std::string(e.what()).find("x3"), std::string::npos) << e.what();
   }
   try {
-    v.AtSE3(Symbol('x', 3));
+    v.At<SE3d>(Symbol('x', 3));
     FAIL() << "wrong type accepted";
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("holds SE2, not SE3"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(v.AtSE2(Symbol('x', 4)), InvalidArgument);
+  EXPECT_THROW(v.At<SE2d>(Symbol('x', 4)), InvalidArgument);
 }
 
 TEST(ValuesTest, HugeIdsCostNoMoreThanSmallOnes) {
@@ -61,7 +61,7 @@ TEST(ValuesTest, HugeIdsCostNoMoreThanSmallOnes) {
   v.Insert(4000000000ull, SE2d(1, 0, 0));
   v.Insert(0, SE2d());
   EXPECT_EQ(v.Data(VarType::kSE2).capacity() < 100, true);
-  EXPECT_EQ(v.AtSE2(4000000000ull).x(), 1.0);
+  EXPECT_EQ(v.At<SE2d>(4000000000ull).x(), 1.0);
 }
 
 TEST(ValuesTest, RetractAppliesBoxPlus) {
@@ -69,7 +69,7 @@ TEST(ValuesTest, RetractAppliesBoxPlus) {
   v.Insert(1, SE2d(1, 1, 3.0));
   const double d[3] = {1, 0, 0.5};
   v.Retract(1, d);
-  const SE2d x = v.AtSE2(1);
+  const SE2d x = v.At<SE2d>(1);
   EXPECT_NEAR(x.x(), 1 + std::cos(3.0), 1e-12);
   EXPECT_NEAR(x.y(), 1 + std::sin(3.0), 1e-12);
   EXPECT_NEAR(x.theta(), 3.5 - 2 * 3.14159265358979323846, 1e-12);  // wrapped

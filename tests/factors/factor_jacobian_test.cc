@@ -53,7 +53,7 @@ TEST_P(FactorJacobianTest, BetweenSE2) {
     Values v;
     v.Insert(1, RandomSE2(rng, GetParam()));
     v.Insert(2, RandomSE2(rng, GetParam()));
-    const SE2d z = i % 2 ? RandomSE2(rng, GetParam()) : v.AtSE2(1).Inverse() * v.AtSE2(2);
+    const SE2d z = i % 2 ? RandomSE2(rng, GetParam()) : v.At<SE2d>(1).Inverse() * v.At<SE2d>(2);
     BetweenSE2 f(1, 2, z, RandomInformation(rng, 3));
     testing::CheckJacobians(f, v, 1e-6, {2});
   }
@@ -67,7 +67,7 @@ TEST_P(FactorJacobianTest, BetweenSE3) {
     v.Insert(2, RandomSE3(rng, GetParam()));
     // The measurement is near the true relative pose (as in real graphs), so the error
     // rotation is small even when the poses are near pi.
-    const SE3d rel = v.AtSE3(1).Inverse() * v.AtSE3(2);
+    const SE3d rel = v.At<SE3d>(1).Inverse() * v.At<SE3d>(2);
     const SE3d z = rel * SE3d::Exp(SmallTangent(rng, i % 3 == 0 ? 1.0 : 0.1));
     BetweenSE3 f(1, 2, z, RandomInformation(rng, 6));
     testing::CheckJacobians(f, v, 1e-6);
@@ -80,7 +80,7 @@ TEST_P(FactorJacobianTest, PosePoint2) {
   for (int i = 0; i < 100; ++i) {
     Values v;
     v.Insert(1, RandomSE2(rng, GetParam()));
-    v.InsertPoint2(2, Eigen::Vector2d(u(rng), u(rng)));
+    v.Insert(2, Eigen::Vector2d(u(rng), u(rng)));
     PosePoint2 f(1, 2, Eigen::Vector2d(u(rng), u(rng)), RandomInformation(rng, 2));
     testing::CheckJacobians(f, v, 1e-6);
   }
@@ -92,7 +92,7 @@ TEST_P(FactorJacobianTest, PosePoint3) {
   for (int i = 0; i < 100; ++i) {
     Values v;
     v.Insert(1, RandomSE3(rng, GetParam()));
-    v.InsertPoint3(2, Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    v.Insert(2, Eigen::Vector3d(u(rng), u(rng), u(rng)));
     PosePoint3 f(1, 2, Eigen::Vector3d(u(rng), u(rng), u(rng)), RandomInformation(rng, 3));
     testing::CheckJacobians(f, v, 1e-6);
   }
@@ -106,7 +106,7 @@ TEST_P(FactorJacobianTest, Priors) {
     v.Insert(2, RandomSE3(rng, GetParam()));
     PriorSE2 p2(1, RandomSE2(rng, GetParam()), RandomInformation(rng, 3));
     testing::CheckJacobians(p2, v, 1e-6, {2});
-    PriorSE3 p3(2, v.AtSE3(2) * SE3d::Exp(SmallTangent(rng, 0.3)), RandomInformation(rng, 6));
+    PriorSE3 p3(2, v.At<SE3d>(2) * SE3d::Exp(SmallTangent(rng, 0.3)), RandomInformation(rng, 6));
     testing::CheckJacobians(p3, v, 1e-6);
   }
 }
@@ -123,7 +123,7 @@ TEST(FactorErrorTest, BetweenSE2MatchesDefinition) {
     v.Insert(2, RandomSE2(rng, false));
     const SE2d z = RandomSE2(rng, false);
     BetweenSE2 f(1, 2, z, SqrtInformation::Identity(3));
-    const SE2d e = z.Inverse() * (v.AtSE2(1).Inverse() * v.AtSE2(2));
+    const SE2d e = z.Inverse() * (v.At<SE2d>(1).Inverse() * v.At<SE2d>(2));
     const auto p = f.GatherParams(v);
     double err[3];
     ASSERT_TRUE(f.Evaluate(p.data(), err, nullptr));
@@ -167,11 +167,10 @@ TEST(FactorErrorTest, WhiteningGivesChi2OfInformation) {
 
 // The same SE3 relative-pose error written as a templated residual: autodiff through
 // ceres::Jet must reproduce the analytic Jacobians.
-class AutoBetweenSE3 : public AutoDiffFactor<AutoBetweenSE3, 6, VarType::kSE3, VarType::kSE3> {
+class AutoBetweenSE3 : public AutoDiffFactor<AutoBetweenSE3, 6, SE3d, SE3d> {
  public:
   AutoBetweenSE3(Key i, Key j, const SE3d& z, SqrtInformation n) : AutoDiffFactor({i, j}, n), z_(z) {}
-  std::string type_name() const override { return "AutoBetweenSE3"; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<AutoBetweenSE3>(*this); }
+  static constexpr const char* kTypeName = "AutoBetweenSE3";
   template <typename T>
   bool operator()(const T* const* p, T* e) const {
     const SE3<T> xi = SE3<T>::FromParams(p[0]), xj = SE3<T>::FromParams(p[1]);
@@ -194,7 +193,7 @@ TEST(AutoDiffFactorTest, MatchesAnalyticJacobians) {
     Values v;
     v.Insert(1, RandomSE3(rng, i % 2 == 0));
     v.Insert(2, RandomSE3(rng, i % 2 == 0));
-    const SE3d z = (v.AtSE3(1).Inverse() * v.AtSE3(2)) * SE3d::Exp(SmallTangent(rng, 0.2));
+    const SE3d z = (v.At<SE3d>(1).Inverse() * v.At<SE3d>(2)) * SE3d::Exp(SmallTangent(rng, 0.2));
     BetweenSE3 analytic(1, 2, z, SqrtInformation::Identity(6));
     AutoBetweenSE3 autodiff(1, 2, z, SqrtInformation::Identity(6));
     const auto p = analytic.GatherParams(v);

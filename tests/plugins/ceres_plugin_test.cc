@@ -87,7 +87,7 @@ TEST_F(CeresPluginTest, RangesAndGpsPriorsSE2) {
   }
   const Eigen::Vector2d beacons[] = {{10, 10}, {-10, 10}, {-10, -10}, {10, -11}};
   for (int j = 0; j < 4; ++j) {
-    values.InsertPoint2(100 + j, beacons[j]);
+    values.Insert(100 + j, beacons[j]);
     graph.Fix(100 + j);
     for (int i = 0; i < n; ++i) {
       const double r = (beacons[j] - truth[i].translation()).norm() + 0.1 * n01(rng);

@@ -140,7 +140,7 @@ TEST_F(ExamplePluginsTest, Range2DErrorAndJacobians) {
     EXPECT_EQ(f->dim(), 1);
     Values v;
     v.Insert(1, x);
-    v.InsertPoint2(2, l);
+    v.Insert(2, l);
     const std::vector<const double*> p = f->GatherParams(v);
     double e = 0, jx[3], jl[2];
     double* jac[] = {jx, jl};
@@ -158,7 +158,7 @@ TEST_F(ExamplePluginsTest, Range2DRefusesZeroDistance) {
   const std::unique_ptr<Factor> f = type.make({1, 2}, &r, SqrtInformation::Identity(1));
   Values v;
   v.Insert(1, SE2d(1.5, -2.0, 0.3));
-  v.InsertPoint2(2, Eigen::Vector2d(1.5, -2.0));  // the pose sits on the landmark
+  v.Insert(2, Eigen::Vector2d(1.5, -2.0));  // the pose sits on the landmark
   const std::vector<const double*> p = f->GatherParams(v);
   double e = 0, jx[3], jl[2];
   double* jac[] = {jx, jl};
@@ -171,7 +171,7 @@ TEST_F(ExamplePluginsTest, Range2DRefusesZeroDistance) {
   graph.Fix(2);
   const SolverSummary s = Optimize(graph, &v);
   EXPECT_EQ(s.status, SolverStatus::kInvalidInput) << s.message;
-  EXPECT_EQ(v.AtSE2(1).x(), 1.5);  // values untouched
+  EXPECT_EQ(v.At<SE2d>(1).x(), 1.5);  // values untouched
 }
 
 TEST_F(ExamplePluginsTest, Range2DRefusesNegativeRangeNamingTheLine) {
@@ -412,11 +412,11 @@ void ExpectBackToTruth(const char* what, const FactorGraph& graph, const Values&
     if (!IsPose(type) || graph.IsFixed(k)) continue;
     double position, angle;
     if (type == VarType::kSE2) {
-      const SE2d a = truth.AtSE2(k), b = solution.AtSE2(k);
+      const SE2d a = truth.At<SE2d>(k), b = solution.At<SE2d>(k);
       position = (b.translation() - a.translation()).norm();
       angle = std::abs(WrapAngle(b.theta() - a.theta()));
     } else {
-      const SE3d a = truth.AtSE3(k), b = solution.AtSE3(k);
+      const SE3d a = truth.At<SE3d>(k), b = solution.At<SE3d>(k);
       position = (b.translation() - a.translation()).norm();
       angle = (a.rotation().Inverse() * b.rotation()).Log().norm();
     }
@@ -487,7 +487,7 @@ TEST_P(ExamplePluginsSolveTest, OdometryAndRangesToFixedBeacons) {
   const Eigen::Vector2d beacons[] = {{12, 12}, {-12, 12}, {-12, -12}, {12, -13}};
   const double sigma_r = 0.1;
   for (int j = 0; j < 4; ++j) {
-    values.InsertPoint2(Symbol('l', j), beacons[j]);
+    values.Insert(Symbol('l', j), beacons[j]);
     graph.Fix(Symbol('l', j));
     for (int k = 0; k < n; ++k) {
       const double r = (beacons[j] - truth[k].translation()).norm() + noise(sigma_r);
@@ -615,7 +615,7 @@ TEST(ExamplePluginsLifetimeTest, FactorsOutliveTheLoaderAndTheRegistry) {
   // Loader and registry are gone; the factors' code (in the .so files) is still mapped.
   Values v;
   v.Insert(1, SE2d(0, 0, 0.3));
-  v.InsertPoint2(2, Eigen::Vector2d(3, 4));
+  v.Insert(2, Eigen::Vector2d(3, 4));
   EXPECT_NEAR(range->Chi2(v), 0.0, 1e-24);  // |(3, 4)| = 5
   EXPECT_NEAR(gps->Chi2(v), 1.0 + 4.0, 1e-12);
   std::unique_ptr<Factor> copy = range->Clone();
@@ -684,8 +684,8 @@ TEST(ExamplePluginsCliTest, OptimizeReadsAndWritesPluginTags) {
   loader.Load(PluginPath("range_2d"));
   loader.Load(PluginPath("position_prior"));
   const GraphFile solved = ReadGraph(back, out, registry);
-  EXPECT_NEAR(solved.values.AtSE2(2).x(), 2.0, 1e-6);
-  EXPECT_NEAR(solved.values.AtSE2(2).y(), 0.0, 1e-6);
+  EXPECT_NEAR(solved.values.At<SE2d>(2).x(), 2.0, 1e-6);
+  EXPECT_NEAR(solved.values.At<SE2d>(2).y(), 0.0, 1e-6);
 }
 #endif
 

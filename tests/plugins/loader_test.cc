@@ -198,7 +198,7 @@ TEST_F(LoaderTest, PluginFactorsOutliveTheLoaderAndTheRegistry) {
     factor = registry.FindByName("TestGoodPrior")->make({3}, z, SqrtInformation::Identity(2));
   }
   Values values;
-  values.InsertPoint2(3, Eigen::Vector2d(4, 6));
+  values.Insert(3, Eigen::Vector2d(4, 6));
   EXPECT_DOUBLE_EQ(factor->Chi2(values), 3 * 3 + 4 * 4);
   const std::unique_ptr<Factor> copy = factor->Clone();
   EXPECT_EQ(copy->type_name(), "TestGoodPrior");
@@ -226,7 +226,7 @@ TEST_F(LoaderTest, TypesFoundBeforeALoadStayValidAfterIt) {
   const double z[2] = {1, 2};
   const std::unique_ptr<Factor> f = good->make({3}, z, SqrtInformation::Identity(2));
   Values values;
-  values.InsertPoint2(3, Eigen::Vector2d(1, 2));
+  values.Insert(3, Eigen::Vector2d(1, 2));
   EXPECT_DOUBLE_EQ(f->Chi2(values), 0.0);
 }
 

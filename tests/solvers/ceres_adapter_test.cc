@@ -35,7 +35,7 @@ SimulatedGraph Sim(SimWorld w, int poses, std::uint64_t seed = 5) {
 }
 
 bool AllFinite(const Values& v) {
-  for (int t = 0; t < kNumVarTypes; ++t)
+  for (int t = 0; t < kNumBuiltinVarTypes; ++t)
     for (double x : v.Data(static_cast<VarType>(t)))
       if (!std::isfinite(x)) return false;
   return true;
@@ -51,22 +51,22 @@ Difference Compare(const Values& a, const Values& b) {
   for (Key k : a.keys()) {
     switch (a.TypeOf(k)) {
       case VarType::kSE2: {
-        const SE2d p = a.AtSE2(k), q = b.AtSE2(k);
+        const SE2d p = a.At<SE2d>(k), q = b.At<SE2d>(k);
         d.position = std::max(d.position, (p.translation() - q.translation()).norm());
         d.angle = std::max(d.angle, std::abs(WrapAngle(p.theta() - q.theta())));
         break;
       }
       case VarType::kSE3: {
-        const SE3d p = a.AtSE3(k), q = b.AtSE3(k);
+        const SE3d p = a.At<SE3d>(k), q = b.At<SE3d>(k);
         d.position = std::max(d.position, (p.translation() - q.translation()).norm());
         d.angle = std::max(d.angle, (p.rotation().Inverse() * q.rotation()).Log().norm());
         break;
       }
       case VarType::kPoint2:
-        d.position = std::max(d.position, (a.AtPoint2(k) - b.AtPoint2(k)).norm());
+        d.position = std::max(d.position, (a.At<Eigen::Vector2d>(k) - b.At<Eigen::Vector2d>(k)).norm());
         break;
       case VarType::kPoint3:
-        d.position = std::max(d.position, (a.AtPoint3(k) - b.AtPoint3(k)).norm());
+        d.position = std::max(d.position, (a.At<Eigen::Vector3d>(k) - b.At<Eigen::Vector3d>(k)).norm());
         break;
     }
   }
@@ -135,7 +135,7 @@ TEST(CeresCostFunctionTest, AmbientJacobianTimesPlusJacobianIsTheTangentJacobian
   v.Insert(0, SE3d(SO3d::Exp(Eigen::Vector3d(0.3, -1.2, 2.0)), Eigen::Vector3d(1, 2, 3)));
   v.Insert(1, SE3d(SO3d::Exp(Eigen::Vector3d(-2.5, 0.4, 0.1)), Eigen::Vector3d(-1, 0.5, 2)));
   v.Insert(2, SE2d(1, -2, 3.0));
-  v.InsertPoint2(3, Eigen::Vector2d(4, 1));
+  v.Insert(3, Eigen::Vector2d(4, 1));
   Eigen::Matrix<double, 6, 6> info = Eigen::Matrix<double, 6, 6>::Random();
   info = info * info.transpose() + 6 * Eigen::Matrix<double, 6, 6>::Identity();
   const BetweenSE3 between(0, 1, SE3d(SO3d::Exp(Eigen::Vector3d(0.1, 0.2, 0.3)), Eigen::Vector3d(0.5, 0, 0)),
@@ -347,7 +347,7 @@ TEST(CeresAdapterTest, FixedVariablesStayBitIdentical) {
   for (Key k : {pose_a, pose_b, landmark}) sim.graph.Fix(k);
   // Disturb the fixed variables a little so that the solver would want to move them.
   Values v = sim.initial;
-  v.Update(pose_b, v.AtSE2(pose_b) * SE2d(0.013, -0.021, 0.017));
+  v.Update(pose_b, v.At<SE2d>(pose_b) * SE2d(0.013, -0.021, 0.017));
   v.Params(landmark)[0] += 0.031;
   const Values start = v;
   const SolverSummary s = OptimizeWithCeres(sim.graph, &v, {});
@@ -400,11 +400,10 @@ TEST(CeresAdapterTest, GaugeAndUnusedVariablesAsNatively) {
 // ---- failures ----
 
 // Pulls a point towards (5, 5) but throws once x exceeds 2.
-class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, VarType::kPoint2> {
+class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, Eigen::Vector2d> {
  public:
   explicit ThrowingFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
-  std::string type_name() const override { return "Throwing"; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<ThrowingFactor>(*this); }
+  static constexpr const char* kTypeName = "Throwing";
   template <typename T>
   bool operator()(const T* const* p, T* e) const {
     if (p[0][0] > T(2)) throw std::runtime_error("measurement model undefined beyond x = 2");
@@ -416,11 +415,10 @@ class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, VarType::kPoint2
 
 // Finite error everywhere, but its Jacobian is NaN wherever y <= 0 (acos' at 1 times a zero
 // derivative); the minimum lies at y = -0.5, inside that region.
-class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, VarType::kPoint2> {
+class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, Eigen::Vector2d> {
  public:
   explicit NanJacobianFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
-  std::string type_name() const override { return "NanJacobian"; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<NanJacobianFactor>(*this); }
+  static constexpr const char* kTypeName = "NanJacobian";
   template <typename T>
   bool operator()(const T* const* p, T* e) const {
     using std::acos;
@@ -436,13 +434,13 @@ TEST(CeresAdapterFailureTest, AFactorThatThrowsEndsDivergedWithTheStartValues) {
   FactorGraph g;
   g.Add(std::make_unique<ThrowingFactor>(1));
   Values v;
-  v.InsertPoint2(1, Eigen::Vector2d(0, 0));
+  v.Insert(1, Eigen::Vector2d(0, 0));
   const SolverSummary s = OptimizeWithCeres(g, &v, {});
   EXPECT_EQ(s.status, SolverStatus::kDiverged) << s.message;
   EXPECT_FALSE(s.IsSolutionUsable());
   EXPECT_NE(s.message.find("measurement model undefined beyond x = 2"), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("start values were kept"), std::string::npos) << s.message;
-  EXPECT_EQ(v.AtPoint2(1), Eigen::Vector2d(0, 0));
+  EXPECT_EQ(v.At<Eigen::Vector2d>(1), Eigen::Vector2d(0, 0));
   EXPECT_EQ(s.final_chi2, s.initial_chi2);
 }
 
@@ -452,7 +450,7 @@ TEST(CeresAdapterFailureTest, NonFiniteJacobiansNeverReachTheValues) {
   FactorGraph g;
   g.Add(std::make_unique<NanJacobianFactor>(1));
   Values v;
-  v.InsertPoint2(1, Eigen::Vector2d(3, 1));
+  v.Insert(1, Eigen::Vector2d(3, 1));
   const SolverSummary s = OptimizeWithCeres(g, &v, {});
   EXPECT_TRUE(AllFinite(v));
   EXPECT_TRUE(std::isfinite(s.final_chi2));
@@ -460,7 +458,7 @@ TEST(CeresAdapterFailureTest, NonFiniteJacobiansNeverReachTheValues) {
   EXPECT_LE(s.final_chi2, s.initial_chi2);
   if (!s.IsSolutionUsable()) {
     EXPECT_EQ(s.status, SolverStatus::kDiverged);
-    EXPECT_EQ(v.AtPoint2(1), Eigen::Vector2d(3, 1));
+    EXPECT_EQ(v.At<Eigen::Vector2d>(1), Eigen::Vector2d(3, 1));
     EXPECT_NE(s.message.find("start values were kept"), std::string::npos) << s.message;
   }
   // A start with a non-finite Jacobian is refused outright, as natively.
@@ -468,7 +466,7 @@ TEST(CeresAdapterFailureTest, NonFiniteJacobiansNeverReachTheValues) {
   const SolverSummary bad = OptimizeWithCeres(g, &v, {});
   EXPECT_EQ(bad.status, SolverStatus::kInvalidInput);
   EXPECT_NE(bad.message.find("Jacobian at the initial values is not finite"), std::string::npos) << bad.message;
-  EXPECT_EQ(v.AtPoint2(1), Eigen::Vector2d(3, -1));
+  EXPECT_EQ(v.At<Eigen::Vector2d>(1), Eigen::Vector2d(3, -1));
 }
 
 TEST(CeresAdapterFailureTest, InvalidInputLeavesValuesUntouched) {
@@ -514,7 +512,7 @@ TEST(CeresAdapterTest, NothingToOptimise) {
   EXPECT_EQ(s.status, SolverStatus::kConverged);
   EXPECT_NE(s.message.find("every variable is fixed"), std::string::npos);
   EXPECT_DOUBLE_EQ(s.final_chi2, 1.0);
-  EXPECT_EQ(v.AtSE2(1).x(), 2.0);
+  EXPECT_EQ(v.At<SE2d>(1).x(), 2.0);
 }
 
 }  // namespace

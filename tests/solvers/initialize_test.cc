@@ -33,18 +33,18 @@ Difference Compare(const Values& a, const Values& b) {
   for (Key k : a.keys()) {
     switch (a.TypeOf(k)) {
       case VarType::kSE2:
-        d.position = std::max(d.position, (a.AtSE2(k).translation() - b.AtSE2(k).translation()).norm());
-        d.angle = std::max(d.angle, std::abs(WrapAngle(a.AtSE2(k).theta() - b.AtSE2(k).theta())));
+        d.position = std::max(d.position, (a.At<SE2d>(k).translation() - b.At<SE2d>(k).translation()).norm());
+        d.angle = std::max(d.angle, std::abs(WrapAngle(a.At<SE2d>(k).theta() - b.At<SE2d>(k).theta())));
         break;
       case VarType::kSE3:
-        d.position = std::max(d.position, (a.AtSE3(k).translation() - b.AtSE3(k).translation()).norm());
-        d.angle = std::max(d.angle, (a.AtSE3(k).rotation().Inverse() * b.AtSE3(k).rotation()).Log().norm());
+        d.position = std::max(d.position, (a.At<SE3d>(k).translation() - b.At<SE3d>(k).translation()).norm());
+        d.angle = std::max(d.angle, (a.At<SE3d>(k).rotation().Inverse() * b.At<SE3d>(k).rotation()).Log().norm());
         break;
       case VarType::kPoint2:
-        d.position = std::max(d.position, (a.AtPoint2(k) - b.AtPoint2(k)).norm());
+        d.position = std::max(d.position, (a.At<Eigen::Vector2d>(k) - b.At<Eigen::Vector2d>(k)).norm());
         break;
       case VarType::kPoint3:
-        d.position = std::max(d.position, (a.AtPoint3(k) - b.AtPoint3(k)).norm());
+        d.position = std::max(d.position, (a.At<Eigen::Vector3d>(k) - b.At<Eigen::Vector3d>(k)).norm());
         break;
     }
   }
@@ -58,7 +58,7 @@ Values Scrambled(const Values& truth) {
     if (k == 0) continue;
     double* p = v.Params(k);
     for (int i = 0; i < AmbientDim(v.TypeOf(k)); ++i) p[i] += 3.0 + 0.1 * static_cast<double>(i);
-    if (v.TypeOf(k) == VarType::kSE3) v.Update(k, v.AtSE3(k));  // renormalise the quaternion
+    if (v.TypeOf(k) == VarType::kSE3) v.Update(k, v.At<SE3d>(k));  // renormalise the quaternion
   }
   return v;
 }
@@ -143,7 +143,7 @@ TEST(InitializeTest, FixedPosesAreAnchors) {
     for (Key k : {Key{7}, Key{120}}) {
       for (int i = 0; i < 3; ++i) EXPECT_EQ(v.Params(k)[i], before.Params(k)[i]) << ToString(method);
     }
-    EXPECT_GT((v.AtSE2(0).translation() - before.AtSE2(0).translation()).norm(), 1.0) << ToString(method);
+    EXPECT_GT((v.At<SE2d>(0).translation() - before.At<SE2d>(0).translation()).norm(), 1.0) << ToString(method);
   }
 }
 
@@ -152,12 +152,12 @@ TEST(InitializeTest, UnusedValuesStayAndMissingOnesAreAdded) {
   for (InitMethod method : {InitMethod::kSpanningTree, InitMethod::kChordal}) {
     const SimulatedGraph sim = Sim(SimWorld::kManhattan, 50, 1.0);
     Values v;
-    v.Insert(0, sim.ground_truth.AtSE2(0));  // only the anchor
-    v.Insert(999, SE2d(1, 2, 3));            // used by nothing
+    v.Insert(0, sim.ground_truth.At<SE2d>(0));  // only the anchor
+    v.Insert(999, SE2d(1, 2, 3));               // used by nothing
     const InitSummary s = Initialize(sim.graph, &v, method);
     EXPECT_EQ(v.size(), 51u);
-    EXPECT_EQ(v.AtSE2(999).x(), 1.0);
-    EXPECT_EQ(v.AtSE2(999).theta(), SE2d(1, 2, 3).theta());
+    EXPECT_EQ(v.At<SE2d>(999).x(), 1.0);
+    EXPECT_EQ(v.At<SE2d>(999).theta(), SE2d(1, 2, 3).theta());
     EXPECT_LT(sim.graph.Chi2(v), 1e3) << ToString(method);
     (void)s;
   }
@@ -229,8 +229,8 @@ TEST(InitializeTest, SingularTranslationSystemIsAClearError) {
   }
   EXPECT_EQ(v.Data(VarType::kSE2), before.Data(VarType::kSE2));
   Initialize(graph, &v, InitMethod::kSpanningTree);
-  EXPECT_NEAR(v.AtSE2(2).theta(), 0.2, 1e-12);
-  EXPECT_EQ(v.AtSE2(2).x(), 1.0);
+  EXPECT_NEAR(v.At<SE2d>(2).theta(), 0.2, 1e-12);
+  EXPECT_EQ(v.At<SE2d>(2).x(), 1.0);
 }
 
 // Pieces linked by nothing each get their own anchor.
@@ -249,8 +249,8 @@ TEST(InitializeTest, EveryPieceHasAnAnchor) {
     const InitSummary s = Initialize(graph, &w, method);
     EXPECT_EQ(s.anchors, 2) << ToString(method);
     EXPECT_NEAR(graph.Chi2(w), 0.0, 1e-18) << ToString(method);
-    EXPECT_EQ(w.AtSE2(10).x(), -3.0);  // anchors stay
-    EXPECT_EQ(w.AtSE2(0).x(), 5.0);
+    EXPECT_EQ(w.At<SE2d>(10).x(), -3.0);  // anchors stay
+    EXPECT_EQ(w.At<SE2d>(0).x(), 5.0);
   }
 }
 

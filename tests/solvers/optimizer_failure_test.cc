@@ -17,11 +17,10 @@ namespace {
 // e = (10 (y + 0.5), x - 1 + acos(min(1, 1 - y))): finite everywhere, but its Jacobian is
 // NaN where y <= 0 (acos' at 1 times a zero derivative). The minimum (x = 1 + acos(1.5)...)
 // lies at y = -0.5, inside the bad region.
-class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, VarType::kPoint2> {
+class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, Eigen::Vector2d> {
  public:
   explicit NanJacobianFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
-  std::string type_name() const override { return "NanJacobian"; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<NanJacobianFactor>(*this); }
+  static constexpr const char* kTypeName = "NanJacobian";
   template <typename T>
   bool operator()(const T* const* p, T* e) const {
     using std::acos;
@@ -34,11 +33,10 @@ class NanJacobianFactor : public AutoDiffFactor<NanJacobianFactor, 2, VarType::k
 };
 
 // Pulls a point towards (5, 5) but throws once x exceeds 2.
-class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, VarType::kPoint2> {
+class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, Eigen::Vector2d> {
  public:
   explicit ThrowingFactor(Key k) : AutoDiffFactor({k}, SqrtInformation::Identity(2)) {}
-  std::string type_name() const override { return "Throwing"; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<ThrowingFactor>(*this); }
+  static constexpr const char* kTypeName = "Throwing";
   template <typename T>
   bool operator()(const T* const* p, T* e) const {
     if (p[0][0] > T(2)) throw std::runtime_error("measurement model undefined beyond x = 2");
@@ -49,7 +47,7 @@ class ThrowingFactor : public AutoDiffFactor<ThrowingFactor, 2, VarType::kPoint2
 };
 
 bool AllFinite(const Values& v) {
-  for (int t = 0; t < kNumVarTypes; ++t)
+  for (int t = 0; t < kNumBuiltinVarTypes; ++t)
     for (double x : v.Data(static_cast<VarType>(t)))
       if (!std::isfinite(x)) return false;
   return true;
@@ -69,7 +67,7 @@ TEST(OptimizerFailureTest, NoiseOfTheWrongDimensionIsInvalidInput) {
 
 TEST(OptimizerFailureTest, WrongNumberOfKeysIsInvalidInput) {
   Values v;
-  v.InsertPoint2(1, Eigen::Vector2d(0, 0));
+  v.Insert(1, Eigen::Vector2d(0, 0));
   // A factor whose keys do not match its types: build one through the base class.
   struct Mismatched : public Factor {
     Mismatched() : Factor({1, 2, 3}, SqrtInformation::Identity(2)) {}
@@ -93,7 +91,7 @@ TEST(OptimizerFailureTest, NonFiniteJacobianIsNeverConverged) {
     FactorGraph g;
     g.Add(std::make_unique<NanJacobianFactor>(1));
     Values v;
-    v.InsertPoint2(1, Eigen::Vector2d(3, 1));
+    v.Insert(1, Eigen::Vector2d(3, 1));
     SolverOptions o;
     o.algorithm = a;
     const SolverSummary s = Optimize(g, &v, o);
@@ -105,13 +103,13 @@ TEST(OptimizerFailureTest, NonFiniteJacobianIsNeverConverged) {
       EXPECT_EQ(s.status, SolverStatus::kDiverged) << s.message;
     }
     // Wherever it stopped, the values it returned have a finite Jacobian (y > 0).
-    EXPECT_GT(v.AtPoint2(1).y(), 0.0) << ToString(a);
+    EXPECT_GT(v.At<Eigen::Vector2d>(1).y(), 0.0) << ToString(a);
   }
   // A start with a non-finite Jacobian is refused outright.
   FactorGraph g;
   g.Add(std::make_unique<NanJacobianFactor>(1));
   Values v;
-  v.InsertPoint2(1, Eigen::Vector2d(3, -1));
+  v.Insert(1, Eigen::Vector2d(3, -1));
   const SolverSummary s = Optimize(g, &v, {});
   EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
   EXPECT_NE(s.message.find("Jacobian"), std::string::npos);
@@ -122,13 +120,13 @@ TEST(OptimizerFailureTest, AFactorThatThrowsKeepsTheLastGoodValues) {
     FactorGraph g;
     g.Add(std::make_unique<ThrowingFactor>(1));
     Values v;
-    v.InsertPoint2(1, Eigen::Vector2d(0, 0));
+    v.Insert(1, Eigen::Vector2d(0, 0));
     SolverOptions o;
     o.algorithm = a;
     const SolverSummary s = Optimize(g, &v, o);
     EXPECT_EQ(s.status, SolverStatus::kDiverged) << ToString(a);
     EXPECT_NE(s.message.find("measurement model undefined beyond x = 2"), std::string::npos) << s.message;
-    EXPECT_EQ(v.AtPoint2(1), Eigen::Vector2d(0, 0)) << ToString(a);
+    EXPECT_EQ(v.At<Eigen::Vector2d>(1), Eigen::Vector2d(0, 0)) << ToString(a);
   }
 }
 
@@ -167,7 +165,7 @@ TEST(OptimizerFailureTest, QrRefusesAFactorUsingOneVariableTwice) {
   // The Cholesky solvers handle it (the self-loop contributes nothing here).
   o.linear_solver = LinearSolverType::kCholmod;
   EXPECT_EQ(Optimize(g, &v, o).status, SolverStatus::kConverged);
-  EXPECT_NEAR(v.AtSE2(1).x(), 1.0, 1e-9);
+  EXPECT_NEAR(v.At<SE2d>(1).x(), 1.0, 1e-9);
 }
 
 TEST(OptimizerFailureTest, AutomaticGaugeSkipsUnusedPoses) {

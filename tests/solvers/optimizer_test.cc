@@ -40,7 +40,7 @@ double MaxPositionError(const Values& a, const Values& b) {
 }
 
 bool AllFinite(const Values& v) {
-  for (int t = 0; t < kNumVarTypes; ++t)
+  for (int t = 0; t < kNumBuiltinVarTypes; ++t)
     for (double x : v.Data(static_cast<VarType>(t)))
       if (!std::isfinite(x)) return false;
   return true;
@@ -312,12 +312,12 @@ TEST(OptimizerTest, FixedAndPriorRemoveTheAutomaticGauge) {
     FactorGraph g = sim.graph;
     g.Fix(10);
     Values v = sim.initial;
-    const SE2d before = v.AtSE2(10);
+    const SE2d before = v.At<SE2d>(10);
     const SolverSummary s = Optimize(g, &v, {});
     EXPECT_FALSE(s.gauge_fixed_automatically);
     EXPECT_EQ(s.num_fixed, 1);
-    EXPECT_EQ(v.AtSE2(10).x(), before.x());
-    EXPECT_EQ(v.AtSE2(10).theta(), before.theta());
+    EXPECT_EQ(v.At<SE2d>(10).x(), before.x());
+    EXPECT_EQ(v.At<SE2d>(10).theta(), before.theta());
   }
   {
     FactorGraph g = sim.graph;
@@ -327,8 +327,8 @@ TEST(OptimizerTest, FixedAndPriorRemoveTheAutomaticGauge) {
     EXPECT_FALSE(s.gauge_fixed_automatically);
     EXPECT_EQ(s.num_fixed, 0);
     EXPECT_EQ(s.status, SolverStatus::kConverged);
-    EXPECT_NEAR(v.AtSE2(0).x(), 1.0, 1e-3);
-    EXPECT_NEAR(v.AtSE2(0).theta(), 0.5, 1e-3);
+    EXPECT_NEAR(v.At<SE2d>(0).x(), 1.0, 1e-3);
+    EXPECT_NEAR(v.At<SE2d>(0).theta(), 0.5, 1e-3);
   }
 }
 

@@ -175,7 +175,7 @@ TEST(SimulateTest, ManhattanWalkIsPinned) {
   const SimulatedGraph g = Simulate(Options(SimWorld::kManhattan, 400, 1));
   std::string walk;
   for (Key k = 0; k < 20; ++k) {
-    const SE2d p = g.ground_truth.AtSE2(k);
+    const SE2d p = g.ground_truth.At<SE2d>(k);
     walk += "(" + std::to_string(std::lround(p.x())) + "," + std::to_string(std::lround(p.y())) + ")";
   }
   EXPECT_EQ(walk, kPinnedWalk);
@@ -214,13 +214,13 @@ TEST(SimulateTest, ManhattanHasPosesOdometryAndNearbyLoopClosures) {
     if (IsConsecutive(*f)) continue;
     ++loops;
     // A loop closure joins poses at most one grid step apart.
-    const SE2d pa = g.ground_truth.AtSE2(a), pb = g.ground_truth.AtSE2(b);
+    const SE2d pa = g.ground_truth.At<SE2d>(a), pb = g.ground_truth.At<SE2d>(b);
     EXPECT_LE((pa.translation() - pb.translation()).norm(), 1.0 + 1e-9);
   }
   EXPECT_EQ(loops, g.loop_closures);
   // Unit steps on a grid, headings multiples of 90 degrees.
   for (Key k = 1; k < 500; ++k) {
-    const SE2d d = g.ground_truth.AtSE2(k - 1).Inverse() * g.ground_truth.AtSE2(k);
+    const SE2d d = g.ground_truth.At<SE2d>(k - 1).Inverse() * g.ground_truth.At<SE2d>(k);
     EXPECT_NEAR(d.translation().norm(), 1.0, 1e-9);
     const double quarter = d.theta() / (0.5 * M_PI);
     EXPECT_NEAR(quarter, std::round(quarter), 1e-9);
@@ -235,13 +235,14 @@ TEST(SimulateTest, SphereHasSE3PosesAndLoopClosuresToThePreviousRing) {
   EXPECT_GT(g.loop_closures, 50);
   EXPECT_EQ(g.graph.size(), static_cast<std::size_t>(g.odometry_factors + g.loop_closures));
   // All poses on one sphere around the origin.
-  const double radius = g.ground_truth.AtSE3(0).translation().norm();
-  for (Key k = 0; k < 400; ++k) EXPECT_NEAR(g.ground_truth.AtSE3(k).translation().norm(), radius, 1e-9);
+  const double radius = g.ground_truth.At<SE3d>(0).translation().norm();
+  for (Key k = 0; k < 400; ++k) EXPECT_NEAR(g.ground_truth.At<SE3d>(k).translation().norm(), radius, 1e-9);
   for (const auto& f : g.graph.factors()) {
     ASSERT_EQ(f->type_name(), "BetweenSE3");
     if (IsConsecutive(*f)) continue;
     const double gap =
-        (g.ground_truth.AtSE3(f->keys()[0]).translation() - g.ground_truth.AtSE3(f->keys()[1]).translation()).norm();
+        (g.ground_truth.At<SE3d>(f->keys()[0]).translation() - g.ground_truth.At<SE3d>(f->keys()[1]).translation())
+            .norm();
     EXPECT_LT(gap, 2.0);  // neighbours on the previous ring
   }
 }
@@ -271,7 +272,7 @@ TEST(SimulateTest, LandmarksAreObservedWithinRangeAndKeyedAfterThePoses) {
     ASSERT_LT(pose, 300u);
     ASSERT_GE(point, 300u);
     observed.insert(point);
-    const double d = (g.ground_truth.AtPoint2(point) - g.ground_truth.AtSE2(pose).translation()).norm();
+    const double d = (g.ground_truth.At<Eigen::Vector2d>(point) - g.ground_truth.At<SE2d>(pose).translation()).norm();
     EXPECT_LE(d, o.landmark_range + 1e-9);
   }
   EXPECT_EQ(observations, g.observations);

@@ -296,8 +296,8 @@ TEST(SvgPlotTest, NonFiniteValuesAreLeftOut) {
   for (Key k = 0; k < 6; ++k) v.Insert(k, SE2d(static_cast<double>(k), 0, 0));
   v.Params(2)[0] = std::numeric_limits<double>::quiet_NaN();
   v.Params(4)[1] = std::numeric_limits<double>::infinity();
-  v.InsertPoint2(10, Eigen::Vector2d(std::numeric_limits<double>::quiet_NaN(), 1.0));
-  v.InsertPoint2(11, Eigen::Vector2d(1.0, 1.0));
+  v.Insert(10, Eigen::Vector2d(std::numeric_limits<double>::quiet_NaN(), 1.0));
+  v.Insert(11, Eigen::Vector2d(1.0, 1.0));
   FactorGraph graph;
   for (Key k = 0; k < 5; ++k) AddOdometry(&graph, k, k + 1);
   graph.Add(std::make_unique<BetweenSE2>(0, 2, SE2d(), SqrtInformation::Identity(3)));

@@ -343,10 +343,10 @@ class Simulation {
     }
     InsertPoses(truth, initial);
     for (int l = 0; l < m; ++l) {
-      out_.ground_truth.InsertPoint2(Key(n) + Key(l), points[l]);
+      out_.ground_truth.Insert(Key(n) + Key(l), points[l]);
       // Every landmark is placed within range of a pose, so `seen` always holds; the fallback
       // only keeps the output complete should that ever change.
-      out_.initial.InsertPoint2(Key(n) + Key(l), seen[l] ? landmark_initial[l] : points[l]);
+      out_.initial.Insert(Key(n) + Key(l), seen[l] ? landmark_initial[l] : points[l]);
     }
   }
 

@@ -17,6 +17,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "tether/core/autodiff_factor.h"
@@ -25,21 +26,26 @@
 namespace {
 
 using tether::Key;
+using tether::SE2d;
+using tether::SE3d;
 using tether::SqrtInformation;
-using tether::VarType;
 
 // Position components of a pose type.
-constexpr int PositionDim(VarType pose) { return pose == VarType::kSE2 ? 2 : 3; }
+template <class Pose>
+constexpr int kPositionDim = std::is_same_v<Pose, SE2d> ? 2 : 3;
 
 // One class template serves both pose types: SE2 (x y theta) and SE3 (tx ty tz qx qy qz qw)
-// parameters both start with the position.
-template <VarType kPose>
-class PositionPrior : public tether::AutoDiffFactor<PositionPrior<kPose>, PositionDim(kPose), kPose> {
+// parameters both start with the position. The base states the name, the error size and the
+// key's variable type once; the registration below reads them from here.
+template <class Pose>
+class PositionPrior : public tether::AutoDiffFactor<PositionPrior<Pose>, kPositionDim<Pose>, Pose> {
  public:
-  static constexpr int kDim = PositionDim(kPose);
+  static constexpr int kDim = kPositionDim<Pose>;
+  // The registered name: the writer looks the type up by it.
+  static constexpr const char* kTypeName = kDim == 2 ? "PositionPriorSE2" : "PositionPriorSE3";
 
   PositionPrior(Key key, const double* z, SqrtInformation noise)
-      : tether::AutoDiffFactor<PositionPrior, kDim, kPose>({key}, noise) {
+      : tether::AutoDiffFactor<PositionPrior, kDim, Pose>({key}, std::move(noise)) {
     std::copy(z, z + kDim, z_.begin());
   }
 
@@ -50,9 +56,6 @@ class PositionPrior : public tether::AutoDiffFactor<PositionPrior<kPose>, Positi
     return true;
   }
 
-  // Must be the names the types are registered under: the writer looks the type up by it.
-  std::string type_name() const override { return kPose == VarType::kSE2 ? "PositionPriorSE2" : "PositionPriorSE3"; }
-  std::unique_ptr<tether::Factor> Clone() const override { return std::make_unique<PositionPrior>(*this); }
   // The numbers written after the id in the file (standard layout).
   std::vector<double> Measurement() const override { return {z_.begin(), z_.end()}; }
   // Predict keeps the default (false): a unary factor has no other variable to place.
@@ -61,27 +64,23 @@ class PositionPrior : public tether::AutoDiffFactor<PositionPrior<kPose>, Positi
   std::array<double, kDim> z_;
 };
 
-// Describes one of the two types to the registry; the standard layout's reader and writer
-// come for free from `make` and `measurement`.
-template <VarType kPose>
-tether::FactorType Describe(const char* name, const char* tag, const char* layout) {
-  tether::FactorType type;
-  type.name = name;
-  type.tag = tag;
-  type.dim = PositionDim(kPose);
-  type.variable_types = {kPose};
-  type.measurement_size = PositionDim(kPose);
+// Describes one of the two types to the registry; name, size and variable type come from the
+// class, the standard layout's reader and writer from `make` and `measurement`.
+template <class Pose>
+tether::FactorType Describe(const char* tag, const char* layout) {
+  using F = PositionPrior<Pose>;
+  tether::FactorType type = tether::DescribeFactor<F>(
+      tag, F::kDim,
+      [](std::vector<Key> keys, const double* m, SqrtInformation noise) -> std::unique_ptr<tether::Factor> {
+        return std::make_unique<F>(keys[0], m, std::move(noise));
+      });
   type.measurement_layout = layout;  // used in error messages about malformed lines
-  type.make = [](std::vector<Key> keys, const double* m, SqrtInformation noise) -> std::unique_ptr<tether::Factor> {
-    return std::make_unique<PositionPrior<kPose>>(keys[0], m, noise);
-  };
-  type.measurement = [](const tether::Factor& f) { return f.Measurement(); };
   return type;
 }
 
 void RegisterPositionPriors(tether::PluginRegistrar& registrar) {
-  registrar.AddFactorType(Describe<VarType::kSE2>("PositionPriorSE2", "EDGE_POSITION_PRIOR_SE2", "x y"));
-  registrar.AddFactorType(Describe<VarType::kSE3>("PositionPriorSE3", "EDGE_POSITION_PRIOR_SE3", "x y z"));
+  registrar.AddFactorType(Describe<SE2d>("EDGE_POSITION_PRIOR_SE2", "x y"));
+  registrar.AddFactorType(Describe<SE3d>("EDGE_POSITION_PRIOR_SE3", "x y z"));
 }
 
 }  // namespace

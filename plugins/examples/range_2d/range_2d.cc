@@ -26,8 +26,8 @@ namespace {
 
 using tether::Factor;
 using tether::Key;
+using tether::SE2d;
 using tether::SqrtInformation;
-using tether::VarType;
 
 // Closer than this the direction from the pose to the landmark, and with it the Jacobian, is
 // undefined (|v| has no derivative at v = 0). Evaluate then returns false, which the solvers
@@ -36,17 +36,16 @@ using tether::VarType;
 // within 1e-12 units means the initial values are wrong (for example two vertices at 0 0).
 constexpr double kMinDistance = 1e-12;
 
-class Range2D : public Factor {
+// The base states the name, the error size (1) and the keys' variable types (an SE2 pose, a
+// 2D point) once; type_name(), residual_dim(), variable_types() and Clone() come from it, and
+// so does the registry entry below (DescribeFactor).
+class Range2D : public tether::TypedFactor<Range2D, 1, SE2d, Eigen::Vector2d> {
  public:
-  Range2D(Key pose, Key landmark, double range, SqrtInformation noise)
-      : Factor({pose, landmark}, noise), range_(range) {}
+  static constexpr const char* kTypeName = "Range2D";  // the writer looks the type up by it
 
-  // Must be the name the type is registered under: the writer looks the type up by it.
-  std::string type_name() const override { return "Range2D"; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kPoint2}; }
-  // Entries of the error Evaluate writes: the solver refuses a noise model of another size.
-  int residual_dim() const override { return 1; }
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<Range2D>(*this); }
+  Range2D(Key pose, Key landmark, double range, SqrtInformation noise)
+      : TypedFactor({pose, landmark}, std::move(noise)), range_(range) {}
+
   // The numbers written after the ids in the file (standard layout).
   std::vector<double> Measurement() const override { return {range_}; }
 
@@ -86,24 +85,21 @@ class Range2D : public Factor {
   double range_;
 };
 
-// Describes the type to the registry: names, sizes, and how to build a factor from the
-// numbers of a file line (the reader and writer of the standard layout come for free).
+// Describes the type to the registry: its tag, the size of its measurement, and how to build
+// a factor from the numbers of a file line (the reader and writer of the standard layout come
+// for free). Name, dimension and variable types come from the class.
 void RegisterRange2D(tether::PluginRegistrar& registrar) {
-  tether::FactorType type;
-  type.name = "Range2D";
-  type.tag = "EDGE_RANGE_SE2_XY";
-  type.dim = 1;
-  type.variable_types = {VarType::kSE2, VarType::kPoint2};
-  type.measurement_size = 1;
+  tether::FactorType type = tether::DescribeFactor<Range2D>(
+      "EDGE_RANGE_SE2_XY", 1,
+      [](std::vector<Key> keys, const double* m, SqrtInformation noise) -> std::unique_ptr<Factor> {
+        // Thrown InvalidArguments reach the user with the file and line prefixed.
+        if (!(m[0] >= 0)) {
+          throw tether::InvalidArgument("the range is " + tether::FormatDouble(m[0]) +
+                                        "; a distance cannot be negative");
+        }
+        return std::make_unique<Range2D>(keys[0], keys[1], m[0], std::move(noise));
+      });
   type.measurement_layout = "range";  // used in error messages about malformed lines
-  type.make = [](std::vector<Key> keys, const double* m, SqrtInformation noise) -> std::unique_ptr<Factor> {
-    // Thrown InvalidArguments reach the user with the file and line prefixed.
-    if (!(m[0] >= 0)) {
-      throw tether::InvalidArgument("the range is " + tether::FormatDouble(m[0]) + "; a distance cannot be negative");
-    }
-    return std::make_unique<Range2D>(keys[0], keys[1], m[0], noise);
-  };
-  type.measurement = [](const Factor& f) { return f.Measurement(); };
   registrar.AddFactorType(std::move(type));
 }
 

@@ -2,35 +2,35 @@
 // AutoDiffFactor: a factor whose error is a templated function, differentiated with ceres::Jet.
 //
 // Write a class with
+//   static constexpr const char* kTypeName = "MyFactor";
 //   template <typename T> bool operator()(const T* const* params, T* error) const;
 // where params[k] holds the raw parameters of key k (layouts in variable.h), and derive
-//   class MyFactor : public AutoDiffFactor<MyFactor, kErrorDim, VarType::kSE2, VarType::kPoint2>
-// The Jacobians with respect to each variable's tangent delta are obtained by evaluating
-// the error at x_k (+) delta_k with Jet-valued deltas at zero, so they match the box-plus
-// the solvers use.
+//   class MyFactor : public AutoDiffFactor<MyFactor, kErrorDim, SE2d, Eigen::Vector2d>
+// listing the keys' variable types by their value types (any registered type works, through
+// its VariableTraits). The Jacobians with respect to each variable's tangent delta are
+// obtained by evaluating the error at x_k (+) delta_k with Jet-valued deltas at zero, so they
+// match the box-plus the solvers use. Any error size and any number of keys work.
 #include <ceres/jet.h>
 
 #include <array>
+#include <utility>
 
 #include "tether/core/factor.h"
 
 namespace tether {
 
-template <class Derived, int kErrorDim, VarType... kTypes>
-class AutoDiffFactor : public Factor {
+template <class Derived, int kErrorDim, class... Vars>
+class AutoDiffFactor : public TypedFactor<Derived, kErrorDim, Vars...> {
  public:
-  static constexpr int kNumKeys = sizeof...(kTypes);
-  static constexpr int kTangentTotal = (TangentDim(kTypes) + ...);
+  static constexpr int kNumKeys = sizeof...(Vars);
+  static constexpr int kTangentTotal = (VariableTraits<Vars>::kTangent + ...);
+  static constexpr int kAmbientTotal = (VariableTraits<Vars>::kAmbient + ...);
   using Jet = ceres::Jet<double, kTangentTotal>;
-  static_assert(kErrorDim >= 1 && kErrorDim <= kMaxResidualDim, "error dimension must be 1 to 6");
 
-  AutoDiffFactor(std::vector<Key> keys, SqrtInformation noise) : Factor(std::move(keys), noise) {}
-
-  std::vector<VarType> variable_types() const override { return {kTypes...}; }
-  int residual_dim() const override { return kErrorDim; }
+  AutoDiffFactor(std::vector<Key> keys, SqrtInformation noise)
+      : TypedFactor<Derived, kErrorDim, Vars...>(std::move(keys), std::move(noise)) {}
 
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override {
-    static constexpr std::array<VarType, kNumKeys> types = {kTypes...};
     const Derived& self = static_cast<const Derived&>(*this);
     if (jacobians == nullptr) {
       std::array<const double*, kNumKeys> p;
@@ -38,23 +38,15 @@ class AutoDiffFactor : public Factor {
       return self(p.data(), error);
     }
     // Retract each variable by a Jet delta that is zero with unit derivative in its slot.
-    std::array<std::array<Jet, 7>, kNumKeys> x;
+    std::array<Jet, kAmbientTotal> x;
     std::array<const Jet*, kNumKeys> xp;
-    int offset = 0;
-    for (int k = 0; k < kNumKeys; ++k) {
-      const VarType t = types[k];
-      std::array<Jet, 7> xj, dj;
-      for (int i = 0; i < AmbientDim(t); ++i) xj[i] = Jet(params[k][i]);
-      for (int i = 0; i < TangentDim(t); ++i) dj[i] = Jet(0.0, offset + i);
-      RetractParams<Jet>(t, xj.data(), dj.data(), x[k].data());
-      xp[k] = x[k].data();
-      offset += TangentDim(t);
-    }
+    PerturbAll(params, &x, &xp, std::index_sequence_for<Vars...>{});
     std::array<Jet, kErrorDim> e;
     if (!self(xp.data(), e.data())) return false;
-    offset = 0;
+    constexpr std::array<int, kNumKeys> dims = {VariableTraits<Vars>::kTangent...};
+    int offset = 0;
     for (int k = 0; k < kNumKeys; ++k) {
-      const int d = TangentDim(types[k]);
+      const int d = dims[k];
       if (jacobians[k] != nullptr) {
         for (int r = 0; r < kErrorDim; ++r)
           for (int c = 0; c < d; ++c) jacobians[k][r * d + c] = e[r].v[offset + c];
@@ -63,6 +55,27 @@ class AutoDiffFactor : public Factor {
     }
     for (int r = 0; r < kErrorDim; ++r) error[r] = e[r].a;
     return true;
+  }
+
+ private:
+  template <std::size_t... I>
+  static void PerturbAll(const double* const* params, std::array<Jet, kAmbientTotal>* x,
+                         std::array<const Jet*, kNumKeys>* xp, std::index_sequence<I...>) {
+    int ambient = 0, tangent = 0;
+    (Perturb<Vars>(params[I], x, &ambient, &tangent, &(*xp)[I]), ...);
+  }
+  template <class V>
+  static void Perturb(const double* p, std::array<Jet, kAmbientTotal>* x, int* ambient, int* tangent, const Jet** out) {
+    using Tr = VariableTraits<V>;
+    std::array<Jet, Tr::kAmbient> xj;
+    std::array<Jet, Tr::kTangent> dj;
+    for (int i = 0; i < Tr::kAmbient; ++i) xj[i] = Jet(p[i]);
+    for (int i = 0; i < Tr::kTangent; ++i) dj[i] = Jet(0.0, *tangent + i);
+    Jet* dst = x->data() + *ambient;
+    Tr::template Retract<Jet>(xj.data(), dj.data(), dst);
+    *out = dst;
+    *ambient += Tr::kAmbient;
+    *tangent += Tr::kTangent;
   }
 };
 

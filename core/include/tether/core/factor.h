@@ -12,7 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/error.h"
 #include "tether/core/key.h"
+#include "tether/core/loss_function.h"
 #include "tether/core/sqrt_information.h"
 #include "tether/core/variable.h"
 
@@ -22,7 +24,7 @@ class Values;
 
 class Factor {
  public:
-  Factor(std::vector<Key> keys, SqrtInformation noise) : keys_(std::move(keys)), noise_(noise) {}
+  Factor(std::vector<Key> keys, SqrtInformation noise) : keys_(std::move(keys)), noise_(std::move(noise)) {}
   virtual ~Factor() = default;
 
   /// The registered type name of this factor (for example "BetweenSE2").
@@ -53,20 +55,66 @@ class Factor {
   const std::vector<Key>& keys() const { return keys_; }
   const SqrtInformation& noise() const { return noise_; }
   void set_noise(const SqrtInformation& n) { noise_ = n; }
+  /// The robust loss on this factor's squared whitened error, or null (plain least squares).
+  const LossFunction* loss() const { return loss_.get(); }
+  const std::shared_ptr<const LossFunction>& shared_loss() const { return loss_; }
+  void set_loss(std::shared_ptr<const LossFunction> loss) { loss_ = std::move(loss); }
 
   /// Whitened residual and Jacobians.
   bool Linearize(const double* const* params, double* residual, double* const* jacobians) const;
   /// chi2 = e^T Omega e at the given values; throws InvalidArgument for missing/mistyped keys.
   double Chi2(const Values& values) const;
   /// Throws InvalidArgument unless the keys match variable_types() and the noise model's
-  /// dimension is the error's (1 to 6).
+  /// dimension is the error's.
   void CheckShape() const;
+  /// "BetweenSE2, keys 3, 4": the type and keys, for messages.
+  std::string Describe() const;
   /// Gathers parameter pointers for this factor's keys, checking presence and types.
   std::vector<const double*> GatherParams(const Values& values) const;
 
  private:
   std::vector<Key> keys_;
   SqrtInformation noise_;
+  std::shared_ptr<const LossFunction> loss_;
+};
+
+/// A factor that states its name, residual size and variable types once, at compile time:
+///
+///   class RangeFactor : public TypedFactor<RangeFactor, 1, SE2d, Eigen::Vector2d> {
+///    public:
+///     static constexpr const char* kTypeName = "Range2D";
+///     RangeFactor(Key pose, Key point, double z, SqrtInformation noise)
+///         : TypedFactor({pose, point}, std::move(noise)), z_(z) {}
+///     bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
+///   };
+///
+/// type_name(), residual_dim(), variable_types() and Clone() come from the base, and
+/// DescribeFactor<RangeFactor>(...) (registry.h) fills a registry entry from the same facts.
+/// The value types name the variable types (variable.h: SE2d, SE3d, Eigen::Vector2d,
+/// Eigen::Vector3d, or a registered type's value type).
+template <class Derived, int kDim, class... Vars>
+class TypedFactor : public Factor {
+ public:
+  static_assert(kDim >= 1, "a factor's residual has at least one entry");
+  static_assert(sizeof...(Vars) >= 1, "a factor has at least one variable");
+  static constexpr int kResidualDim = kDim;
+  static constexpr int kNumKeys = sizeof...(Vars);
+
+  /// Throws InvalidArgument where the number of keys is not the number of variable types.
+  TypedFactor(std::vector<Key> keys, SqrtInformation noise) : Factor(std::move(keys), std::move(noise)) {
+    if (this->keys().size() != sizeof...(Vars)) {
+      throw InvalidArgument(std::string(Derived::kTypeName) + " takes " + std::to_string(sizeof...(Vars)) +
+                            " keys, got " + std::to_string(this->keys().size()));
+    }
+  }
+  static std::vector<VarType> VariableTypes() { return {VarTypeOf<Vars>()...}; }
+
+  std::string type_name() const override { return Derived::kTypeName; }
+  int residual_dim() const override { return kDim; }
+  std::vector<VarType> variable_types() const override { return VariableTypes(); }
+  std::unique_ptr<Factor> Clone() const override {
+    return std::make_unique<Derived>(static_cast<const Derived&>(*this));
+  }
 };
 
 }  // namespace tether

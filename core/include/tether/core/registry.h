@@ -1,8 +1,10 @@
 #pragma once
-// Registry: factor types by name and g2o tag, with their factories, readers and writers.
+// Registry: variable and factor types by name and g2o tag, with their factories, readers and
+// writers.
 //
-// Built-in factors register through exactly the same calls a plugin uses
-// (tether/factors/builtin.h: RegisterBuiltinFactors). A standard g2o edge line reads
+// Built-in types register through exactly the same calls a plugin uses: every Registry
+// starts with the four built-in variable types (variable.h), and
+// tether/factors/builtin.h: RegisterBuiltinFactors adds the built-in factors. A standard g2o edge line reads
 //   TAG id_1 .. id_k  measurement[measurement_size]  information upper triangle, row by row
 // and types that follow that layout only need `make`; others give their own read/write.
 #include <Eigen/Core>
@@ -31,6 +33,9 @@ struct ReadContext {
   SqrtInformation FromInformation(const Fields& f, Eigen::MatrixXd omega);
 };
 
+using FactorMaker =
+    std::function<std::unique_ptr<Factor>(std::vector<Key>, const double* measurement, SqrtInformation)>;
+
 struct FactorType {
   std::string name;               ///< unique type name, e.g. "BetweenSE2"
   std::string tag;                ///< g2o tag, e.g. "EDGE_SE2" (may be empty: no file form)
@@ -42,7 +47,7 @@ struct FactorType {
   /// the parameter names of the last variable type are used when the sizes agree, else m1..mk.
   std::string measurement_layout;
   /// Creates a factor from keys, measurement and noise (the standard layout's factory).
-  std::function<std::unique_ptr<Factor>(std::vector<Key>, const double* measurement, SqrtInformation)> make;
+  FactorMaker make;
   /// Measurement of an existing factor of this type, for writing (standard layout).
   std::function<std::vector<double>(const Factor&)> measurement;
   /// Optional custom reader/writer replacing the standard layout.
@@ -53,16 +58,54 @@ struct FactorType {
   std::size_t StandardFieldCount() const { return variable_types.size() + measurement_size + dim * (dim + 1) / 2; }
 };
 
+/// A registry entry for the TypedFactor (or AutoDiffFactor) F in the standard layout: name,
+/// residual size and variable types come from the class itself.
+template <class F>
+FactorType DescribeFactor(std::string tag, int measurement_size, FactorMaker make) {
+  FactorType t;
+  t.name = F::kTypeName;
+  t.tag = std::move(tag);
+  t.dim = F::kResidualDim;
+  t.variable_types = F::VariableTypes();
+  t.measurement_size = measurement_size;
+  t.make = std::move(make);
+  t.measurement = [](const Factor& f) { return f.Measurement(); };
+  return t;
+}
+
 class Registry {
  public:
-  /// Adds a type. Throws InvalidArgument if the name or tag is taken (naming both owners),
-  /// or the description is incomplete.
+  /// A registry with the four built-in variable types (and no factor types).
+  Registry();
+
+  /// Adds a factor type. Throws InvalidArgument if the name or tag is taken (naming both
+  /// owners), the description is incomplete, a variable type is unknown, or a probe factor
+  /// made by `make` disagrees with the entry (its type_name(), residual_dim() or
+  /// variable_types(); the message names the field).
   void Register(FactorType type);
-  /// Removes every type registered by `owner`; returns how many.
+  /// Adds a variable type: puts it into the process-wide table (variable.h) and its g2o tag
+  /// into this registry's vertex tags. Throws InvalidArgument if the name or tag is taken here,
+  /// or the description is incomplete. Returns its id.
+  VarType RegisterVariable(const VariableType& type);
+  /// The same for a value type with a VariableTraits specialisation.
+  template <class V>
+  VarType RegisterVariable() {
+    return RegisterVariable(DescribeVariable<V>());
+  }
+  /// Removes every factor and variable type registered by `owner`; returns how many.
   int RemoveOwner(const std::string& owner);
-  /// Removes the type of that name (and its tag); false if there is none. Only safe once no
-  /// factor of the type exists.
+  /// Removes the factor type of that name (and its tag); false if there is none. Only safe
+  /// once no factor of the type exists.
   bool Remove(const std::string& name);
+  /// Removes the variable type of that name from this registry (its id stays valid).
+  bool RemoveVariable(const std::string& name);
+
+  /// The variable type whose vertex tag is `tag`; false where none is.
+  bool FindVariableByTag(const std::string& tag, VarType* type) const;
+  /// Variable types registered here, by name.
+  const std::map<std::string, VarType>& variable_types() const { return variables_; }
+  /// Owner of a variable type registered here ("" where it is not).
+  std::string VariableOwner(const std::string& name) const;
 
   /// The pointers stay valid until that type's owner is removed (RemoveOwner) or the registry
   /// is destroyed; registering other types does not move them.
@@ -78,8 +121,13 @@ class Registry {
   void AppendLine(const Factor& factor, std::string* line) const;
 
  private:
+  void CheckAgainstProbe(const FactorType& type) const;
+
   std::map<std::string, FactorType> by_name_;
   std::map<std::string, std::string> tag_to_name_;
+  std::map<std::string, VarType> variables_;               // by name
+  std::map<std::string, std::string> variable_owner_;      // by name
+  std::map<std::string, std::string> vertex_tag_to_name_;  // g2o vertex tag -> variable name
 };
 
 /// Formats a double with enough digits to read back the same value.

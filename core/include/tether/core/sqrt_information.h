@@ -2,13 +2,16 @@
 // A Gaussian noise model kept as the square root of its information matrix.
 //
 // Information Omega = R^T R with R upper triangular (Cholesky). Whitening maps an error e
-// to R e, so that chi2 = e^T Omega e = |R e|^2. Dimensions up to 6 are stored inline.
+// to R e, so that chi2 = e^T Omega e = |R e|^2. Any dimension works; up to 6 (every
+// built-in factor) R is stored inline, larger ones on the heap.
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 namespace tether {
 
-constexpr int kMaxResidualDim = 6;
+/// Residual dimensions up to this are stored inline (no allocation per factor).
+constexpr int kInlineResidualDim = 6;
 
 class SqrtInformation {
  public:
@@ -23,6 +26,9 @@ class SqrtInformation {
   static SqrtInformation Identity(int dim);
   /// Isotropic: Omega = I / sigma^2.
   static SqrtInformation Isotropic(int dim, double sigma);
+  /// Diagonal, one standard deviation per axis: Omega = diag(1 / sigma_i^2). Throws
+  /// InvalidArgument naming the axis where a sigma is not finite and positive.
+  static SqrtInformation FromSigmas(const Eigen::VectorXd& sigmas);
 
   int dim() const { return dim_; }
   /// The information matrix R^T R.
@@ -36,8 +42,14 @@ class SqrtInformation {
   void WhitenRowMajor(double* j, int cols) const;
 
  private:
+  static bool FromLarge(const Eigen::MatrixXd& omega, double scale, SqrtInformation* out, std::string* why);
+  const double* data() const { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
+  double* data() { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
+  void Resize(int dim);
+
   int dim_ = 0;
-  double r_[kMaxResidualDim * kMaxResidualDim] = {};  // row-major, upper triangle used
+  double r_[kInlineResidualDim * kInlineResidualDim] = {};  // row-major, upper triangle used
+  std::vector<double> big_;                                 // the same, for dim_ > kInlineResidualDim
 };
 
 /// How non-positive-definite information matrices in input files are treated.

@@ -5,14 +5,11 @@
 
 namespace tether {
 
-class BetweenSE2 : public Factor {
+class BetweenSE2 : public TypedFactor<BetweenSE2, 3, SE2d, SE2d> {
  public:
-  BetweenSE2(Key i, Key j, const SE2d& z, SqrtInformation noise) : Factor({i, j}, noise), z_(z) {}
-  std::string type_name() const override { return "BetweenSE2"; }
-  int residual_dim() const override { return 3; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kSE2}; }
+  static constexpr const char* kTypeName = "BetweenSE2";
+  BetweenSE2(Key i, Key j, const SE2d& z, SqrtInformation noise) : TypedFactor({i, j}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<BetweenSE2>(*this); }
   std::vector<double> Measurement() const override { return {z_.x(), z_.y(), z_.theta()}; }
   bool Predict(std::size_t known, const double* known_params, std::size_t unknown, double* out) const override;
   const SE2d& measured() const { return z_; }

@@ -6,14 +6,11 @@
 
 namespace tether {
 
-class BetweenSE3 : public Factor {
+class BetweenSE3 : public TypedFactor<BetweenSE3, 6, SE3d, SE3d> {
  public:
-  BetweenSE3(Key i, Key j, const SE3d& z, SqrtInformation noise) : Factor({i, j}, noise), z_(z) {}
-  std::string type_name() const override { return "BetweenSE3"; }
-  int residual_dim() const override { return 6; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE3, VarType::kSE3}; }
+  static constexpr const char* kTypeName = "BetweenSE3";
+  BetweenSE3(Key i, Key j, const SE3d& z, SqrtInformation noise) : TypedFactor({i, j}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<BetweenSE3>(*this); }
   std::vector<double> Measurement() const override;
   bool Predict(std::size_t known, const double* known_params, std::size_t unknown, double* out) const override;
   const SE3d& measured() const { return z_; }

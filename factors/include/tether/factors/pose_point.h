@@ -6,15 +6,12 @@
 
 namespace tether {
 
-class PosePoint2 : public Factor {
+class PosePoint2 : public TypedFactor<PosePoint2, 2, SE2d, Eigen::Vector2d> {
  public:
+  static constexpr const char* kTypeName = "PosePoint2";
   PosePoint2(Key pose, Key point, const Eigen::Vector2d& z, SqrtInformation noise)
-      : Factor({pose, point}, noise), z_(z) {}
-  std::string type_name() const override { return "PosePoint2"; }
-  int residual_dim() const override { return 2; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE2, VarType::kPoint2}; }
+      : TypedFactor({pose, point}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<PosePoint2>(*this); }
   std::vector<double> Measurement() const override { return {z_.x(), z_.y()}; }
   bool Predict(std::size_t known, const double* known_params, std::size_t unknown, double* out) const override;
 
@@ -22,15 +19,12 @@ class PosePoint2 : public Factor {
   Eigen::Vector2d z_;
 };
 
-class PosePoint3 : public Factor {
+class PosePoint3 : public TypedFactor<PosePoint3, 3, SE3d, Eigen::Vector3d> {
  public:
+  static constexpr const char* kTypeName = "PosePoint3";
   PosePoint3(Key pose, Key point, const Eigen::Vector3d& z, SqrtInformation noise)
-      : Factor({pose, point}, noise), z_(z) {}
-  std::string type_name() const override { return "PosePoint3"; }
-  int residual_dim() const override { return 3; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE3, VarType::kPoint3}; }
+      : TypedFactor({pose, point}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<PosePoint3>(*this); }
   std::vector<double> Measurement() const override { return {z_.x(), z_.y(), z_.z()}; }
   bool Predict(std::size_t known, const double* known_params, std::size_t unknown, double* out) const override;
 

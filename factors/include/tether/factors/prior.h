@@ -6,28 +6,22 @@
 
 namespace tether {
 
-class PriorSE2 : public Factor {
+class PriorSE2 : public TypedFactor<PriorSE2, 3, SE2d> {
  public:
-  PriorSE2(Key k, const SE2d& z, SqrtInformation noise) : Factor({k}, noise), z_(z) {}
-  std::string type_name() const override { return "PriorSE2"; }
-  int residual_dim() const override { return 3; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE2}; }
+  static constexpr const char* kTypeName = "PriorSE2";
+  PriorSE2(Key k, const SE2d& z, SqrtInformation noise) : TypedFactor({k}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<PriorSE2>(*this); }
   std::vector<double> Measurement() const override { return {z_.x(), z_.y(), z_.theta()}; }
 
  private:
   SE2d z_;
 };
 
-class PriorSE3 : public Factor {
+class PriorSE3 : public TypedFactor<PriorSE3, 6, SE3d> {
  public:
-  PriorSE3(Key k, const SE3d& z, SqrtInformation noise) : Factor({k}, noise), z_(z) {}
-  std::string type_name() const override { return "PriorSE3"; }
-  int residual_dim() const override { return 6; }
-  std::vector<VarType> variable_types() const override { return {VarType::kSE3}; }
+  static constexpr const char* kTypeName = "PriorSE3";
+  PriorSE3(Key k, const SE3d& z, SqrtInformation noise) : TypedFactor({k}, std::move(noise)), z_(z) {}
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override;
-  std::unique_ptr<Factor> Clone() const override { return std::make_unique<PriorSE3>(*this); }
   std::vector<double> Measurement() const override;
 
  private:

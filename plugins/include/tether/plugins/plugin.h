@@ -1,14 +1,19 @@
 #pragma once
-// What a factor plugin includes. A plugin is a shared library that exports one C function,
+// What a plugin includes. A plugin is a shared library that exports one C function,
 //
 //   extern "C" const tether::PluginDescription* tether_plugin_entry();
 //
 // written for you by TETHER_PLUGIN(name, version, register_function). The loader checks the
 // interface version and the build fingerprint, then calls register_function with a
-// PluginRegistrar; the types it adds are committed to the registry all at once, or not at
-// all. No static initialisers take part: nothing happens until the loader asks.
+// PluginRegistrar; the variable and factor types it adds are committed to the registry all
+// at once, or not at all. No static initialisers take part: nothing happens until the loader
+// asks. Each factor type is checked against a probe factor made by its `make` (name,
+// dimension, variable types), so a mismatch is refused at load time, naming the field.
 //
-//   void RegisterMyTypes(tether::PluginRegistrar& r) { r.AddFactorType(...); }
+//   void RegisterMyTypes(tether::PluginRegistrar& r) {
+//     r.AddVariableType<MyScale>();                       // a value type with VariableTraits
+//     r.AddFactorType(tether::DescribeFactor<MyFactor>("EDGE_MY", 1, make));
+//   }
 //   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
 #include <Eigen/Core>
 #include <string>
@@ -18,7 +23,7 @@
 #include "tether/core/version.h"
 
 /// Changes whenever PluginDescription or the registration contract changes.
-#define TETHER_PLUGIN_INTERFACE_VERSION 1
+#define TETHER_PLUGIN_INTERFACE_VERSION 2
 /// The symbol the loader looks up.
 #define TETHER_PLUGIN_ENTRY_SYMBOL "tether_plugin_entry"
 
@@ -73,12 +78,24 @@ class PluginRegistrar {
   explicit PluginRegistrar(std::string plugin_name) : plugin_(std::move(plugin_name)) {}
   /// Adds a factor type; its owner is set to the plugin's name.
   void AddFactorType(FactorType type);
+  /// Adds a variable type; its owner is set to the plugin's name. The type gets its id at once
+  /// (so that factor types added after it can name it); its tag reaches the registry when
+  /// the plugin is committed. Throws InvalidArgument for an incomplete description or a name
+  /// that exists with other sizes.
+  void AddVariableType(VariableType type);
+  /// The same for a value type with a VariableTraits specialisation.
+  template <class V>
+  void AddVariableType() {
+    AddVariableType(DescribeVariable<V>());
+  }
   const std::vector<FactorType>& factor_types() const { return types_; }
+  const std::vector<VariableType>& variable_types() const { return variables_; }
   const std::string& plugin_name() const { return plugin_; }
 
  private:
   std::string plugin_;
   std::vector<FactorType> types_;
+  std::vector<VariableType> variables_;
 };
 
 struct PluginDescription {

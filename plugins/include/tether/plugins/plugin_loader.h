@@ -1,5 +1,5 @@
 #pragma once
-// Loads factor plugins with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their types.
+// Loads plugins (variable and factor types) with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their types.
 //
 // Search order for Load(name): a path that exists as given (absolute or relative to the
 // working directory); then each folder of TETHER_PLUGIN_PATH (colon-separated); then the
@@ -29,8 +29,9 @@ class PluginError : public Error {
 struct LoadedPlugin {
   std::string name;
   std::string version;
-  std::string path;                     ///< canonical path of the shared library
-  std::vector<std::string> type_names;  ///< factor types it registered
+  std::string path;                         ///< canonical path of the shared library
+  std::vector<std::string> type_names;      ///< factor types it registered
+  std::vector<std::string> variable_names;  ///< variable types it registered
 };
 
 class PluginLoader {

@@ -6,16 +6,18 @@
 // What is mapped
 // - Variables: one parameter block per variable that some factor uses, holding a copy of the
 //   variable's ambient parameters (layouts in tether/core/variable.h). Variables no factor
-//   uses are left out, as in the native solvers. SE2 and SE3 blocks get a VariableManifold
-//   whose Plus is tether's RetractParams, so Ceres and the native solvers step along the same
-//   retraction and minimise the same objective; Point2 and Point3 blocks are Euclidean.
+//   uses are left out, as in the native solvers. SE2, SE3 and registered types' blocks get a
+//   VariableManifold whose Plus is tether's RetractParams, so Ceres and the native solvers
+//   step along the same retraction and minimise the same objective; Point2 and Point3 blocks
+//   are Euclidean. A registered type's P(x) comes from central differences of its box-plus
+//   and L(x) is P's pseudo-inverse: J_a P = J_t L P = J_t holds exactly all the same.
 // - Fixed variables: constant parameter blocks.
 // - Factors: one FactorCostFunction per factor; its residual is the factor's whitened error,
 //   so Ceres' cost is chi2 / 2. A factor that uses one variable twice gets one parameter
 //   block for it (Ceres forbids repeating a block) and the sum of the two Jacobians.
-// - Robust kernels: tether's factors have none yet. When they gain one, it becomes the
-//   ceres::LossFunction argument of AddResidualBlock in CeresProblem's constructor
-//   (ceres_problem.cc), and the residuals stay the plain whitened errors.
+// - Robust losses (Factor::loss): not mapped yet; a factor that carries one is refused. Its
+//   place is the ceres::LossFunction argument of AddResidualBlock in CeresProblem's
+//   constructor (ceres_problem.cc), with the residuals still the plain whitened errors.
 //
 // How Jacobians reach Ceres
 // Ceres asks a cost function for dr/dx in ambient coordinates (m x a) and right-multiplies it
@@ -38,6 +40,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <set>
 #include <string>
@@ -102,6 +106,8 @@ class FactorCostFunction : public ceres::CostFunction {
   std::vector<int> block_of_;    // per key of the factor: its parameter block
   std::vector<Key> block_keys_;  // per parameter block
   std::vector<VarType> block_types_;
+  std::vector<int> tangent_offset_;  // per key of the factor: its Jacobian's first tangent column
+  int tangent_total_ = 0;
 };
 
 /// A FactorGraph and (a copy of) its Values as a ceres::Problem. The graph must outlive it.
@@ -140,8 +146,7 @@ class CeresProblem {
  private:
   static ceres::Problem::Options ProblemOptions();
 
-  VariableManifold se2_manifold_{VarType::kSE2};
-  VariableManifold se3_manifold_{VarType::kSE3};
+  std::map<VarType, std::unique_ptr<VariableManifold>> manifolds_;  // one per non-point type in use
   EvaluationErrors errors_;
   std::vector<Key> keys_;
   std::vector<VarType> types_;
