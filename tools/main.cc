@@ -30,7 +30,10 @@ int main(int argc, char** argv) {
                    "none | nearest-pd | isotropic: what to do with information matrices that are not "
                    "positive definite")
       ->capture_default_str();
-  optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
+  optimize->add_option("--plot", opt.plot, "Write an SVG of the file's start and the result (and the ground truth)");
+  optimize->add_option("--ground-truth", opt.ground_truth,
+                       "g2o file with the true values: report the absolute trajectory error of the start and "
+                       "the result, and draw the truth in --plot");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
   optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
