@@ -64,6 +64,8 @@ int main(int argc, char** argv) {
   bench->add_option("--repeat", bc.repeat, "Runs per configuration")->capture_default_str();
   bench->add_option("--format", bc.format, "md | csv")->capture_default_str();
   bench->add_option("-o,--output", bc.output, "Write the table here instead of stdout");
+  bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
+      ->allow_extra_args(false);
 
   try {
     app.parse(argc, argv);
