@@ -161,7 +161,7 @@ TEST(OptimizeGroundTruthTest, ReportsAndDrawsTheAteOfStartAndResult) {
   for (const char* cls : {"class=\"ground-truth\"", "class=\"before\"", "class=\"after\""}) {
     EXPECT_NE(picture.find(cls), std::string::npos) << cls;
   }
-  EXPECT_NE(picture.find(">start (file) (ATE " + start + ")<"), std::string::npos);
+  EXPECT_NE(picture.find(">file&apos;s start (ATE " + start + ")<"), std::string::npos);
   EXPECT_NE(picture.find(">result (ATE "), std::string::npos);
 
   // A truth file that cannot be read: exit 1, nothing written.

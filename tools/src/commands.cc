@@ -175,7 +175,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     if (!cmd.plot.empty()) {
       PlotOptions plot;
       plot.title = cmd.input;
-      plot.before_label = "start (file)";
+      plot.before_label = "file's start";
       plot.after_label = "result";
       const Values* gt = cmd.ground_truth.empty() ? nullptr : &truth.values;
       WriteSvgFile(cmd.plot, result.file.graph, &result.file.values, &result.values, gt, plot);
