@@ -30,7 +30,10 @@ int main(int argc, char** argv) {
                    "none | nearest-pd | isotropic: what to do with information matrices that are not "
                    "positive definite")
       ->capture_default_str();
-  optimize->add_option("--plot", opt.plot, "Write an SVG of the trajectory before and after");
+  optimize->add_option("--plot", opt.plot, "Write an SVG of the file's start and the result (and the ground truth)");
+  optimize->add_option("--ground-truth", opt.ground_truth,
+                       "g2o file with the true values: report the absolute trajectory error of the start and "
+                       "the result, and draw the truth in --plot");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
   optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
@@ -61,6 +64,8 @@ int main(int argc, char** argv) {
   bench->add_option("--repeat", bc.repeat, "Runs per configuration")->capture_default_str();
   bench->add_option("--format", bc.format, "md | csv")->capture_default_str();
   bench->add_option("-o,--output", bc.output, "Write the table here instead of stdout");
+  bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
+      ->allow_extra_args(false);
 
   try {
     app.parse(argc, argv);

@@ -24,6 +24,7 @@
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -576,6 +577,20 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
     std::error_code ec;
     if (!parent.empty() && !fs::is_directory(parent, ec)) {
       return usage("cannot write " + cmd.output + ": no folder " + parent.string());
+    }
+  }
+
+  // Plugins first, into the registry the runs read with (the forked children inherit them).
+  PluginLoader loader(DefaultRegistry());
+  for (const std::string& p : cmd.plugins) {
+    try {
+      const LoadedPlugin l = loader.Load(p);
+      const std::size_t n = l.type_names.size();
+      err << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << n
+          << (n == 1 ? " factor type)\n" : " factor types)\n");
+    } catch (const Error& e) {
+      err << "error: " << e.what() << "\n";
+      return 1;
     }
   }
 

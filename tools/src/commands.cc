@@ -8,9 +8,10 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/initialize.h"
-#include "tether/solvers/optimizer.h"
+#include "tether/solvers/pipeline.h"
 #include "tether/tools/simulate.h"
 #include "tether/tools/svg_plot.h"
+#include "tether/tools/trajectory_error.h"
 
 namespace tether {
 
@@ -65,98 +66,119 @@ GraphCounts Count(const Values& v) {
   return c;
 }
 
+// The one place that turns the command's arguments into SolverOptions (the solver's names and
+// fields); returns false after saying why where an argument is not usable.
+bool FillSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::ostream& err) {
+  if (!FromString(cmd.solver, &options->algorithm)) {
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn, lm or ceres\n";
+    return false;
+  }
+  if (!FromString(cmd.linear, &options->linear_solver)) {
+    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
+    return false;
+  }
+  if (options->algorithm == Algorithm::kCeres && options->linear_solver != LinearSolverType::kCholmod) {
+    err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
+           "--linear cholmod (ldlt and qr are for gn and lm)\n";
+    return false;
+  }
+  options->max_iterations = cmd.max_iterations;
+  options->max_seconds = cmd.time_limit;
+  if (cmd.threads < 1 || cmd.threads > 256) {
+    err << "tether optimize: --threads must be between 1 and 256, got " << cmd.threads << "\n";
+    return false;
+  }
+  options->num_threads = cmd.threads;
+  options->max_reuse_iterations = cmd.max_reuse_iterations;
+  return true;
+}
+
+// The pipeline's options from the command (exit code 2 where the arguments are not usable).
+bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::ostream& err) {
+  po->input = cmd.input;
+  po->output = cmd.output;
+  if (!FillSolverOptions(cmd, &po->solver, err)) return false;
+  if (!FromString(cmd.init, &po->init)) {
+    err << "tether optimize: unknown --init '" << cmd.init << "'; use file, spanning-tree or chordal\n";
+    return false;
+  }
+  if (!FromString(cmd.repair_information, &po->read.repair)) {
+    err << "tether optimize: unknown --repair-information '" << cmd.repair_information
+        << "'; use none, nearest-pd or isotropic\n";
+    return false;
+  }
+  po->read.allow_partial_vertices = cmd.allow_partial_vertices;
+  std::string why;
+  if (!po->solver.IsValid(&why)) {
+    err << "tether optimize: " << why << "\n";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
-  SolverOptions options;
-  InformationRepair repair;
-  if (!FromString(cmd.solver, &options.algorithm)) {
-    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn, lm or ceres\n";
-    return 2;
-  }
-  if (!FromString(cmd.linear, &options.linear_solver)) {
-    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
-    return 2;
-  }
-  if (options.algorithm == Algorithm::kCeres && options.linear_solver != LinearSolverType::kCholmod) {
-    err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
-           "--linear cholmod (ldlt and qr are for gn and lm)\n";
-    return 2;
-  }
-  InitMethod init;
-  if (!FromString(cmd.init, &init)) {
-    err << "tether optimize: unknown --init '" << cmd.init << "'; use file, spanning-tree or chordal\n";
-    return 2;
-  }
-  if (!FromString(cmd.repair_information, &repair)) {
-    err << "tether optimize: unknown --repair-information '" << cmd.repair_information
-        << "'; use none, nearest-pd or isotropic\n";
-    return 2;
-  }
-  options.max_iterations = cmd.max_iterations;
-  options.max_seconds = cmd.time_limit;
-  if (cmd.threads < 1 || cmd.threads > 256) {
-    err << "tether optimize: --threads must be between 1 and 256, got " << cmd.threads << "\n";
-    return 2;
-  }
-  options.num_threads = cmd.threads;
-  options.max_reuse_iterations = cmd.max_reuse_iterations;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    err << "tether optimize: " << why << "\n";
-    return 2;
-  }
+  PipelineOptions po;
+  if (!FillPipelineOptions(cmd, &po, err)) return 2;
   Registry& registry = DefaultRegistry();
   PluginLoader loader(registry);
   if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
-  GraphFile file;
-  try {
-    ReadOptions ro;
-    ro.repair = repair;
-    ro.allow_partial_vertices = cmd.allow_partial_vertices;
-    file = ReadGraphFile(cmd.input, registry, ro);
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return 1;
-  }
-  for (const std::string& w : file.warnings) err << "warning: " << w << "\n";
-  const GraphCounts counts = Count(file.values);
-  out << "read " << cmd.input << ": " << counts.poses << " poses, " << counts.landmarks << " landmarks, "
-      << file.graph.size() << " factors";
-  if (!file.graph.fixed().empty()) out << ", " << file.graph.fixed().size() << " fixed";
-  out << "\n";
-  if (file.initialised_by_spanning_tree > 0) {
-    out << "initial values: " << file.initialised_by_spanning_tree
-        << " variables composed along a spanning tree from the lowest id\n";
-  }
-  try {
-    const InitSummary is = Initialize(file.graph, &file.values, init);
-    if (init != InitMethod::kFile) out << is.message << "\n";
-  } catch (const Error& e) {
-    err << "error: " << cmd.input << ": " << e.what() << "\n";
-    return 1;
-  }
-  const Values before = file.values;  // where the solve starts
-  if (!cmd.quiet) {
-    out << "iter              chi2    rel.decr     lambda   step norm   time [s]\n";
-    options.callback = [&out](const IterationSummary& it) { out << Row(it) << std::endl; };
-  }
-  const SolverSummary summary = Optimize(file.graph, &file.values, options);
-  out << summary.FullReport();
-  if (!summary.IsSolutionUsable()) {
-    err << "error: the solve failed (" << ToString(summary.status) << "): " << summary.message
-        << "; no output written\n";
-    return 3;
-  }
-  try {
-    if (!cmd.output.empty()) {
-      WriteG2oFile(cmd.output, file.values, file.graph, registry);
-      out << "wrote " << cmd.output << "\n";
+  GraphFile truth;
+  if (!cmd.ground_truth.empty()) {
+    try {
+      truth = ReadGraphFile(cmd.ground_truth, registry);
+    } catch (const Error& e) {
+      err << "error: " << e.what() << "\n";
+      return 1;
     }
+  }
+
+  PipelineHooks hooks;
+  hooks.on_read = [&](const GraphFile& file) {
+    for (const std::string& w : file.warnings) err << "warning: " << w << "\n";
+    const GraphCounts counts = Count(file.values);
+    out << "read " << cmd.input << ": " << counts.poses << " poses, " << counts.landmarks << " landmarks, "
+        << file.graph.size() << " factors";
+    if (!file.graph.fixed().empty()) out << ", " << file.graph.fixed().size() << " fixed";
+    out << "\n";
+    if (file.initialised_by_spanning_tree > 0) {
+      out << "initial values: " << file.initialised_by_spanning_tree
+          << " variables composed along a spanning tree from the lowest id\n";
+    }
+  };
+  hooks.on_initialized = [&](const InitSummary& is) {
+    if (po.init != InitMethod::kFile) out << is.message << "\n";
+    if (!cmd.quiet) out << "iter              chi2    rel.decr     lambda   step norm   time [s]\n";
+  };
+  hooks.on_optimized = [&](const SolverSummary& summary) { out << summary.FullReport(); };
+  if (!cmd.quiet) po.solver.callback = [&out](const IterationSummary& it) { out << Row(it) << std::endl; };
+
+  const PipelineResult result = RunPipeline(po, registry, hooks);
+  if (!result.ok()) {
+    err << "error: " << result.message << "\n";
+    return result.ExitCode();
+  }
+  if (result.written) out << "wrote " << cmd.output << "\n";
+  if (!cmd.ground_truth.empty()) {
+    const TrajectoryError start = AbsoluteTrajectoryError(result.file.values, truth.values);
+    const TrajectoryError end = AbsoluteTrajectoryError(result.values, truth.values);
+    if (end.poses == 0) {
+      err << "warning: " << cmd.ground_truth << " has no pose of " << cmd.input << "; no absolute trajectory error\n";
+    } else {
+      out << "absolute trajectory error against " << cmd.ground_truth << " (" << end.poses
+          << " poses, after a rigid alignment): start " << FormatMetres(start.rmse) << ", result "
+          << FormatMetres(end.rmse) << "\n";
+    }
+  }
+  try {
     if (!cmd.plot.empty()) {
-      PlotOptions po;
-      po.title = cmd.input;
-      WriteSvgFile(cmd.plot, file.graph, &before, &file.values, po);
+      PlotOptions plot;
+      plot.title = cmd.input;
+      plot.before_label = "file's start";
+      plot.after_label = "result";
+      const Values* gt = cmd.ground_truth.empty() ? nullptr : &truth.values;
+      WriteSvgFile(cmd.plot, result.file.graph, &result.file.values, &result.values, gt, plot);
       out << "wrote " << cmd.plot << "\n";
     }
   } catch (const Error& e) {

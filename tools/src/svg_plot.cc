@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/tools/trajectory_error.h"
 
 namespace tether {
 namespace {
@@ -23,6 +24,7 @@ constexpr const char* kAfterColour = "#1f5fbf";
 constexpr const char* kLoopColour = "#d62728";
 constexpr const char* kLandmarkColour = "#ff7f0e";
 constexpr const char* kStartColour = "#2ca02c";
+constexpr const char* kTruthColour = "#98df8a";
 constexpr double kMargin = 16.0;        // around the plot area
 constexpr double kTitleHeight = 28.0;   // band above the plot when there is a title
 constexpr double kLegendHeight = 30.0;  // band below the plot
@@ -228,6 +230,11 @@ bool PlotOptions::IsValid(std::string* why) const {
 }
 
 std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const PlotOptions& options) {
+  return RenderSvg(graph, before, after, nullptr, options);
+}
+
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                      const PlotOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("RenderSvg: " + why);
 
@@ -238,7 +245,9 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
     if (keys.size() == 2 && Consecutive(keys[0], keys[1])) linked.insert(std::min(keys[0], keys[1]));
   }
   const bool loops_from_after = after != nullptr;
-  Layer lb, la;
+  Layer lb, la, lt;
+  if (truth != nullptr) lt = Extract(*truth, graph, linked, false);
+  lt.landmarks.clear();
   if (before != nullptr) lb = Extract(*before, graph, linked, options.draw_loop_closures && !loops_from_after);
   if (after != nullptr) la = Extract(*after, graph, linked, options.draw_loop_closures);
   if (!options.draw_landmarks) {
@@ -255,7 +264,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
     min_y = std::min(min_y, p.y);
     max_y = std::max(max_y, p.y);
   };
-  for (const Layer* l : {&lb, &la}) {
+  for (const Layer* l : {&lb, &la, &lt}) {
     for (const auto& run : l->runs)
       for (const Pt& p : run) grow(p);
     for (const Pt& p : l->landmarks) grow(p);
@@ -329,6 +338,10 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   }
   const std::string line_style =
       "fill=\"none\" stroke-width=\"1.2\" stroke-linecap=\"round\" stroke-linejoin=\"round\"";
+  AppendPath(trajectory(lt), "ground-truth",
+             "stroke=\"" + std::string(kTruthColour) +
+                 "\" fill=\"none\" stroke-width=\"4\" stroke-linecap=\"round\" stroke-linejoin=\"round\"",
+             &svg);
   AppendPath(trajectory(lb), "before", "stroke=\"" + std::string(kBeforeColour) + "\" " + line_style, &svg);
   AppendPath(trajectory(la), "after", "stroke=\"" + std::string(kAfterColour) + "\" " + line_style, &svg);
   AppendPath(loop_path, "loop-closures",
@@ -356,8 +369,15 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
            Num(legend_y) + "\" stroke=\"" + colour + "\" stroke-width=\"" + Num(stroke_width) + "\"/>\n";
     label(text);
   };
-  if (lb.present) line_item(kBeforeColour, 2.0, options.before_label);
-  if (la.present) line_item(kAfterColour, 2.0, options.after_label);
+  // With a ground truth, each trajectory's ATE (rigid alignment; trajectory_error.h) follows its label.
+  auto ate_label = [&](const Values* v, const std::string& text) {
+    if (truth == nullptr || !options.show_ate) return text;
+    const TrajectoryError e = AbsoluteTrajectoryError(*v, *truth);
+    return e.poses == 0 ? text : text + " (ATE " + FormatMetres(e.rmse) + ")";
+  };
+  if (lt.present) line_item(kTruthColour, 4.0, options.truth_label);
+  if (lb.present) line_item(kBeforeColour, 2.0, ate_label(before, options.before_label));
+  if (la.present) line_item(kAfterColour, 2.0, ate_label(after, options.after_label));
   if (!loops.empty()) line_item(kLoopColour, 1.0, "loop closures");
   if (!la.landmarks.empty() || !lb.landmarks.empty()) {
     svg += "<rect x=\"" + Num(x + 9.0) + "\" y=\"" + Num(legend_y - 2.0) + "\" width=\"4\" height=\"4\" fill=\"" +
@@ -382,7 +402,12 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
 
 void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
                   const PlotOptions& options) {
-  const std::string svg = RenderSvg(graph, before, after, options);
+  WriteSvgFile(path, graph, before, after, nullptr, options);
+}
+
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
+                  const Values* truth, const PlotOptions& options) {
+  const std::string svg = RenderSvg(graph, before, after, truth, options);
   const std::string tmp = path + ".tmp";
   auto fail = [&](const std::string& what, int err) {
     std::remove(tmp.c_str());

@@ -27,6 +27,9 @@ struct BenchCommand {
   int repeat = 5;                  ///< runs per configuration
   std::string format = "md";       ///< md | csv
   std::string output;              ///< table to this file instead of `out`
+  /// Factor plugins (paths or names) loaded into the default registry before any file is
+  /// read, as `tether optimize --plugin` does; one that fails to load: exit code 1, nothing run.
+  std::vector<std::string> plugins;
 };
 
 /// One configuration: the cross product of the command's lists gives them.
@@ -110,7 +113,7 @@ std::string ActiveBlasLibrary();
 std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas);
 std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas);
 
-/// `tether bench`. Progress (file, configuration, run k of N) goes to `err`, the table to
+/// `tether bench`. Progress (plugins loaded, file, configuration, run k of N) goes to `err`, the table to
 /// `out` or cmd.output. Exit codes: 0 every run solved; 1 some file could not be read or
 /// initialised (its rows say so; the other rows are complete); 2 bad usage, nothing run;
 /// 3 otherwise some run failed (a solver status that is not usable, or a crash).

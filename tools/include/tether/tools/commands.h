@@ -12,7 +12,8 @@ namespace tether {
 struct OptimizeCommand {
   std::string input;
   std::string output;              ///< g2o file with the optimised values (optional)
-  std::string plot;                ///< SVG with the trajectory before and after (optional)
+  std::string plot;                ///< SVG with the file's start, the result (and the truth) (optional)
+  std::string ground_truth;        ///< g2o file with the true values: ATE reported and drawn (optional)
   std::string solver = "lm";       ///< gn | lm | ceres
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr
   std::string init = "chordal";    ///< file | spanning-tree | chordal (see docs/initialisation.md)

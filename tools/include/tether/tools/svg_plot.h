@@ -1,5 +1,6 @@
 #pragma once
-// SVG plots of a graph's trajectory before and after optimisation.
+// SVG plots of a graph's trajectory before and after optimisation, and of the ground truth
+// where it is known.
 //
 // What is drawn (3D variables as their x-y projection, y axis up, equal scale on both axes,
 // bounds fitted to everything drawn with a small margin):
@@ -10,7 +11,11 @@
 //   keys are not consecutive, at the positions of `after` (of `before` when `after` is null);
 // - landmarks (Point2/Point3 variables) as small squares, orange for `after`, grey for
 //   `before`, one <path> each;
-// - a green circle at the first pose, a legend of what is present, and a scale bar.
+// - the `truth` trajectory (optional), joined the same way, as a wide light-green band under
+//   the others, so a result on the truth runs along its middle;
+// - a green circle at the first pose, a legend of what is present, and a scale bar. With a
+//   truth, the legend gives the absolute trajectory error of `before` and `after` against it
+//   (RMSE of the positions after the best rigid alignment; trajectory_error.h).
 // Either Values pointer may be null (then only the other is drawn). Variables whose
 // coordinates are not finite are left out. Coordinates are written in pixels rounded to 0.01,
 // as relative path commands, so 100k poses make a file of a few megabytes with a few elements.
@@ -31,6 +36,9 @@ struct PlotOptions {
   /// Legend labels.
   std::string before_label = "before";
   std::string after_label = "after";
+  std::string truth_label = "ground truth";
+  /// Append "(ATE x m)" to the before and after labels where a truth is drawn.
+  bool show_ate = true;
   bool draw_loop_closures = true;
   bool draw_landmarks = true;
 
@@ -43,9 +51,17 @@ struct PlotOptions {
 std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after,
                       const PlotOptions& options = {});
 
+/// The same with the ground truth drawn too (`truth` may be null).
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                      const PlotOptions& options = {});
+
 /// Writes RenderSvg's output to `path`, through a temporary file renamed into place, so a
 /// failure never leaves half a file. Throws IoError naming `path` when it cannot be written.
 void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
                   const PlotOptions& options = {});
+
+/// The same with the ground truth drawn too (`truth` may be null).
+void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
+                  const Values* truth, const PlotOptions& options = {});
 
 }  // namespace tether

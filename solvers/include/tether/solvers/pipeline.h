@@ -1,0 +1,112 @@
+#pragma once
+// The whole job as library calls: read a graph file (any registered format: g2o, TORO),
+// initialise, optimise, write. `tether optimize` parses its arguments into PipelineOptions and
+// calls RunPipeline; Python and front-ends call the same code and get the same result (the
+// same final chi2, the same output bytes).
+//
+//   PipelineOptions options;
+//   options.input = "intel.g2o";
+//   options.output = "intel_optimized.g2o";
+//   const PipelineResult r = RunPipeline(options, DefaultRegistry());
+//   if (!r.ok()) std::cerr << r.message << "\n";
+//
+// The stages are also callable one at a time (ReadProblem, InitializeProblem, OptimizeProblem,
+// WriteProblem); they throw where RunPipeline reports. docs/pipeline.md has more.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tether/core/graph_io.h"
+#include "tether/core/registry.h"
+#include "tether/core/values.h"
+#include "tether/solvers/initialize.h"
+#include "tether/solvers/solver_options.h"
+
+namespace tether {
+
+struct PipelineOptions {
+  /// The graph file to read (g2o, or TORO 2D; `read.format` says which, kAuto by default).
+  std::string input;
+  /// How to read it: format, repair of information matrices that are not positive
+  /// definite, composition of missing vertices (graph_io.h; defaults: automatic format, no
+  /// repair, every vertex must be given unless the file has none).
+  ReadOptions read;
+  /// The initial guess the solve starts from (initialize.h). Default: chordal relaxation.
+  InitMethod init = InitMethod::kChordal;
+  /// The nonlinear solve (solver_options.h; Levenberg-Marquardt over CHOLMOD by default).
+  /// Its callback, if set, is called after every iteration as usual.
+  SolverOptions solver;
+  /// Where to write the optimised graph as g2o; empty (the default): nothing is written.
+  /// Written only when the solve succeeds, through a temporary file renamed into place.
+  std::string output;
+
+  /// True when the options can be used; otherwise says why (when `why` is not null).
+  bool IsValid(std::string* why) const;
+};
+
+/// How a pipeline run ended.
+enum class PipelineStatus {
+  kOk,              ///< solved (a usable SolverStatus) and the output, if any, written
+  kInvalidOptions,  ///< PipelineOptions::IsValid failed; nothing was read
+  kBadInput,        ///< the file could not be read or initialised; nothing written
+  kSolveFailed,     ///< the solver's status is not usable (summary says why); nothing written
+  kWriteFailed,     ///< solved, but the output could not be written
+};
+
+/// "ok", "invalid-options", "bad-input", "solve-failed", "write-failed".
+const char* ToString(PipelineStatus s);
+bool FromString(const std::string& s, PipelineStatus* status);
+
+/// What happened, stage by stage. Stages not reached keep their defaults.
+struct PipelineResult {
+  PipelineStatus status = PipelineStatus::kInvalidOptions;
+  /// Empty when status is kOk; otherwise one line saying what went wrong, where (file:line
+  /// for a bad file) and what to do.
+  std::string message;
+  /// The file as read: graph, values (the file's own start, before initialisation: a file
+  /// without vertices has had them composed along a spanning tree), warnings, repairs.
+  GraphFile file;
+  /// Reached the initialisation, and what it did.
+  bool initialized = false;
+  InitSummary init;
+  /// Where the solve started (after initialisation).
+  Values initial;
+  /// Reached the solve, and its summary.
+  bool optimized = false;
+  SolverSummary summary;
+  /// The solver's values (the result where the solve succeeded; the last good values
+  /// otherwise).
+  Values values;
+  /// The output file was written.
+  bool written = false;
+
+  bool ok() const { return status == PipelineStatus::kOk; }
+  /// The exit code `tether optimize` returns: 0 ok; 1 bad input or an output that cannot be
+  /// written; 2 invalid options; 3 the solve failed.
+  int ExitCode() const;
+};
+
+/// Called between the stages of RunPipeline, for progress reports (the CLI prints its lines
+/// from them). Any may be empty.
+struct PipelineHooks {
+  std::function<void(const GraphFile&)> on_read;           ///< after reading, before initialising
+  std::function<void(const InitSummary&)> on_initialized;  ///< after initialising, before solving
+  std::function<void(const SolverSummary&)> on_optimized;  ///< after solving, before writing
+};
+
+/// Reads `options.input` with `options.read`; throws ParseError ("file:line: ...") or IoError.
+GraphFile ReadProblem(const PipelineOptions& options, const Registry& registry);
+/// Replaces `values` with the initial guess of `method` (Initialize). Throws InvalidArgument
+/// starting "name: " where the graph cannot be initialised; the values are then untouched.
+InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name);
+/// Optimises `values` over `graph` (Optimize; the summary's status says whether it worked).
+SolverSummary OptimizeProblem(const FactorGraph& graph, Values* values, const SolverOptions& options);
+/// Writes the graph with `values` as g2o to `path` (temporary file renamed). Throws IoError.
+void WriteProblem(const std::string& path, const FactorGraph& graph, const Values& values, const Registry& registry);
+
+/// Reads, initialises, optimises and writes, as `tether optimize` does. Bad options, a bad
+/// file and an output that cannot be written are reported in the result's status and message,
+/// never thrown (only what is not a tether::Error, such as std::bad_alloc, escapes).
+PipelineResult RunPipeline(const PipelineOptions& options, const Registry& registry, const PipelineHooks& hooks = {});
+
+}  // namespace tether

@@ -1,0 +1,136 @@
+#include "tether/solvers/pipeline.h"
+
+#include <utility>
+
+#include "tether/core/error.h"
+#include "tether/solvers/optimizer.h"
+
+namespace tether {
+
+const char* ToString(PipelineStatus s) {
+  switch (s) {
+    case PipelineStatus::kOk:
+      return "ok";
+    case PipelineStatus::kInvalidOptions:
+      return "invalid-options";
+    case PipelineStatus::kBadInput:
+      return "bad-input";
+    case PipelineStatus::kSolveFailed:
+      return "solve-failed";
+    case PipelineStatus::kWriteFailed:
+      return "write-failed";
+  }
+  return "unknown";
+}
+
+bool FromString(const std::string& s, PipelineStatus* status) {
+  for (PipelineStatus p : {PipelineStatus::kOk, PipelineStatus::kInvalidOptions, PipelineStatus::kBadInput,
+                           PipelineStatus::kSolveFailed, PipelineStatus::kWriteFailed}) {
+    if (s == ToString(p)) {
+      *status = p;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool PipelineOptions::IsValid(std::string* why) const {
+  std::string reason;
+  if (input.empty()) {
+    reason = "PipelineOptions.input is empty; name the graph file to read (.g2o, or TORO .graph)";
+  } else if (!solver.IsValid(&reason)) {
+    reason = "PipelineOptions.solver: " + reason;
+  } else if (solver.algorithm == Algorithm::kCeres && solver.linear_solver != LinearSolverType::kCholmod) {
+    reason =
+        "PipelineOptions.solver: the ceres algorithm solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; "
+        "use linear_solver cholmod (ldlt and qr are for gn and lm)";
+  }
+  if (why != nullptr) *why = reason;
+  return reason.empty();
+}
+
+int PipelineResult::ExitCode() const {
+  switch (status) {
+    case PipelineStatus::kOk:
+      return 0;
+    case PipelineStatus::kInvalidOptions:
+      return 2;
+    case PipelineStatus::kSolveFailed:
+      return 3;
+    case PipelineStatus::kBadInput:
+    case PipelineStatus::kWriteFailed:
+      return 1;
+  }
+  return 1;
+}
+
+GraphFile ReadProblem(const PipelineOptions& options, const Registry& registry) {
+  return ReadGraphFile(options.input, registry, options.read);
+}
+
+InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name) {
+  try {
+    return Initialize(graph, values, method);
+  } catch (const Error& e) {
+    throw InvalidArgument(name + ": " + e.what());
+  }
+}
+
+SolverSummary OptimizeProblem(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+  return Optimize(graph, values, options);
+}
+
+void WriteProblem(const std::string& path, const FactorGraph& graph, const Values& values, const Registry& registry) {
+  WriteG2oFile(path, values, graph, registry);
+}
+
+PipelineResult RunPipeline(const PipelineOptions& options, const Registry& registry, const PipelineHooks& hooks) {
+  PipelineResult r;
+  auto stop = [&r](PipelineStatus status, std::string message) {
+    r.status = status;
+    r.message = std::move(message);
+    return std::move(r);
+  };
+  std::string why;
+  if (!options.IsValid(&why)) return stop(PipelineStatus::kInvalidOptions, why);
+
+  try {
+    r.file = ReadProblem(options, registry);
+  } catch (const Error& e) {
+    return stop(PipelineStatus::kBadInput, e.what());
+  }
+  if (hooks.on_read) hooks.on_read(r.file);
+
+  // The file's own start stays in r.file.values; initialisation and solve work on copies.
+  Values values = r.file.values;
+  try {
+    r.init = InitializeProblem(r.file.graph, &values, options.init, options.input);
+  } catch (const Error& e) {
+    return stop(PipelineStatus::kBadInput, e.what());
+  }
+  r.initialized = true;
+  r.initial = values;
+  if (hooks.on_initialized) hooks.on_initialized(r.init);
+
+  r.summary = OptimizeProblem(r.file.graph, &values, options.solver);
+  r.optimized = true;
+  r.values = std::move(values);
+  if (hooks.on_optimized) hooks.on_optimized(r.summary);
+  if (!r.summary.IsSolutionUsable()) {
+    return stop(PipelineStatus::kSolveFailed, "the solve failed (" + std::string(ToString(r.summary.status)) +
+                                                  "): " + r.summary.message + "; no output written");
+  }
+
+  if (!options.output.empty()) {
+    try {
+      WriteProblem(options.output, r.file.graph, r.values, registry);
+    } catch (const Error& e) {
+      return stop(PipelineStatus::kWriteFailed, e.what());
+    }
+    r.written = true;
+  }
+  r.status = PipelineStatus::kOk;
+  return r;
+}
+
+}  // namespace tether
