@@ -218,7 +218,7 @@ TEST(PipelineStagesTest, InitialisationFailureNamesTheFile) {
   } catch (const InvalidArgument& e) {
     EXPECT_EQ(std::string(e.what()).rfind("graph.g2o: ", 0), 0u) << e.what();
   }
-  EXPECT_EQ(v.AtSE2(1).x(), 2.0);
+  EXPECT_EQ(v.At<SE2d>(1).x(), 2.0);
   EXPECT_FALSE(v.Has(7));
 }
 

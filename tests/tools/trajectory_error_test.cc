@@ -77,7 +77,7 @@ TEST(TrajectoryErrorTest, ThreeDimensionsAndOnlyCommonPoses) {
     truth.Insert(static_cast<Key>(i), SE3d(Eigen::Quaterniond::Identity(), p));
     est.Insert(static_cast<Key>(i), SE3d(q, q * p + Eigen::Vector3d(1, 2, 3)));
   }
-  est.InsertPoint3(100, Eigen::Vector3d(50, 50, 50));
+  est.Insert(100, Eigen::Vector3d(50, 50, 50));
   est.Insert(200, SE3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(90, 0, 0)));
   const TrajectoryError e = AbsoluteTrajectoryError(est, truth);
   EXPECT_EQ(e.poses, 20);
