@@ -24,7 +24,15 @@ bool IsDirectory(const std::string& p) {
   return fs::is_directory(p, ec);
 }
 
+std::string Count(std::size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
 }  // namespace
+
+std::string LoadedPlugin::Summary() const {
+  std::string s = "loaded plugin " + name + " " + version + " from " + path + " (";
+  if (!variable_names.empty()) s += Count(variable_names.size(), "variable type") + ", ";
+  return s + Count(type_names.size(), "factor type") + ")";
+}
 
 std::vector<std::string> PluginLoader::SearchPath() {
   std::vector<std::string> dirs;

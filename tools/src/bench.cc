@@ -585,9 +585,7 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   for (const std::string& p : cmd.plugins) {
     try {
       const LoadedPlugin l = loader.Load(p);
-      const std::size_t n = l.type_names.size();
-      err << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << n
-          << (n == 1 ? " factor type)\n" : " factor types)\n");
+      err << l.Summary() << "\n";
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
       return 1;

@@ -48,9 +48,7 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
   for (const std::string& p : plugins) {
     try {
       const LoadedPlugin l = loader->Load(p);
-      const std::size_t n = l.type_names.size();
-      out << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << n
-          << (n == 1 ? " factor type)\n" : " factor types)\n");
+      out << l.Summary() << "\n";
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
       return false;
@@ -229,7 +227,19 @@ int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostrea
   for (const std::string& d : PluginLoader::SearchPath()) out << " " << d;
   out << "\n";
   char line[256];
-  std::snprintf(line, sizeof(line), "%-20s %-24s %4s  %-20s %s\n", "type", "g2o tag", "dim", "variables", "owner");
+  std::snprintf(line, sizeof(line), "%-20s %-24s %-22s %s\n", "variable type", "g2o vertex tag", "ambient/tangent",
+                "owner");
+  out << line;
+  for (const auto& [name, id] : registry.variable_types()) {
+    const VariableType& d = Describe(id);
+    const std::string sizes = std::to_string(d.ambient_dim) + "/" + std::to_string(d.tangent_dim);
+    std::snprintf(line, sizeof(line), "%-20s %-24s %-22s %s\n", name.c_str(), d.tag.empty() ? "(none)" : d.tag.c_str(),
+                  sizes.c_str(), registry.VariableOwner(name).c_str());
+    out << line;
+  }
+  out << "\n";
+  std::snprintf(line, sizeof(line), "%-20s %-24s %4s  %-20s %s\n", "factor type", "g2o tag", "dim", "variables",
+                "owner");
   out << line;
   for (const auto& [name, t] : registry.types()) {
     std::string vars;

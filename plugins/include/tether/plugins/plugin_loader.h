@@ -32,6 +32,8 @@ struct LoadedPlugin {
   std::string path;                         ///< canonical path of the shared library
   std::vector<std::string> type_names;      ///< factor types it registered
   std::vector<std::string> variable_names;  ///< variable types it registered
+  /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types)".
+  std::string Summary() const;
 };
 
 class PluginLoader {
