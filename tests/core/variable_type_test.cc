@@ -327,6 +327,19 @@ TEST(ProbeCheckTest, DescribeFactorTakesNameSizeAndTypesFromTheClass) {
   EXPECT_EQ(t.variable_types, (std::vector<VarType>{VarType::kSE2, VarType::kSE2}));
 }
 
+TEST(UserApiTest, PosesPrintAndFactorsAreBuiltInPlace) {
+  std::ostringstream a, b;
+  a << SE2d(1, 2, 0.5);
+  EXPECT_EQ(a.str(), "SE2(1, 2, 0.5)");
+  b << SE3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(b.str(), "SE3(t: 1, 2, 3; q: 0, 0, 0, 1)");
+  FactorGraph g;
+  BetweenSE2& f = g.Add<BetweenSE2>(3, 4, SE2d(1, 0, 0), SqrtInformation::Identity(3));
+  ASSERT_EQ(g.size(), 1u);
+  EXPECT_EQ(&g.at(0), &f);
+  EXPECT_EQ(f.keys(), (std::vector<Key>{3, 4}));
+}
+
 TEST(NoiseTest, FromSigmasIsDiagonalAndNamesABadAxis) {
   const SqrtInformation n = SqrtInformation::FromSigmas(Eigen::Vector3d(0.1, 0.2, 0.05));
   const Eigen::MatrixXd info = n.Information();

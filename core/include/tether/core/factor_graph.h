@@ -2,6 +2,7 @@
 // FactorGraph: the factors of a problem, and the set of variables held fixed.
 #include <memory>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "tether/core/factor.h"
@@ -19,6 +20,14 @@ class FactorGraph {
   FactorGraph& operator=(FactorGraph&&) = default;
 
   void Add(std::unique_ptr<Factor> f) { factors_.push_back(std::move(f)); }
+  /// Builds a factor in place: graph.Add<BetweenSE2>(1, 2, SE2d(1, 0, 0), noise). Returns it.
+  template <class F, class... Args>
+  F& Add(Args&&... args) {
+    auto f = std::make_unique<F>(std::forward<Args>(args)...);
+    F& ref = *f;
+    factors_.push_back(std::move(f));
+    return ref;
+  }
   std::size_t size() const { return factors_.size(); }
   bool empty() const { return factors_.empty(); }
   const Factor& at(std::size_t i) const { return *factors_[i]; }

@@ -7,6 +7,7 @@
 // exact inverse. Both agree with Exp to first order.
 #include <Eigen/Core>
 #include <cmath>
+#include <ostream>
 
 #include "tether/core/so2.h"
 
@@ -115,5 +116,11 @@ class SE2 {
 };
 
 using SE2d = SE2<double>;
+
+/// "SE2(x, y, theta)".
+template <typename T>
+std::ostream& operator<<(std::ostream& os, const SE2<T>& p) {
+  return os << "SE2(" << p.x() << ", " << p.y() << ", " << p.theta() << ")";
+}
 
 }  // namespace tether

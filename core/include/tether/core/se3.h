@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cmath>
+#include <ostream>
 
 #include "tether/core/so3.h"
 
@@ -112,5 +113,14 @@ class SE3 {
 };
 
 using SE3d = SE3<double>;
+
+/// "SE3(t: x, y, z; q: qx, qy, qz, qw)".
+template <typename T>
+std::ostream& operator<<(std::ostream& os, const SE3<T>& p) {
+  const auto& t = p.translation();
+  const auto& q = p.quaternion();
+  return os << "SE3(t: " << t.x() << ", " << t.y() << ", " << t.z() << "; q: " << q.x() << ", " << q.y() << ", "
+            << q.z() << ", " << q.w() << ")";
+}
 
 }  // namespace tether
