@@ -517,37 +517,44 @@ int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
 
   // New values are collected aside and inserted at the end, in key order, so that a failure
   // leaves `values` untouched.
-  std::unordered_map<Key, std::vector<double>> fresh;
+  // Their parameters back to back in one array (offsets by key): no allocation per variable.
+  std::unordered_map<Key, std::size_t> fresh;
+  std::vector<double> fresh_params;
+  const auto add_fresh = [&](Key k, const double* p, int n) {
+    fresh.emplace(k, fresh_params.size());
+    fresh_params.insert(fresh_params.end(), p, p + n);
+  };
   const auto known = [&](Key k) -> const double* {
     if (values->Has(k)) return values->Params(k);
     const auto it = fresh.find(k);
-    return it == fresh.end() ? nullptr : it->second.data();
+    return it == fresh.end() ? nullptr : fresh_params.data() + it->second;
   };
   std::deque<Key> queue;
   for (Key k : values->keys())
     if (nodes.count(k)) queue.push_back(k);
   if (queue.empty()) {
     const Key anchor = missing.front();
-    std::vector<double>& a = fresh[anchor];
-    a.resize(static_cast<std::size_t>(AmbientDim(nodes.at(anchor).type)));
+    std::vector<double> a(static_cast<std::size_t>(AmbientDim(nodes.at(anchor).type)));
     IdentityParams(nodes.at(anchor).type, a.data());
+    add_fresh(anchor, a.data(), static_cast<int>(a.size()));
     queue.push_back(anchor);
   }
+  std::vector<double> kp, out;  // reused for every step
   while (!queue.empty()) {
     const Key k = queue.front();
     queue.pop_front();
     const VarType kt = nodes.at(k).type;
-    const std::vector<double> kp(known(k), known(k) + AmbientDim(kt));
+    kp.assign(known(k), known(k) + AmbientDim(kt));  // a copy: fresh_params may grow below
     for (std::uint32_t fi : nodes.at(k).factors) {
       const Factor& f = graph.at(fi);
       const std::vector<Key>& fk = f.keys();
       const std::size_t at = static_cast<std::size_t>(std::find(fk.begin(), fk.end(), k) - fk.begin());
       for (std::size_t u = 0; u < fk.size(); ++u) {
         if (u == at || known(fk[u])) continue;
-        std::vector<double> out(static_cast<std::size_t>(AmbientDim(nodes.at(fk[u]).type)));
+        out.resize(static_cast<std::size_t>(AmbientDim(nodes.at(fk[u]).type)));
         if (!f.Predict(at, kp.data(), u, out.data())) continue;
         if (!std::all_of(out.begin(), out.end(), [](double v) { return std::isfinite(v); })) continue;
-        fresh[fk[u]] = std::move(out);
+        add_fresh(fk[u], out.data(), static_cast<int>(out.size()));
         queue.push_back(fk[u]);
       }
     }
@@ -565,7 +572,7 @@ int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
          "value; give it an initial value (a vertex line) or add edges that link it";
     throw InvalidArgument(m);
   }
-  for (Key k : missing) values->InsertParams(k, nodes.at(k).type, fresh.at(k).data());
+  for (Key k : missing) values->InsertParams(k, nodes.at(k).type, fresh_params.data() + fresh.at(k));
   return static_cast<int>(missing.size());
 }
 
