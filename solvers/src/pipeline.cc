@@ -101,15 +101,17 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   }
   if (hooks.on_read) hooks.on_read(r.file);
 
-  // The file's own start stays in r.file.values; initialisation and solve work on copies.
-  Values values = r.file.values;
+  // With keep_intermediate_values the file's own start stays in r.file.values and the
+  // initialisation and solve work on copies; without, the values move from stage to stage.
+  Values values = options.keep_intermediate_values ? r.file.values : std::move(r.file.values);
+  if (!options.keep_intermediate_values) r.file.values = Values();
   try {
     r.init = InitializeProblem(r.file.graph, &values, options.init, options.input);
   } catch (const Error& e) {
     return stop(PipelineStatus::kBadInput, e.what());
   }
   r.initialized = true;
-  r.initial = values;
+  if (options.keep_intermediate_values) r.initial = values;
   if (hooks.on_initialized) hooks.on_initialized(r.init);
 
   r.summary = OptimizeProblem(r.file.graph, &values, options.solver);

@@ -124,10 +124,11 @@ TEST_F(PipelineTest, GivesTheCliResultOnIntel) {
   ExpectSameAsCli(path);
 }
 
-// Each stage in turn, reported through the hooks in order; the file's start is kept apart
-// from the initial guess and the result.
+// Each stage in turn, reported through the hooks in order; with keep_intermediate_values the
+// file's start is kept apart from the initial guess and the result.
 TEST_F(PipelineTest, StagesInOrderAndEveryStateKept) {
   PipelineOptions o;
+  o.keep_intermediate_values = true;
   o.input = Simulated("m.g2o", SimWorld::kManhattan, 300);
   std::vector<std::string> seen;
   PipelineHooks hooks;
@@ -155,6 +156,18 @@ TEST_F(PipelineTest, StagesInOrderAndEveryStateKept) {
   EXPECT_LT(r.summary.initial_chi2, r.file.graph.Chi2(r.file.values));
   EXPECT_DOUBLE_EQ(r.file.graph.Chi2(r.values), r.summary.final_chi2);
   EXPECT_LT(r.summary.final_chi2, r.summary.initial_chi2);
+}
+
+// By default the values move from stage to stage: one copy, the result's.
+TEST_F(PipelineTest, WithoutKeepingTheResultIsTheOnlyCopy) {
+  PipelineOptions o;
+  o.input = Simulated("k.g2o", SimWorld::kManhattan, 200);
+  const PipelineResult r = RunPipeline(o, DefaultRegistry());
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.file.values.empty());
+  EXPECT_TRUE(r.initial.empty());
+  EXPECT_EQ(r.values.size(), 200u);
+  EXPECT_DOUBLE_EQ(r.file.graph.Chi2(r.values), r.summary.final_chi2);
 }
 
 TEST_F(PipelineTest, TheStagesOneAtATimeGiveTheSameResult) {

@@ -152,6 +152,8 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   hooks.on_optimized = [&](const SolverSummary& summary) { out << summary.FullReport(); };
   if (!cmd.quiet) po.solver.callback = [&out](const IterationSummary& it) { out << Row(it) << std::endl; };
 
+  // The file's start is needed only to draw it or to measure its error.
+  po.keep_intermediate_values = !cmd.plot.empty() || !cmd.ground_truth.empty();
   const PipelineResult result = RunPipeline(po, registry, hooks);
   if (!result.ok()) {
     err << "error: " << result.message << "\n";

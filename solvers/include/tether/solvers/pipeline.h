@@ -39,6 +39,11 @@ struct PipelineOptions {
   /// Where to write the optimised graph as g2o; empty (the default): nothing is written.
   /// Written only when the solve succeeds, through a temporary file renamed into place.
   std::string output;
+  /// Keep the file's own start (PipelineResult::file.values) and the solve's start
+  /// (PipelineResult::initial) beside the result: two more copies of the values, for plots
+  /// and comparisons. Off (the default): the values are moved from stage to stage, the
+  /// result's `values` is the only copy, and `file.values` and `initial` are left empty.
+  bool keep_intermediate_values = false;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -64,12 +69,13 @@ struct PipelineResult {
   /// for a bad file) and what to do.
   std::string message;
   /// The file as read: graph, values (the file's own start, before initialisation: a file
-  /// without vertices has had them composed along a spanning tree), warnings, repairs.
+  /// without vertices has had them composed along a spanning tree; kept only with
+  /// keep_intermediate_values), warnings, repairs.
   GraphFile file;
   /// Reached the initialisation, and what it did.
   bool initialized = false;
   InitSummary init;
-  /// Where the solve started (after initialisation).
+  /// Where the solve started (after initialisation; kept only with keep_intermediate_values).
   Values initial;
   /// Reached the solve, and its summary.
   bool optimized = false;
