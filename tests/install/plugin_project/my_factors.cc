@@ -14,9 +14,7 @@
 
 namespace {
 
-using tether::Key;
-using tether::SE2d;
-using tether::SqrtInformation;
+using tether::Key, tether::SE2d, tether::SqrtInformation;
 
 // The bearing of a landmark seen from a pose, in the pose's frame (a camera or a direction
 // finder). With v = l - t:  e = wrap(atan2(v_y, v_x) - theta - z).
@@ -30,8 +28,7 @@ class Bearing2D : public tether::TypedFactor<Bearing2D, 1, SE2d, Eigen::Vector2d
   bool Evaluate(const double* const* params, double* error, double* const* jacobians) const override {
     const double* x = params[0];  // pose: x y theta
     const double* l = params[1];  // landmark: x y
-    const double vx = l[0] - x[0], vy = l[1] - x[1];
-    const double r2 = vx * vx + vy * vy;
+    const double vx = l[0] - x[0], vy = l[1] - x[1], r2 = vx * vx + vy * vy;
     if (!(r2 > 1e-24)) return false;  // the landmark sits on the pose: no bearing
     error[0] = tether::WrapAngle(std::atan2(vy, vx) - x[2] - bearing_);
     if (jacobians == nullptr) return true;
