@@ -15,16 +15,14 @@
 #include "tether/core/autodiff_factor.h"
 #include "tether/plugins/plugin.h"
 
+// ---- the variable type (lines counted in docs/writing-a-factor-plugin.md) ----
 namespace odometry_scale {
-
 /// The scale: true distance = value * measured distance.
 struct Scale {
   double value = 1.0;
 };
-
 }  // namespace odometry_scale
 
-// ---- the variable type (lines counted in docs/writing-a-factor-plugin.md) ----
 template <>
 struct tether::VariableTraits<odometry_scale::Scale> {
   static constexpr const char* kName = "Scale";
@@ -44,11 +42,9 @@ struct tether::VariableTraits<odometry_scale::Scale> {
 
 namespace odometry_scale {
 
-using tether::Key;
-using tether::SE2d;
-using tether::SqrtInformation;
-
 // ---- the factor (lines counted in docs/writing-a-factor-plugin.md) ----
+using tether::Key, tether::SE2d, tether::SqrtInformation;
+
 class ScaledOdometrySE2 : public tether::AutoDiffFactor<ScaledOdometrySE2, 3, SE2d, SE2d, Scale> {
  public:
   static constexpr const char* kTypeName = "ScaledOdometrySE2";
