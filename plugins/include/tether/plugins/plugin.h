@@ -1,5 +1,5 @@
 #pragma once
-// What a factor plugin includes. A plugin is a shared library that exports one C function,
+// What a plugin includes (factor types, linear solvers). A plugin is a shared library that exports one C function,
 //
 //   extern "C" const tether::PluginDescription* tether_plugin_entry();
 //
@@ -8,12 +8,13 @@
 // PluginRegistrar; the types it adds are committed to the registry all at once, or not at
 // all. No static initialisers take part: nothing happens until the loader asks.
 //
-//   void RegisterMyTypes(tether::PluginRegistrar& r) { r.AddFactorType(...); }
+//   void RegisterMyTypes(tether::PluginRegistrar& r) { r.AddFactorType(...); r.AddLinearSolver(...); }
 //   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
 #include <Eigen/Core>
 #include <string>
 #include <vector>
 
+#include "tether/core/linear_solver.h"
 #include "tether/core/registry.h"
 #include "tether/core/version.h"
 
@@ -74,11 +75,19 @@ class PluginRegistrar {
   /// Adds a factor type; its owner is set to the plugin's name.
   void AddFactorType(FactorType type);
   const std::vector<FactorType>& factor_types() const { return types_; }
+  /// Adds a linear solver (tether/core/linear_solver.h) under `name`, selected with
+  /// SolverOptions::linear_solver or `--linear name`. By default it is given the normal
+  /// equations and is not direct (its factorisation is not reused across steps).
+  void AddLinearSolver(const std::string& name, LinearSolverFactory make);
+  /// The same with every field of the entry given; its owner is set to the plugin's name.
+  void AddLinearSolver(LinearSolverEntry entry);
+  const std::vector<LinearSolverEntry>& linear_solvers() const { return linear_solvers_; }
   const std::string& plugin_name() const { return plugin_; }
 
  private:
   std::string plugin_;
   std::vector<FactorType> types_;
+  std::vector<LinearSolverEntry> linear_solvers_;
 };
 
 struct PluginDescription {
