@@ -154,7 +154,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   s.initial_chi2 = s.final_chi2 = graph.Chi2(*values);
 
   // LM damping as a trust region: lambda = 1 / radius (see ceres_adapter.h).
-  const double initial_radius = 1.0 / std::max(options.initial_lambda, options.min_lambda);
+  const double initial_radius = 1.0 / std::max(options.lm.initial_lambda, options.lm.min_lambda);
   if (problem->tangent_dim() == 0) {
     s.status = SolverStatus::kConverged;
     s.message = "nothing to optimise: every variable is fixed";
@@ -178,8 +178,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   co.parameter_tolerance = options.parameter_tolerance;
   if (options.max_seconds > 0) co.max_solver_time_in_seconds = options.max_seconds;
   co.initial_trust_region_radius = initial_radius;
-  co.max_trust_region_radius = 1.0 / options.min_lambda;
-  co.min_trust_region_radius = 1.0 / options.max_lambda;
+  co.max_trust_region_radius = 1.0 / options.lm.min_lambda;
+  co.min_trust_region_radius = 1.0 / options.lm.max_lambda;
   co.num_threads = NumThreads(options);
   co.logging_type = ceres::SILENT;
   co.minimizer_progress_to_stdout = false;

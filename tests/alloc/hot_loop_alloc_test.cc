@@ -86,14 +86,14 @@ class HotLoopTest : public ::testing::TestWithParam<Case> {};
 // Per-iteration allocation counts (operator new) of a solve with six iterations; steps reuse
 // an earlier factorisation as by default unless max_reuse_iterations says otherwise.
 std::vector<long> AllocationsPerIteration(const Case& c,
-                                          int max_reuse_iterations = SolverOptions().max_reuse_iterations) {
+                                          int max_reuse_iterations = SolverOptions().linear.max_reuse_iterations) {
   const SimulatedGraph sim = Sim(c.world);
   Values values = sim.initial;
   SolverOptions o;
   o.algorithm = c.algorithm;
   o.linear_solver = c.linear;
   o.num_threads = c.threads;
-  o.max_reuse_iterations = max_reuse_iterations;
+  o.linear.max_reuse_iterations = max_reuse_iterations;
   o.function_tolerance = 0;  // run all iterations
   o.gradient_tolerance = 0;
   o.parameter_tolerance = 0;

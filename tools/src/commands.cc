@@ -48,8 +48,11 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
     try {
       const LoadedPlugin l = loader->Load(p);
       const std::size_t n = l.type_names.size();
+      const std::size_t k = l.linear_solver_names.size();
       out << "loaded plugin " << l.name << " " << l.version << " from " << l.path << " (" << n
-          << (n == 1 ? " factor type)\n" : " factor types)\n");
+          << (n == 1 ? " factor type" : " factor types");
+      if (k > 0) out << ", " << k << (k == 1 ? " linear solver" : " linear solvers");
+      out << ")\n";
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
       return false;
@@ -71,13 +74,11 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   SolverOptions options;
   InformationRepair repair;
   if (!FromString(cmd.solver, &options.algorithm)) {
-    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn, lm or ceres\n";
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use " << AlgorithmNames() << "\n";
     return 2;
   }
-  if (!FromString(cmd.linear, &options.linear_solver)) {
-    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
-    return 2;
-  }
+  // A plugin's linear solver is known once the plugin is loaded (below).
+  options.linear_solver = LinearSolverType(cmd.linear);
   if (options.algorithm == Algorithm::kCeres && options.linear_solver != LinearSolverType::kCholmod) {
     err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
            "--linear cholmod (ldlt and qr are for gn and lm)\n";
@@ -100,15 +101,20 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     return 2;
   }
   options.num_threads = cmd.threads;
-  options.max_reuse_iterations = cmd.max_reuse_iterations;
+  options.linear.max_reuse_iterations = cmd.max_reuse_iterations;
+  Registry& registry = DefaultRegistry();
+  PluginLoader loader(registry);
+  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
+  if (!FromString(cmd.linear, &options.linear_solver)) {
+    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use " << LinearSolverNames()
+        << " (or load the plugin that provides it with --plugin)\n";
+    return 2;
+  }
   std::string why;
   if (!options.IsValid(&why)) {
     err << "tether optimize: " << why << "\n";
     return 2;
   }
-  Registry& registry = DefaultRegistry();
-  PluginLoader loader(registry);
-  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
   GraphFile file;
   try {
     ReadOptions ro;
