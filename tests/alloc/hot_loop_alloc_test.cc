@@ -162,7 +162,9 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{SimWorld::kManhattan, Algorithm::kLevenbergMarquardt, LinearSolverType::kCholmod, 2},
                       Case{SimWorld::kSphere, Algorithm::kGaussNewton, LinearSolverType::kCholmod, 2},
                       Case{SimWorld::kLandmarks, Algorithm::kLevenbergMarquardt, LinearSolverType::kCholmod, 2},
-                      Case{SimWorld::kManhattan, Algorithm::kGaussNewton, LinearSolverType::kQR, 2}),
+                      Case{SimWorld::kManhattan, Algorithm::kGaussNewton, LinearSolverType::kQR, 2},
+                      Case{SimWorld::kManhattan, Algorithm::kDogLeg, LinearSolverType::kCholmod, 1},
+                      Case{SimWorld::kSphere, Algorithm::kDogLeg, LinearSolverType::kQR, 2}),
     [](const ::testing::TestParamInfo<Case>& i) {
       return std::string(ToString(i.param.world)) + "_" + ToString(i.param.algorithm) + "_" + ToString(i.param.linear) +
              "_" + std::to_string(i.param.threads) + "t";
