@@ -57,6 +57,7 @@ bool Minimizer::Iterate() {
   const double rho = step.predicted_decrease > 0 ? (chi2_ - new_chi2) / step.predicted_decrease : 0.0;
   if (!uphill_) strategy_.StepAccepted(rho);
   const double old_chi2 = chi2_;
+  // Not relinearised: the step was taken back (the solve goes on) or the solve diverged.
   if (!Relinearize(it, old_chi2)) return s_.status == SolverStatus::kMaxIterations;
   ++s_.accepted_iterations;
   if (uphill_ && chi2_ < best_chi2_) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "builtin_linear_solvers.h"
 #include "gauge.h"

@@ -67,7 +67,8 @@ enum class SolverStatus {
 
 // Names used by the CLI and reports: "gn", "lm", "dogleg", "ceres"; "cholmod", "ldlt", "qr";
 // "converged", ... FromString accepts the names registered at the time of the call (a
-// plugin's linear solver once the plugin is loaded).
+// plugin's linear solver once the plugin is loaded). ToString of an Algorithm or
+// LinearSolverType is its name(), valid while that object lives.
 const char* ToString(const Algorithm& a);
 const char* ToString(const LinearSolverType& t);
 const char* ToString(SolverStatus s);
