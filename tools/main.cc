@@ -13,8 +13,10 @@ int main(int argc, char** argv) {
   CLI::App* optimize = app.add_subcommand("optimize", "Optimise a g2o or TORO graph file");
   optimize->add_option("input", opt.input, "Graph file (.g2o, or TORO .graph)")->required();
   optimize->add_option("-o,--output", opt.output, "Write the optimised graph (g2o)");
-  optimize->add_option("--solver", opt.solver, "gn | lm | ceres (Ceres' Levenberg-Marquardt)")->capture_default_str();
-  optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr")->capture_default_str();
+  optimize->add_option("--solver", opt.solver, "gn | lm | dogleg | ceres (Ceres' Levenberg-Marquardt)")
+      ->capture_default_str();
+  optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr | a plugin's linear solver (pcg)")
+      ->capture_default_str();
   optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
@@ -35,7 +37,9 @@ int main(int argc, char** argv) {
                        "g2o file with the true values: report the absolute trajectory error of the start and "
                        "the result, and draw the truth in --plot");
   optimize->add_flag("-q,--quiet", opt.quiet, "No iteration table");
-  optimize->add_option("--plugin", opt.plugins, "Load a factor plugin (.so path or name) first; repeatable")
+  optimize
+      ->add_option("--plugin", opt.plugins,
+                   "Load a plugin (factor types, linear solvers; .so path or name) first; repeatable")
       ->allow_extra_args(false);
   optimize->add_flag("--allow-partial-vertices", opt.allow_partial_vertices,
                      "Give vertices without a VERTEX line initial values composed from edges");
@@ -57,7 +61,7 @@ int main(int argc, char** argv) {
   tether::BenchCommand bc;
   CLI::App* bench = app.add_subcommand("bench", "Time solver configurations on graph files (docs/benchmarking.md)");
   bench->add_option("files", bc.files, "Graph files (.g2o, or TORO .graph)");
-  bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, ceres")->capture_default_str();
+  bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
   bench->add_option("--linear", bc.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
   bench->add_option("--init", bc.init, "Comma-separated: file, spanning-tree, chordal")->capture_default_str();
   bench->add_option("--threads", bc.threads, "Comma-separated thread counts (default: the solver's)");

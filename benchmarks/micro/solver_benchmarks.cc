@@ -6,7 +6,7 @@
 #include <map>
 #include <memory>
 
-#include "linear_solver.h"
+#include "builtin_linear_solvers.h"
 #include "problem.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
@@ -132,10 +132,10 @@ void FactorizeLoop(benchmark::State& state, const Graph* g) {
   }
   Setup s(*g, 1);
   s.problem.AssembleNormal(&s.h, s.gradient.data());
-  std::unique_ptr<internal::SparseCholesky> chol = internal::MakeCholmod();
-  chol->Analyze(s.h);
+  std::unique_ptr<LinearSolver> chol = internal::MakeCholmod();
+  chol->Analyze(internal::View(s.h), {});
   for (auto _ : state) {
-    if (chol->Factorize(s.h) != internal::FactorResult::kOk) {
+    if (chol->Factorize(internal::View(s.h)) != LinearSolverStatus::kOk) {
       state.SkipWithError("H is not positive definite");
       break;
     }

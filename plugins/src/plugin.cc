@@ -33,4 +33,16 @@ void PluginRegistrar::AddFactorType(FactorType type) {
   types_.push_back(std::move(type));
 }
 
+void PluginRegistrar::AddLinearSolver(const std::string& name, LinearSolverFactory make) {
+  LinearSolverEntry entry;
+  entry.name = name;
+  entry.make = std::move(make);
+  AddLinearSolver(std::move(entry));
+}
+
+void PluginRegistrar::AddLinearSolver(LinearSolverEntry entry) {
+  entry.owner = plugin_;
+  linear_solvers_.push_back(std::move(entry));
+}
+
 }  // namespace tether

@@ -26,12 +26,37 @@ bool IsDirectory(const std::string& p) {
 
 std::string Count(std::size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
+// The linear solvers a plugin adds, tried on a copy of the registry first (so that a clash
+// registers nothing of the plugin). One this plugin registered already, through another
+// loader into the same process-wide registry, stays as it is.
+std::vector<LinearSolverEntry> TrialLinearSolvers(const PluginRegistrar& registrar, const LinearSolverRegistry& target,
+                                                  const std::string& path, LoadedPlugin* loaded) {
+  const std::string& name = registrar.plugin_name();
+  std::vector<LinearSolverEntry> added;
+  LinearSolverRegistry trial = target;
+  try {
+    for (const LinearSolverEntry& e : registrar.linear_solvers()) {
+      const LinearSolverEntry* there = target.Find(e.name);
+      if (there == nullptr || there->owner != name) {
+        trial.Register(e);
+        added.push_back(e);
+      }
+      loaded->linear_solver_names.push_back(e.name);
+    }
+  } catch (const Error& e) {
+    throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
+  }
+  return added;
+}
+
 }  // namespace
 
 std::string LoadedPlugin::Summary() const {
   std::string s = "loaded plugin " + name + " " + version + " from " + path + " (";
   if (!variable_names.empty()) s += Count(variable_names.size(), "variable type") + ", ";
-  return s + Count(type_names.size(), "factor type") + ")";
+  s += Count(type_names.size(), "factor type");
+  if (!linear_solver_names.empty()) s += ", " + Count(linear_solver_names.size(), "linear solver");
+  return s + ")";
 }
 
 std::vector<std::string> PluginLoader::SearchPath() {
@@ -89,7 +114,12 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
                                         }) &&
                             std::all_of(it->variable_names.begin(), it->variable_names.end(),
                                         [&](const std::string& n) { return registry_.VariableOwner(n) == it->name; });
-    if (registered) return *it;
+    const bool solvers =
+        std::all_of(it->linear_solver_names.begin(), it->linear_solver_names.end(), [&](const std::string& n) {
+          const LinearSolverEntry* e = linear_solvers_.Find(n);
+          return e != nullptr && e->owner == it->name;
+        });
+    if (registered && solvers) return *it;
     loaded_.erase(it);
     break;
   }
@@ -148,7 +178,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
   // exactly as it was. Then the same types go into the registry itself, added beside the
   // entries already there: a FactorType found before the load stays where it is (replacing
   // the registry by the copy would free every one of them).
-  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}};
+  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}};
   {
     Registry trial = registry_;
     try {
@@ -164,8 +194,9 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
     }
   }
+  const std::vector<LinearSolverEntry> solvers = TrialLinearSolvers(registrar, linear_solvers_, path, &loaded);
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
-  std::size_t variables = 0, committed = 0;
+  std::size_t variables = 0, committed = 0, committed_solvers = 0;
   try {
     for (const VariableType& t : registrar.variable_types()) {
       registry_.RegisterVariable(t);
@@ -175,11 +206,16 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       registry_.Register(t);
       ++committed;
     }
+    for (const LinearSolverEntry& e : solvers) {
+      linear_solvers_.Register(e);
+      ++committed_solvers;
+    }
   } catch (...) {
     // Not expected (the trial took the same types), short of memory: take back exactly
     // what this load added.
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
+    for (std::size_t i = 0; i < committed_solvers; ++i) linear_solvers_.Remove(solvers[i].name);
     throw;
   }
   loaded_.push_back(std::move(loaded));

@@ -122,6 +122,89 @@ class CallbackBridge : public ceres::IterationCallback {
   Clock::time_point t0_;
 };
 
+// Ceres' LM over SPARSE_NORMAL_CHOLESKY with tether's stopping rules and damping (as a
+// trust region, lambda = 1 / radius; see ceres_adapter.h).
+ceres::Solver::Options CeresOptions(const SolverOptions& options, double initial_radius) {
+  ceres::Solver::Options co;
+  co.minimizer_type = ceres::TRUST_REGION;
+  co.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  co.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  co.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  co.max_num_iterations = options.max_iterations;
+  co.function_tolerance = options.function_tolerance;
+  co.gradient_tolerance = options.gradient_tolerance;
+  co.parameter_tolerance = options.parameter_tolerance;
+  if (options.max_seconds > 0) co.max_solver_time_in_seconds = options.max_seconds;
+  co.initial_trust_region_radius = initial_radius;
+  co.max_trust_region_radius = 1.0 / options.lm.min_lambda;
+  co.min_trust_region_radius = 1.0 / options.lm.max_lambda;
+  co.num_threads = NumThreads(options);
+  co.logging_type = ceres::SILENT;
+  co.minimizer_progress_to_stdout = false;
+  return co;
+}
+
+// Status and message from Ceres' termination type; true where the values are usable.
+bool MapTermination(const ceres::Solver::Summary& cs, const CeresProblem& problem, const SolverOptions& options,
+                    SolverSummary* summary) {
+  SolverSummary& s = *summary;
+  bool usable = false;
+  switch (cs.termination_type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS:
+      s.status = SolverStatus::kConverged;
+      s.message = "Ceres: " + cs.message;
+      if (cs.message.rfind("Function tolerance", 0) == 0 || cs.message.rfind("Parameter tolerance", 0) == 0) {
+        s.message += " (Ceres does not take the step that met the tolerance)";
+      }
+      usable = true;
+      break;
+    case ceres::NO_CONVERGENCE: {
+      const bool out_of_iterations = !cs.iterations.empty() && cs.iterations.back().iteration >= options.max_iterations;
+      s.status = out_of_iterations ? SolverStatus::kMaxIterations : SolverStatus::kTimeLimit;
+      s.message = (out_of_iterations
+                       ? "reached the maximum number of iterations (" + std::to_string(options.max_iterations) + ")"
+                       : std::string("reached the time limit")) +
+                  "; Ceres: " + cs.message;
+      usable = true;
+      break;
+    }
+    case ceres::FAILURE:
+    case ceres::USER_FAILURE:
+      s.status = SolverStatus::kDiverged;
+      s.message = problem.errors().any() ? "a factor threw during the solve (" + problem.errors().first() + ")"
+                                         : "Ceres failed: " + cs.message;
+      s.message += "; the start values were kept";
+      break;
+  }
+  if (usable && problem.errors().any()) {
+    // Ceres recovered from a failed evaluation; say what failed anyway.
+    s.message += " (a factor threw at a rejected step: " + problem.errors().first() + ")";
+  }
+  return usable;
+}
+
+// Writes Ceres' values back where they are usable and finite; otherwise the start values stay
+// and the status says why.
+void WriteResult(const FactorGraph& graph, Values* values, CeresProblem* problem, bool usable, SolverSummary* summary) {
+  SolverSummary& s = *summary;
+  if (usable && !problem->WriteBack(values)) {
+    s.status = SolverStatus::kDiverged;
+    s.message = "Ceres returned non-finite values (" + s.message + "); the start values were kept";
+    usable = false;
+  }
+  if (usable) {
+    s.final_chi2 = graph.Chi2(*values);
+    if (!std::isfinite(s.final_chi2)) {
+      problem->ResetBlocks();
+      problem->WriteBack(values);
+      s.status = SolverStatus::kDiverged;
+      s.message = "chi2 of the values Ceres returned is not finite (" + s.message + "); the start values were kept";
+      s.final_chi2 = s.initial_chi2;
+    }
+  }
+}
+
 SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions& options, Clock::time_point t0) {
   SolverSummary s;
   s.algorithm = Algorithm::kCeres;
@@ -158,7 +241,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   s.initial_chi2 = s.final_chi2 = graph.Chi2(*values);
 
   // LM damping as a trust region: lambda = 1 / radius (see ceres_adapter.h).
-  const double initial_radius = 1.0 / std::max(options.initial_lambda, options.min_lambda);
+  const double initial_radius = 1.0 / std::max(options.lm.initial_lambda, options.lm.min_lambda);
   if (problem->tangent_dim() == 0) {
     s.status = SolverStatus::kConverged;
     s.message = "nothing to optimise: every variable is fixed";
@@ -171,22 +254,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     return s;
   }
 
-  ceres::Solver::Options co;
-  co.minimizer_type = ceres::TRUST_REGION;
-  co.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  co.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  co.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  co.max_num_iterations = options.max_iterations;
-  co.function_tolerance = options.function_tolerance;
-  co.gradient_tolerance = options.gradient_tolerance;
-  co.parameter_tolerance = options.parameter_tolerance;
-  if (options.max_seconds > 0) co.max_solver_time_in_seconds = options.max_seconds;
-  co.initial_trust_region_radius = initial_radius;
-  co.max_trust_region_radius = 1.0 / options.min_lambda;
-  co.min_trust_region_radius = 1.0 / options.max_lambda;
-  co.num_threads = NumThreads(options);
-  co.logging_type = ceres::SILENT;
-  co.minimizer_progress_to_stdout = false;
+  ceres::Solver::Options co = CeresOptions(options, initial_radius);
   CallbackBridge bridge(&s, options, *problem, initial_radius, t0);
   co.callbacks.push_back(&bridge);
   if (!co.IsValid(&why)) {
@@ -212,54 +280,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     ++s.iterations;
     if (it.accepted) ++s.accepted_iterations;
   }
-  bool usable = false;
-  switch (cs.termination_type) {
-    case ceres::CONVERGENCE:
-    case ceres::USER_SUCCESS:
-      s.status = SolverStatus::kConverged;
-      s.message = "Ceres: " + cs.message;
-      if (cs.message.rfind("Function tolerance", 0) == 0 || cs.message.rfind("Parameter tolerance", 0) == 0) {
-        s.message += " (Ceres does not take the step that met the tolerance)";
-      }
-      usable = true;
-      break;
-    case ceres::NO_CONVERGENCE: {
-      const bool out_of_iterations = !cs.iterations.empty() && cs.iterations.back().iteration >= options.max_iterations;
-      s.status = out_of_iterations ? SolverStatus::kMaxIterations : SolverStatus::kTimeLimit;
-      s.message = (out_of_iterations
-                       ? "reached the maximum number of iterations (" + std::to_string(options.max_iterations) + ")"
-                       : std::string("reached the time limit")) +
-                  "; Ceres: " + cs.message;
-      usable = true;
-      break;
-    }
-    case ceres::FAILURE:
-    case ceres::USER_FAILURE:
-      s.status = SolverStatus::kDiverged;
-      s.message = problem->errors().any() ? "a factor threw during the solve (" + problem->errors().first() + ")"
-                                          : "Ceres failed: " + cs.message;
-      s.message += "; the start values were kept";
-      break;
-  }
-  if (usable && problem->errors().any()) {
-    // Ceres recovered from a failed evaluation; say what failed anyway.
-    s.message += " (a factor threw at a rejected step: " + problem->errors().first() + ")";
-  }
-  if (usable && !problem->WriteBack(values)) {
-    s.status = SolverStatus::kDiverged;
-    s.message = "Ceres returned non-finite values (" + s.message + "); the start values were kept";
-    usable = false;
-  }
-  if (usable) {
-    s.final_chi2 = graph.Chi2(*values);
-    if (!std::isfinite(s.final_chi2)) {
-      problem->ResetBlocks();
-      problem->WriteBack(values);
-      s.status = SolverStatus::kDiverged;
-      s.message = "chi2 of the values Ceres returned is not finite (" + s.message + "); the start values were kept";
-      s.final_chi2 = s.initial_chi2;
-    }
-  }
+  bool usable = MapTermination(cs, *problem, options, &s);
+  WriteResult(graph, values, problem.get(), usable, &s);
   s.total_seconds = SecondsSince(t0);
   return s;
 }

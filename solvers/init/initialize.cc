@@ -13,7 +13,7 @@
 #include <set>
 #include <unordered_map>
 
-#include "../src/linear_solver.h"
+#include "../src/builtin_linear_solvers.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/core/variable.h"
@@ -184,25 +184,25 @@ class SpdSolver {
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
     UpperTriangle(A);
     Eigen::MatrixXd X(B.rows(), B.cols());
-    internal::FactorResult r = internal::FactorResult::kFailed;
+    LinearSolverStatus r = LinearSolverStatus::kFailed;
     try {
       if (!analysed_) {
-        chol_->Analyze(upper_);
+        chol_->Analyze(internal::View(upper_), {});
         analysed_ = true;
       }
-      r = chol_->Factorize(upper_);
-      for (Eigen::Index c = 0; r == internal::FactorResult::kOk && c < B.cols(); ++c) {
+      r = chol_->Factorize(internal::View(upper_));
+      for (Eigen::Index c = 0; r == LinearSolverStatus::kOk && c < B.cols(); ++c) {
         const Eigen::VectorXd b = B.col(c);
         chol_->Solve(b.data(), X.col(c).data());
       }
     } catch (const Error&) {
-      r = internal::FactorResult::kFailed;  // CHOLMOD itself failed (out of memory)
+      r = LinearSolverStatus::kFailed;  // CHOLMOD itself failed (out of memory)
     }
-    if (r == internal::FactorResult::kFailed) {
+    if (r == LinearSolverStatus::kFailed) {
       throw InvalidArgument(std::string("chordal initialisation: CHOLMOD failed on the ") + what +
                             " system (out of memory?); use --init spanning-tree or --init file");
     }
-    if (r != internal::FactorResult::kOk) {
+    if (r != LinearSolverStatus::kOk) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what +
                             " system is singular (a pose is tied to the others by measurements that fix too "
                             "little of it); use --init spanning-tree or --init file");
@@ -230,7 +230,7 @@ class SpdSolver {
     }
   }
 
-  std::unique_ptr<internal::SparseCholesky> chol_ = internal::MakeCholmod();
+  std::unique_ptr<LinearSolver> chol_ = internal::MakeCholmod();
   internal::Csc upper_;
   bool analysed_ = false;
 };

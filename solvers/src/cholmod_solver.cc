@@ -4,7 +4,7 @@
 #include <SuiteSparseQR.hpp>
 #include <cstring>
 
-#include "linear_solver.h"
+#include "builtin_linear_solvers.h"
 #include "serial_openmp.h"
 #include "tether/core/error.h"
 
@@ -13,16 +13,16 @@ namespace internal {
 
 namespace {
 
-// A cholmod_sparse header that borrows the arrays of a Csc (no copy).
-cholmod_sparse View(const Csc& a, int stype) {
+// A cholmod_sparse header that borrows the arrays of a matrix view (no copy).
+cholmod_sparse CholmodView(const SparseMatrixView& a, int stype) {
   cholmod_sparse s;
   std::memset(&s, 0, sizeof(s));
   s.nrow = a.rows;
   s.ncol = a.cols;
-  s.nzmax = a.values.size();
-  s.p = const_cast<int*>(a.colptr.data());
-  s.i = const_cast<int*>(a.rowind.data());
-  s.x = const_cast<double*>(a.values.data());
+  s.nzmax = a.colptr[a.cols];
+  s.p = const_cast<int*>(a.colptr);
+  s.i = const_cast<int*>(a.rowind);
+  s.x = const_cast<double*>(a.values);
   s.stype = stype;
   s.itype = CHOLMOD_INT;
   s.xtype = CHOLMOD_REAL;
@@ -45,7 +45,7 @@ cholmod_dense DenseView(double* x, int n) {
   return d;
 }
 
-class Cholmod : public SparseCholesky {
+class Cholmod : public LinearSolver {
  public:
   Cholmod() {
     cholmod_start(&cc_);
@@ -65,9 +65,9 @@ class Cholmod : public SparseCholesky {
     if (E_) cholmod_free_dense(&E_, &cc_);
     cholmod_finish(&cc_);
   }
-  void Analyze(const Csc& h) override {
+  void Analyze(const SparseMatrixView& h, const std::vector<int>&) override {
     SerialOpenMp serial;
-    cholmod_sparse a = View(h, 1);
+    cholmod_sparse a = CholmodView(h, 1);
     if (L_) cholmod_free_factor(&L_, &cc_);
     L_ = cholmod_analyze(&a, &cc_);
     if (L_ == nullptr || cc_.status < CHOLMOD_OK) {
@@ -76,32 +76,33 @@ class Cholmod : public SparseCholesky {
     }
     n_ = h.cols;
   }
-  FactorResult Factorize(const Csc& h) override {
-    cholmod_sparse a = View(h, 1);
+  LinearSolverStatus Factorize(const SparseMatrixView& h) override {
+    cholmod_sparse a = CholmodView(h, 1);
     {
       SerialOpenMp serial;
       cholmod_factorize(&a, L_, &cc_);
     }
-    if (cc_.status == CHOLMOD_NOT_POSDEF || L_->minor < L_->n) return FactorResult::kNotPositiveDefinite;
-    if (cc_.status < CHOLMOD_OK) return FactorResult::kFailed;
+    if (cc_.status == CHOLMOD_NOT_POSDEF || L_->minor < L_->n) return LinearSolverStatus::kNotPositiveDefinite;
+    if (cc_.status < CHOLMOD_OK) return LinearSolverStatus::kFailed;
     if (!L_->is_super && !L_->is_ll) {
       // A simplicial LDL^T succeeds on indefinite matrices too; the solvers need positive
       // definite ones. D sits on the diagonal, the first entry of each column.
       const double* x = static_cast<const double*>(L_->x);
       const int* p = static_cast<const int*>(L_->p);
       for (std::size_t j = 0; j < L_->n; ++j) {
-        if (!(x[p[j]] > 0)) return FactorResult::kNotPositiveDefinite;
+        if (!(x[p[j]] > 0)) return LinearSolverStatus::kNotPositiveDefinite;
       }
     }
-    return FactorResult::kOk;
+    return LinearSolverStatus::kOk;
   }
-  void Solve(const double* b, double* x) override {
+  LinearSolverStatus Solve(const double* b, double* x) override {
     SerialOpenMp serial;
     cholmod_dense bd = DenseView(const_cast<double*>(b), n_);
     if (!cholmod_solve2(CHOLMOD_A, L_, &bd, nullptr, &X_, nullptr, &Y_, &E_, &cc_) || X_ == nullptr) {
       throw Error("CHOLMOD could not solve (status " + std::to_string(cc_.status) + "); try --linear ldlt");
     }
     std::memcpy(x, X_->x, sizeof(double) * n_);
+    return LinearSolverStatus::kOk;
   }
   std::string Description() const override {
     return L_ != nullptr && !L_->is_super ? "CHOLMOD simplicial" : "CHOLMOD supernodal";
@@ -116,7 +117,7 @@ class Cholmod : public SparseCholesky {
 
 // SuiteSparseQR's C++ interface works on 64-bit indices (cholmod_l_*): the pattern is
 // copied to long once at Analyze, the values are borrowed every time.
-class Spqr : public SparseQR {
+class Spqr : public LinearSolver {
  public:
   Spqr() {
     cholmod_l_start(&cc_);
@@ -127,9 +128,9 @@ class Spqr : public SparseQR {
     if (qr_) SuiteSparseQR_free<double>(&qr_, &cc_);
     cholmod_l_finish(&cc_);
   }
-  void Analyze(const Csc& j) override {
-    colptr_.assign(j.colptr.begin(), j.colptr.end());
-    rowind_.assign(j.rowind.begin(), j.rowind.end());
+  void Analyze(const SparseMatrixView& j, const std::vector<int>&) override {
+    colptr_.assign(j.colptr, j.colptr + j.cols + 1);
+    rowind_.assign(j.rowind, j.rowind + j.colptr[j.cols]);
     cholmod_sparse a = View(j);
     // allow_tol = 1: columns below SPQR's default tolerance count as dependent, so rank
     // deficiency is detected instead of turning into enormous steps.
@@ -141,13 +142,13 @@ class Spqr : public SparseQR {
     rows_ = j.rows;
     cols_ = j.cols;
   }
-  FactorResult Factorize(const Csc& j) override {
+  LinearSolverStatus Factorize(const SparseMatrixView& j) override {
     cholmod_sparse a = View(j);
-    if (!SuiteSparseQR_numeric<double>(SPQR_DEFAULT_TOL, &a, qr_, &cc_)) return FactorResult::kFailed;
-    if (qr_->rank < cols_) return FactorResult::kRankDeficient;
-    return FactorResult::kOk;
+    if (!SuiteSparseQR_numeric<double>(SPQR_DEFAULT_TOL, &a, qr_, &cc_)) return LinearSolverStatus::kFailed;
+    if (qr_->rank < cols_) return LinearSolverStatus::kRankDeficient;
+    return LinearSolverStatus::kOk;
   }
-  void Solve(const double* b, double* x) override {
+  LinearSolverStatus Solve(const double* b, double* x) override {
     cholmod_dense bd = DenseView(const_cast<double*>(b), rows_);
     cholmod_dense* y = SuiteSparseQR_qmult<double>(SPQR_QTX, qr_, &bd, &cc_);
     cholmod_dense* sol = y ? SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_) : nullptr;
@@ -158,11 +159,13 @@ class Spqr : public SparseQR {
     std::memcpy(x, sol->x, sizeof(double) * cols_);
     cholmod_l_free_dense(&y, &cc_);
     cholmod_l_free_dense(&sol, &cc_);
+    return LinearSolverStatus::kOk;
   }
+  std::string Description() const override { return "SuiteSparseQR"; }
 
  private:
-  cholmod_sparse View(const Csc& j) {
-    cholmod_sparse a = internal::View(j, 0);
+  cholmod_sparse View(const SparseMatrixView& j) {
+    cholmod_sparse a = CholmodView(j, 0);
     a.p = colptr_.data();
     a.i = rowind_.data();
     a.itype = CHOLMOD_LONG;
@@ -176,8 +179,8 @@ class Spqr : public SparseQR {
 
 }  // namespace
 
-std::unique_ptr<SparseCholesky> MakeCholmod() { return std::make_unique<Cholmod>(); }
-std::unique_ptr<SparseQR> MakeSpqr() { return std::make_unique<Spqr>(); }
+std::unique_ptr<LinearSolver> MakeCholmod() { return std::make_unique<Cholmod>(); }
+std::unique_ptr<LinearSolver> MakeSpqr() { return std::make_unique<Spqr>(); }
 
 }  // namespace internal
 }  // namespace tether

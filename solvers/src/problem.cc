@@ -248,6 +248,13 @@ Problem::~Problem() = default;
 
 int Problem::num_threads() const { return pool_->num_threads(); }
 
+std::vector<int> Problem::BlockSizes() const {
+  std::vector<int> sizes;
+  sizes.reserve(vars_.size());
+  for (const Var& v : vars_) sizes.push_back(v.dim);
+  return sizes;
+}
+
 template <typename F>
 void Problem::Parallel(F& f) const {
   pool_->Run(f);

@@ -40,6 +40,8 @@ class Problem {
   int num_free() const { return static_cast<int>(vars_.size()); }
   int tangent_dim() const { return n_; }
   int num_residuals() const { return m_; }
+  /// The free variables' tangent dimensions in column order (the blocks of H's columns).
+  std::vector<int> BlockSizes() const;
 
   /// chi2 at the current values; +inf if a factor fails or produces a non-finite value.
   double Chi2() const;

@@ -86,14 +86,14 @@ class HotLoopTest : public ::testing::TestWithParam<Case> {};
 // Per-iteration allocation counts (operator new) of a solve with six iterations; steps reuse
 // an earlier factorisation as by default unless max_reuse_iterations says otherwise.
 std::vector<long> AllocationsPerIteration(const Case& c,
-                                          int max_reuse_iterations = SolverOptions().max_reuse_iterations) {
+                                          int max_reuse_iterations = SolverOptions().linear.max_reuse_iterations) {
   const SimulatedGraph sim = Sim(c.world);
   Values values = sim.initial;
   SolverOptions o;
   o.algorithm = c.algorithm;
   o.linear_solver = c.linear;
   o.num_threads = c.threads;
-  o.max_reuse_iterations = max_reuse_iterations;
+  o.linear.max_reuse_iterations = max_reuse_iterations;
   o.function_tolerance = 0;  // run all iterations
   o.gradient_tolerance = 0;
   o.parameter_tolerance = 0;
@@ -162,7 +162,9 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{SimWorld::kManhattan, Algorithm::kLevenbergMarquardt, LinearSolverType::kCholmod, 2},
                       Case{SimWorld::kSphere, Algorithm::kGaussNewton, LinearSolverType::kCholmod, 2},
                       Case{SimWorld::kLandmarks, Algorithm::kLevenbergMarquardt, LinearSolverType::kCholmod, 2},
-                      Case{SimWorld::kManhattan, Algorithm::kGaussNewton, LinearSolverType::kQR, 2}),
+                      Case{SimWorld::kManhattan, Algorithm::kGaussNewton, LinearSolverType::kQR, 2},
+                      Case{SimWorld::kManhattan, Algorithm::kDogLeg, LinearSolverType::kCholmod, 1},
+                      Case{SimWorld::kSphere, Algorithm::kDogLeg, LinearSolverType::kQR, 2}),
     [](const ::testing::TestParamInfo<Case>& i) {
       return std::string(ToString(i.param.world)) + "_" + ToString(i.param.algorithm) + "_" + ToString(i.param.linear) +
              "_" + std::to_string(i.param.threads) + "t";

@@ -27,7 +27,7 @@ TEST_P(ReuseTest, SameOptimumWithFewerFactorisations) {
   SolverOptions every, reuse;
   every.algorithm = reuse.algorithm = GetParam().algorithm;
   every.linear_solver = reuse.linear_solver = GetParam().linear;
-  every.max_reuse_iterations = 0;
+  every.linear.max_reuse_iterations = 0;
   Values a = sim.initial, b = sim.initial;
   const SolverSummary sa = Optimize(sim.graph, &a, every);
   const SolverSummary sb = Optimize(sim.graph, &b, reuse);
@@ -43,7 +43,7 @@ TEST_P(ReuseTest, SameOptimumWithFewerFactorisations) {
   for (const IterationSummary& it : sb.log) {
     if (it.reused_factorization) {
       ++reused;
-      EXPECT_LE(it.cg_iterations, reuse.max_reuse_iterations);
+      EXPECT_LE(it.cg_iterations, reuse.linear.max_reuse_iterations);
     } else {
       EXPECT_EQ(it.cg_iterations, 0);
     }
@@ -81,8 +81,8 @@ TEST(ReuseTest, QrFactorisesEveryStep) {
 TEST(ReuseTest, FallsBackToAFreshFactorisation) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300);
   SolverOptions every, one;
-  every.max_reuse_iterations = 0;
-  one.max_reuse_iterations = 1;
+  every.linear.max_reuse_iterations = 0;
+  one.linear.max_reuse_iterations = 1;
   Values a = sim.initial, b = sim.initial;
   const SolverSummary sa = Optimize(sim.graph, &a, every);
   const SolverSummary sb = Optimize(sim.graph, &b, one);
@@ -98,7 +98,7 @@ TEST(ReuseTest, FallsBackToAFreshFactorisation) {
 
 TEST(ReuseTest, NegativeIterationsAreRejected) {
   SolverOptions o;
-  o.max_reuse_iterations = -1;
+  o.linear.max_reuse_iterations = -1;
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("max_reuse_iterations"), std::string::npos) << why;

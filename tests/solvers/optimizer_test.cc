@@ -104,8 +104,8 @@ TEST(OptimizerTest, LinearSolversAgree) {
 TEST(OptimizerTest, LevenbergMarquardtNeverRaisesChi2) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
-  SolverOptions o;          // the default starts undamped, so that rejections happen
-  o.max_step_halvings = 0;  // (with halvings, this start has no rejections)
+  SolverOptions o;             // the default starts undamped, so that rejections happen
+  o.lm.max_step_halvings = 0;  // (with halvings, this start has no rejections)
   int rejected = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
   double last = s.initial_chi2;
@@ -127,18 +127,18 @@ TEST(OptimizerTest, LevenbergMarquardtDampsOnlyAfterARejection) {
   const SimulatedGraph sim = Sim(SimWorld::kSphere, 300, 5.0);
   Values v = sim.initial;
   SolverOptions o;
-  o.max_step_halvings = 0;
+  o.lm.max_step_halvings = 0;
   const SolverSummary s = Optimize(sim.graph, &v, o);
   ASSERT_GE(s.log.size(), 2u);
   EXPECT_EQ(s.log[1].lambda, 0.0);
   bool restarted = false;
   for (std::size_t i = 1; i < s.log.size(); ++i) {
     const IterationSummary& it = s.log[i];
-    EXPECT_TRUE(it.lambda == 0.0 || it.lambda >= o.min_lambda) << "iteration " << i << " lambda " << it.lambda;
+    EXPECT_TRUE(it.lambda == 0.0 || it.lambda >= o.lm.min_lambda) << "iteration " << i << " lambda " << it.lambda;
     if (i + 1 < s.log.size() && !it.accepted) {
       const double next = s.log[i + 1].lambda;
       if (it.lambda == 0.0) {
-        EXPECT_EQ(next, o.min_lambda) << "iteration " << i + 1;
+        EXPECT_EQ(next, o.lm.min_lambda) << "iteration " << i + 1;
         restarted = true;
       } else {
         EXPECT_GT(next, it.lambda) << "iteration " << i + 1;
@@ -156,7 +156,7 @@ TEST(OptimizerTest, LevenbergMarquardtHalvesAnOvershootingUndampedStep) {
   for (int halvings : {0, 1, 3}) {
     Values v = sim.initial;
     SolverOptions o;
-    o.max_step_halvings = halvings;
+    o.lm.max_step_halvings = halvings;
     const SolverSummary s = Optimize(sim.graph, &v, o);
     EXPECT_TRUE(s.IsSolutionUsable()) << s.message;
     int seen = 0;
@@ -249,15 +249,15 @@ TEST(OptimizerTest, DampingOptionsAreValidated) {
   std::string why;
   SolverOptions o;
   EXPECT_TRUE(o.IsValid(&why)) << why;
-  o.initial_lambda = -1;
+  o.lm.initial_lambda = -1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("initial_lambda"), std::string::npos) << why;
   o = SolverOptions();
-  o.min_lambda = 0;
+  o.lm.min_lambda = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("min_lambda"), std::string::npos) << why;
   o = SolverOptions();
-  o.max_lambda = o.min_lambda / 2;
+  o.lm.max_lambda = o.lm.min_lambda / 2;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("max_lambda"), std::string::npos) << why;
 }

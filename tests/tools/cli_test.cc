@@ -172,13 +172,27 @@ TEST_F(CliTest, EveryLinearSolverAndAlgorithmRuns) {
   ASSERT_EQ(Tether("simulate landmarks --poses 150 --seed 2 -o " + P("l.g2o")).code, 0);
   std::string reference;
   for (const char* lin : {"cholmod", "ldlt", "qr"}) {
-    for (const char* alg : {"gn", "lm"}) {
+    for (const char* alg : {"gn", "lm", "dogleg"}) {
       CliRun r = Tether("optimize " + P("l.g2o") + " -q --solver " + alg + " --linear " + lin);
       ASSERT_EQ(r.code, 0) << lin << " " << alg << "\n" << r.output;
       EXPECT_NE(r.output.find(std::string(alg) + " / " + lin), std::string::npos);
       EXPECT_EQ(r.output.find("iter     "), std::string::npos);  // -q: no table
     }
   }
+}
+
+// A linear solver from a plugin: --linear pcg is known once --plugin pcg.so is loaded.
+TEST_F(CliTest, LinearSolverFromAPlugin) {
+  ASSERT_EQ(Tether("simulate manhattan --poses 100 --seed 4 -o " + P("m.g2o")).code, 0);
+  CliRun without = Tether("optimize " + P("m.g2o") + " -q --linear pcg");
+  EXPECT_EQ(without.code, 2);
+  EXPECT_NE(without.output.find("unknown --linear 'pcg'"), std::string::npos) << without.output;
+  const std::string pcg = std::string(TETHER_PLUGIN_BUILD_DIR) + "/pcg.so";
+  CliRun r = Tether("optimize " + P("m.g2o") + " -q --plugin " + pcg + " --linear pcg");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("(0 factor types, 1 linear solver)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("lm / pcg"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("status             converged"), std::string::npos) << r.output;
 }
 
 // --solver ceres: Ceres' Levenberg-Marquardt through the adapter, with the same table and

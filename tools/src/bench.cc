@@ -528,14 +528,14 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   if (!SplitList(cmd.solvers, &items)) return usage("--solvers '" + cmd.solvers + "' is not a comma-separated list");
   for (const std::string& s : items) {
     Algorithm a;
-    if (!FromString(s, &a)) return usage("unknown solver '" + s + "' in --solvers; use gn, lm or ceres");
+    if (!FromString(s, &a)) return usage("unknown solver '" + s + "' in --solvers; use " + AlgorithmNames());
     algorithms.push_back(a);
   }
   std::vector<LinearSolverType> linears;
   if (!SplitList(cmd.linear, &items)) return usage("--linear '" + cmd.linear + "' is not a comma-separated list");
   for (const std::string& s : items) {
     LinearSolverType t;
-    if (!FromString(s, &t)) return usage("unknown linear solver '" + s + "' in --linear; use cholmod, ldlt or qr");
+    if (!FromString(s, &t)) return usage("unknown linear solver '" + s + "' in --linear; use " + LinearSolverNames());
     linears.push_back(t);
   }
   std::vector<InitMethod> inits;

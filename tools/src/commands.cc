@@ -68,13 +68,11 @@ GraphCounts Count(const Values& v) {
 // fields); returns false after saying why where an argument is not usable.
 bool FillSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::ostream& err) {
   if (!FromString(cmd.solver, &options->algorithm)) {
-    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use gn, lm or ceres\n";
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use " << AlgorithmNames() << "\n";
     return false;
   }
-  if (!FromString(cmd.linear, &options->linear_solver)) {
-    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use cholmod, ldlt or qr\n";
-    return false;
-  }
+  // A plugin's linear solver is known once the plugin is loaded (CheckSolverOptions).
+  options->linear_solver = LinearSolverType(cmd.linear);
   if (options->algorithm == Algorithm::kCeres && options->linear_solver != LinearSolverType::kCholmod) {
     err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
            "--linear cholmod (ldlt and qr are for gn and lm)\n";
@@ -87,7 +85,22 @@ bool FillSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::
     return false;
   }
   options->num_threads = cmd.threads;
-  options->max_reuse_iterations = cmd.max_reuse_iterations;
+  options->linear.max_reuse_iterations = cmd.max_reuse_iterations;
+  return true;
+}
+
+// After the plugins are loaded: the linear solver's name, then every option.
+bool CheckSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::ostream& err) {
+  if (!FromString(cmd.linear, &options->linear_solver)) {
+    err << "tether optimize: unknown --linear '" << cmd.linear << "'; use " << LinearSolverNames()
+        << " (or load the plugin that provides it with --plugin)\n";
+    return false;
+  }
+  std::string why;
+  if (!options->IsValid(&why)) {
+    err << "tether optimize: " << why << "\n";
+    return false;
+  }
   return true;
 }
 
@@ -106,11 +119,6 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
     return false;
   }
   po->read.allow_partial_vertices = cmd.allow_partial_vertices;
-  std::string why;
-  if (!po->solver.IsValid(&why)) {
-    err << "tether optimize: " << why << "\n";
-    return false;
-  }
   return true;
 }
 
@@ -122,6 +130,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   Registry& registry = DefaultRegistry();
   PluginLoader loader(registry);
   if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
+  if (!CheckSolverOptions(cmd, &po.solver, err)) return 2;
   GraphFile truth;
   if (!cmd.ground_truth.empty()) {
     try {

@@ -1,5 +1,6 @@
 #pragma once
-// What a plugin includes. A plugin is a shared library that exports one C function,
+// What a plugin includes (variable types, factor types, linear solvers). A plugin is a shared
+// library that exports one C function,
 //
 //   extern "C" const tether::PluginDescription* tether_plugin_entry();
 //
@@ -13,12 +14,14 @@
 //   void RegisterMyTypes(tether::PluginRegistrar& r) {
 //     r.AddVariableType<MyScale>();                       // a value type with VariableTraits
 //     r.AddFactorType(tether::DescribeFactor<MyFactor>("EDGE_MY", 1, make));
+//     r.AddLinearSolver("my_solver", make_solver);         // tether/core/linear_solver.h
 //   }
 //   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
 #include <Eigen/Core>
 #include <string>
 #include <vector>
 
+#include "tether/core/linear_solver.h"
 #include "tether/core/registry.h"
 #include "tether/core/version.h"
 
@@ -90,12 +93,20 @@ class PluginRegistrar {
   }
   const std::vector<FactorType>& factor_types() const { return types_; }
   const std::vector<VariableType>& variable_types() const { return variables_; }
+  /// Adds a linear solver (tether/core/linear_solver.h) under `name`, selected with
+  /// SolverOptions::linear_solver or `--linear name`. By default it is given the normal
+  /// equations and is not direct (its factorisation is not reused across steps).
+  void AddLinearSolver(const std::string& name, LinearSolverFactory make);
+  /// The same with every field of the entry given; its owner is set to the plugin's name.
+  void AddLinearSolver(LinearSolverEntry entry);
+  const std::vector<LinearSolverEntry>& linear_solvers() const { return linear_solvers_; }
   const std::string& plugin_name() const { return plugin_; }
 
  private:
   std::string plugin_;
   std::vector<FactorType> types_;
   std::vector<VariableType> variables_;
+  std::vector<LinearSolverEntry> linear_solvers_;
 };
 
 struct PluginDescription {

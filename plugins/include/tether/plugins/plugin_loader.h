@@ -1,5 +1,6 @@
 #pragma once
-// Loads plugins (variable and factor types) with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their types.
+// Loads plugins with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their variable types, factor
+// types and linear solvers.
 //
 // Search order for Load(name): a path that exists as given (absolute or relative to the
 // working directory); then each folder of TETHER_PLUGIN_PATH (colon-separated); then the
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/linear_solver.h"
 #include "tether/core/registry.h"
 
 namespace tether {
@@ -29,16 +31,19 @@ class PluginError : public Error {
 struct LoadedPlugin {
   std::string name;
   std::string version;
-  std::string path;                         ///< canonical path of the shared library
-  std::vector<std::string> type_names;      ///< factor types it registered
-  std::vector<std::string> variable_names;  ///< variable types it registered
-  /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types)".
+  std::string path;                              ///< canonical path of the shared library
+  std::vector<std::string> type_names;           ///< factor types it registered
+  std::vector<std::string> variable_names;       ///< variable types it registered
+  std::vector<std::string> linear_solver_names;  ///< linear solvers it registered
+  /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types, 1 linear solver)".
   std::string Summary() const;
 };
 
 class PluginLoader {
  public:
-  explicit PluginLoader(Registry& registry) : registry_(registry) {}
+  /// Factor types go to `registry`, linear solvers to `linear_solvers`.
+  explicit PluginLoader(Registry& registry, LinearSolverRegistry& linear_solvers = DefaultLinearSolverRegistry())
+      : registry_(registry), linear_solvers_(linear_solvers) {}
 
   /// Loads and registers a plugin. Loading the same file again returns the earlier result
   /// and changes nothing. Throws PluginError.
@@ -53,6 +58,7 @@ class PluginLoader {
 
  private:
   Registry& registry_;
+  LinearSolverRegistry& linear_solvers_;
   std::vector<LoadedPlugin> loaded_;
 };
 

@@ -26,10 +26,10 @@
 //   OptimizeWithCeres started, accepted = Ceres' step_is_successful (it runs inside
 //   ceres::Solve, where OpenMP regions on the calling thread get one thread: CHOLMOD's teams
 //   are held to one thread there, see docs/solvers.md);
-// - LM damping: Ceres' LM regularises with diag(J^T J) / radius, the radius being the inverse
-//   of tether's lambda; the radius starts at 1 / max(initial_lambda, min_lambda), never
-//   exceeds 1 / min_lambda and the solve ends once it falls below 1 / max_lambda. Ceres cannot
-//   switch the damping off altogether, nor halve steps (max_step_halvings is not used);
+// - LM damping (options.lm): Ceres' LM regularises with diag(J^T J) / radius, the radius being the inverse
+//   of tether's lambda; the radius starts at 1 / max(lm.initial_lambda, lm.min_lambda), never
+//   exceeds 1 / lm.min_lambda and the solve ends once it falls below 1 / lm.max_lambda. Ceres cannot
+//   switch the damping off altogether, nor halve steps (lm.max_step_halvings is not used);
 // - linear_solver must be kCholmod (Ceres' SPARSE_NORMAL_CHOLESKY runs on CHOLMOD); the
 //   others are native only and are refused as invalid input.
 // Fixed variables are constant blocks; where the graph fixes nothing and has no prior, the

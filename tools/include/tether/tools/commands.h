@@ -18,11 +18,11 @@ struct OptimizeCommand {
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr
   std::string init = "chordal";    ///< file | spanning-tree | chordal (see docs/initialisation.md)
   int max_iterations = 100;
-  double time_limit = 0;                                            ///< seconds, 0 for none
-  int threads = 1;                                                  ///< SolverOptions::num_threads (1 to 256)
-  int max_reuse_iterations = SolverOptions().max_reuse_iterations;  ///< 0: factorise every step
-  std::string repair_information = "none";                          ///< none | nearest-pd | isotropic
-  bool quiet = false;                                               ///< no iteration table
+  double time_limit = 0;                                                   ///< seconds, 0 for none
+  int threads = 1;                                                         ///< SolverOptions::num_threads (1 to 256)
+  int max_reuse_iterations = SolverOptions().linear.max_reuse_iterations;  ///< 0: factorise every step
+  std::string repair_information = "none";                                 ///< none | nearest-pd | isotropic
+  bool quiet = false;                                                      ///< no iteration table
   bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
   std::vector<std::string> plugins;     ///< factor plugins to load first (paths or names)
 };

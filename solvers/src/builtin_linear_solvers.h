@@ -1,0 +1,26 @@
+#pragma once
+// Internal: the built-in linear solvers (cholmod, ldlt, qr) and their place in the
+// process-wide registry (tether/core/linear_solver.h).
+#include <memory>
+
+#include "problem.h"
+#include "tether/core/linear_solver.h"
+
+namespace tether {
+namespace internal {
+
+std::unique_ptr<LinearSolver> MakeCholmod();
+std::unique_ptr<LinearSolver> MakeEigenLDLT();
+std::unique_ptr<LinearSolver> MakeSpqr();
+
+/// DefaultLinearSolverRegistry() with the built-in solvers in it (added on the first call,
+/// which the loading of tether::solvers itself makes, before any plugin can take a name).
+LinearSolverRegistry& LinearSolvers();
+
+/// A view of a Csc's arrays.
+inline SparseMatrixView View(const Csc& a) {
+  return SparseMatrixView{a.rows, a.cols, a.colptr.data(), a.rowind.data(), a.values.data()};
+}
+
+}  // namespace internal
+}  // namespace tether
