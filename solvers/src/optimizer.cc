@@ -51,9 +51,13 @@ bool LinearizeStart(internal::Problem& p, SolverSummary* s, double* chi2) {
   *chi2 = p.Linearize();
   s->initial_chi2 = s->final_chi2 = *chi2;
   if (std::isfinite(*chi2) && p.jacobian_finite()) return true;
-  *s = Invalid(*s, std::isfinite(*chi2) ? "the Jacobian at the initial values is not finite; check the initial values"
-                                        : "chi2 at the initial values is not finite; check the initial values and "
-                                          "measurements");
+  // Name the first factor at fault: its type and keys point at the bad value or measurement.
+  std::string where = p.DescribeNonFinite();
+  if (!where.empty()) where = ": " + where;
+  *s = Invalid(
+      *s, std::isfinite(*chi2)
+              ? "the Jacobian at the initial values is not finite" + where + "; check the initial values"
+              : "chi2 at the initial values is not finite" + where + "; check the initial values and measurements");
   return false;
 }
 

@@ -168,4 +168,6 @@ std::string SolverSummary::FullReport() const {
   return o.str();
 }
 
+std::ostream& operator<<(std::ostream& os, const SolverSummary& s) { return os << s.BriefReport(); }
+
 }  // namespace tether

@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "tether/core/autodiff_factor.h"
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
+#include "tether/factors/prior.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -112,7 +114,33 @@ TEST(OptimizerFailureTest, NonFiniteJacobianIsNeverConverged) {
   v.Insert(1, Eigen::Vector2d(3, -1));
   const SolverSummary s = Optimize(g, &v, {});
   EXPECT_EQ(s.status, SolverStatus::kInvalidInput);
-  EXPECT_NE(s.message.find("Jacobian"), std::string::npos);
+  EXPECT_NE(s.message.find("the Jacobian at the initial values is not finite: factor 0 (NanJacobian, keys 1) has a "
+                           "non-finite Jacobian with respect to 1"),
+            std::string::npos)
+      << s.message;
+}
+
+// A non-finite start names the first factor at fault, its type and its keys, with every solver.
+TEST(OptimizerFailureTest, ANonFiniteStartNamesTheFactorItsTypeAndKeys) {
+  FactorGraph g;
+  const SqrtInformation n = SqrtInformation::Identity(3);
+  g.Add<BetweenSE2>(0, 1, SE2d(1, 0, 0), n);
+  g.Add<BetweenSE2>(1, Symbol('x', 2), SE2d(1, 0, 0), n);
+  g.Add<PriorSE2>(0, SE2d(), n);
+  for (const char* algorithm : {"gn", "lm", "dogleg", "ceres"}) {
+    Values v;
+    v.Insert(0, SE2d());
+    v.Insert(1, SE2d(1, 0, 0));
+    v.Insert(Symbol('x', 2), SE2d(std::numeric_limits<double>::infinity(), 0, 0));
+    SolverOptions o;
+    ASSERT_TRUE(FromString(algorithm, &o.algorithm));
+    const SolverSummary s = Optimize(g, &v, o);
+    EXPECT_EQ(s.status, SolverStatus::kInvalidInput) << algorithm;
+    EXPECT_NE(s.message.find("chi2 at the initial values is not finite: factor 1 (BetweenSE2, keys 1, x2) has a "
+                             "non-finite error"),
+              std::string::npos)
+        << algorithm << ": " << s.message;
+  }
 }
 
 TEST(OptimizerFailureTest, AFactorThatThrowsKeepsTheLastGoodValues) {

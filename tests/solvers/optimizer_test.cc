@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
@@ -371,6 +372,9 @@ TEST(SolverSummaryTest, ReportsNameWhatHappened) {
   EXPECT_NE(full.find("converged"), std::string::npos);
   EXPECT_NE(full.find("held 0 fixed"), std::string::npos);
   EXPECT_NE(s.BriefReport().find("converged"), std::string::npos);
+  std::ostringstream printed;
+  printed << s;
+  EXPECT_EQ(printed.str(), s.BriefReport());
 }
 
 }  // namespace

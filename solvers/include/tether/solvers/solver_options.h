@@ -2,6 +2,7 @@
 // Options and results of the nonlinear solvers, in the spirit of Ceres' Solver::Options and
 // Solver::Summary: plain structs with documented defaults, validated by IsValid.
 #include <functional>
+#include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -224,5 +225,8 @@ struct SolverSummary {
   /// Several lines: problem size, settings, timings and why it stopped.
   std::string FullReport() const;
 };
+
+/// The BriefReport line: std::cout << summary.
+std::ostream& operator<<(std::ostream& os, const SolverSummary& s);
 
 }  // namespace tether
