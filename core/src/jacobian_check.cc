@@ -17,7 +17,8 @@ std::string JacobianCheck::Report() const {
     s << factor << ": d e[" << e.row << "] / d delta_" << e.key << "[" << e.column << "]: analytic " << e.analytic
       << ", numeric " << e.numeric << "\n";
   }
-  return ok ? "ok" : s.str();
+  if (ok) s << factor << ": ok (largest difference " << max_abs_error << ")";
+  return s.str();
 }
 
 JacobianCheck CheckJacobians(const Factor& f, const Values& values, const JacobianCheckOptions& options) {

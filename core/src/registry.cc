@@ -210,7 +210,8 @@ void Registry::CheckAgainstProbe(const FactorType& type) const {
     probe = type.make(keys, m.data(), SqrtInformation::Identity(type.dim));
   } catch (const std::exception& e) {
     throw InvalidArgument("cannot register factor type " + Owned(type) +
-                          ": its factory `make` threw on a probe factor (identity measurement, unit noise): " +
+                          ": its factory `make` threw on a probe factor (keys 0..k-1, the identity of the last variable type as "
+                          "measurement where the sizes agree and zeros otherwise, unit noise): " +
                           e.what() + "; `make` must accept the type's standard arguments");
   }
   if (!probe) {

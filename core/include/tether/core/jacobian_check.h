@@ -34,7 +34,8 @@ struct JacobianCheck {
   bool evaluated = false;                 ///< Evaluate returned true at the point and at every step
   double max_abs_error = 0;               ///< largest |analytic - numeric|
   std::vector<JacobianEntry> mismatches;  ///< the entries outside the tolerance
-  /// "Range2D: d e[0] / d delta_1[1]: analytic 0.5, numeric 0.6" for each mismatch, or "ok".
+  /// "Range2D: d e[0] / d delta_1[1]: analytic 0.5, numeric 0.6" for each mismatch, or
+  /// "Range2D: ok (largest difference 1e-10)".
   std::string Report() const;
   std::string factor;  ///< the factor's type name, for Report
 };
