@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -176,27 +177,15 @@ void SqrtInformation::WhitenVector(double* v) const { WhitenRowMajor(v, 1); }
 
 void SqrtInformation::WhitenRowMajor(double* m, int cols) const { KernelFor(dim_, cols)(data(), dim_, m, cols); }
 
-const char* ToString(InformationRepair r) {
-  switch (r) {
-    case InformationRepair::kNone:
-      return "none";
-    case InformationRepair::kNearestPD:
-      return "nearest-pd";
-    case InformationRepair::kIsotropic:
-      return "isotropic";
-  }
-  return "none";
-}
+namespace {
+constexpr EnumName<InformationRepair> kRepairNames[] = {{InformationRepair::kNone, "none"},
+                                                        {InformationRepair::kNearestPD, "nearest-pd"},
+                                                        {InformationRepair::kIsotropic, "isotropic"}};
+}  // namespace
 
-bool FromString(const std::string& s, InformationRepair* r) {
-  for (InformationRepair v : {InformationRepair::kNone, InformationRepair::kNearestPD, InformationRepair::kIsotropic}) {
-    if (s == ToString(v)) {
-      *r = v;
-      return true;
-    }
-  }
-  return false;
-}
+const char* ToString(InformationRepair r) { return NameOf(kRepairNames, r, "none"); }
+
+bool FromString(const std::string& s, InformationRepair* r) { return ValueOf(kRepairNames, s, r); }
 
 bool RepairInformation(InformationRepair mode, Eigen::MatrixXd* omega) {
   SqrtInformation tmp;

@@ -14,33 +14,21 @@
 #include <unordered_map>
 
 #include "../src/builtin_linear_solvers.h"
+#include "tether/core/enum_names.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/core/variable.h"
 
 namespace tether {
 
-const char* ToString(InitMethod m) {
-  switch (m) {
-    case InitMethod::kFile:
-      return "file";
-    case InitMethod::kSpanningTree:
-      return "spanning-tree";
-    case InitMethod::kChordal:
-      return "chordal";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumName<InitMethod> kInitNames[] = {
+    {InitMethod::kFile, "file"}, {InitMethod::kSpanningTree, "spanning-tree"}, {InitMethod::kChordal, "chordal"}};
+}  // namespace
 
-bool FromString(const std::string& s, InitMethod* m) {
-  for (InitMethod c : {InitMethod::kFile, InitMethod::kSpanningTree, InitMethod::kChordal}) {
-    if (s == ToString(c)) {
-      *m = c;
-      return true;
-    }
-  }
-  return false;
-}
+const char* ToString(InitMethod m) { return NameOf(kInitNames, m, "?"); }
+
+bool FromString(const std::string& s, InitMethod* m) { return ValueOf(kInitNames, s, m); }
 
 namespace {
 

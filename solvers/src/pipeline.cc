@@ -2,37 +2,23 @@
 
 #include <utility>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/error.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
 
-const char* ToString(PipelineStatus s) {
-  switch (s) {
-    case PipelineStatus::kOk:
-      return "ok";
-    case PipelineStatus::kInvalidOptions:
-      return "invalid-options";
-    case PipelineStatus::kBadInput:
-      return "bad-input";
-    case PipelineStatus::kSolveFailed:
-      return "solve-failed";
-    case PipelineStatus::kWriteFailed:
-      return "write-failed";
-  }
-  return "unknown";
-}
+namespace {
+constexpr EnumName<PipelineStatus> kStatusNames[] = {{PipelineStatus::kOk, "ok"},
+                                                     {PipelineStatus::kInvalidOptions, "invalid-options"},
+                                                     {PipelineStatus::kBadInput, "bad-input"},
+                                                     {PipelineStatus::kSolveFailed, "solve-failed"},
+                                                     {PipelineStatus::kWriteFailed, "write-failed"}};
+}  // namespace
 
-bool FromString(const std::string& s, PipelineStatus* status) {
-  for (PipelineStatus p : {PipelineStatus::kOk, PipelineStatus::kInvalidOptions, PipelineStatus::kBadInput,
-                           PipelineStatus::kSolveFailed, PipelineStatus::kWriteFailed}) {
-    if (s == ToString(p)) {
-      *status = p;
-      return true;
-    }
-  }
-  return false;
-}
+const char* ToString(PipelineStatus s) { return NameOf(kStatusNames, s); }
+
+bool FromString(const std::string& s, PipelineStatus* status) { return ValueOf(kStatusNames, s, status); }
 
 bool PipelineOptions::IsValid(std::string* why) const {
   std::string reason;

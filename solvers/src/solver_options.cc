@@ -6,29 +6,21 @@
 
 #include "builtin_linear_solvers.h"
 #include "step_strategy.h"
+#include "tether/core/enum_names.h"
 
 namespace tether {
 
 const char* ToString(const Algorithm& a) { return a.name().c_str(); }
 const char* ToString(const LinearSolverType& t) { return t.name().c_str(); }
 
-const char* ToString(SolverStatus s) {
-  switch (s) {
-    case SolverStatus::kConverged:
-      return "converged";
-    case SolverStatus::kMaxIterations:
-      return "max-iterations";
-    case SolverStatus::kTimeLimit:
-      return "time-limit";
-    case SolverStatus::kDiverged:
-      return "diverged";
-    case SolverStatus::kRankDeficient:
-      return "rank-deficient";
-    case SolverStatus::kInvalidInput:
-      return "invalid-input";
-  }
-  return "invalid-input";
-}
+namespace {
+constexpr EnumName<SolverStatus> kStatusNames[] = {
+    {SolverStatus::kConverged, "converged"},          {SolverStatus::kMaxIterations, "max-iterations"},
+    {SolverStatus::kTimeLimit, "time-limit"},         {SolverStatus::kDiverged, "diverged"},
+    {SolverStatus::kRankDeficient, "rank-deficient"}, {SolverStatus::kInvalidInput, "invalid-input"}};
+}  // namespace
+
+const char* ToString(SolverStatus s) { return NameOf(kStatusNames, s, "invalid-input"); }
 
 std::string AlgorithmNames() {
   std::string names;
@@ -42,19 +34,6 @@ std::string LinearSolverNames() {
   return names;
 }
 
-namespace {
-template <typename E>
-bool Parse(const std::string& s, std::initializer_list<E> all, E* out) {
-  for (E e : all) {
-    if (s == ToString(e)) {
-      *out = e;
-      return true;
-    }
-  }
-  return false;
-}
-}  // namespace
-
 bool FromString(const std::string& s, Algorithm* a) {
   if (s != Algorithm::kCeres.name() && internal::FindStepStrategy(s) == nullptr) return false;
   *a = Algorithm(s);
@@ -65,12 +44,7 @@ bool FromString(const std::string& s, LinearSolverType* t) {
   *t = LinearSolverType(s);
   return true;
 }
-bool FromString(const std::string& s, SolverStatus* st) {
-  return Parse(s,
-               {SolverStatus::kConverged, SolverStatus::kMaxIterations, SolverStatus::kTimeLimit,
-                SolverStatus::kDiverged, SolverStatus::kRankDeficient, SolverStatus::kInvalidInput},
-               st);
-}
+bool FromString(const std::string& s, SolverStatus* st) { return ValueOf(kStatusNames, s, st); }
 
 namespace {
 

@@ -21,6 +21,7 @@
 #include <sstream>
 #include <utility>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
@@ -49,30 +50,14 @@ void FillSplit(const SolverSummary& s, BenchRun* r) {
   }
 }
 
-const char* OutcomeName(BenchOutcome o) {
-  switch (o) {
-    case BenchOutcome::kSolved:
-      return "solved";
-    case BenchOutcome::kSolveFailed:
-      return "solve-failed";
-    case BenchOutcome::kBadInput:
-      return "bad-input";
-    case BenchOutcome::kCrashed:
-      return "crashed";
-  }
-  return "crashed";
-}
+constexpr EnumName<BenchOutcome> kOutcomeNames[] = {{BenchOutcome::kSolved, "solved"},
+                                                    {BenchOutcome::kSolveFailed, "solve-failed"},
+                                                    {BenchOutcome::kBadInput, "bad-input"},
+                                                    {BenchOutcome::kCrashed, "crashed"}};
 
-bool OutcomeFromName(const std::string& s, BenchOutcome* o) {
-  for (BenchOutcome c :
-       {BenchOutcome::kSolved, BenchOutcome::kSolveFailed, BenchOutcome::kBadInput, BenchOutcome::kCrashed}) {
-    if (s == OutcomeName(c)) {
-      *o = c;
-      return true;
-    }
-  }
-  return false;
-}
+const char* OutcomeName(BenchOutcome o) { return NameOf(kOutcomeNames, o, "crashed"); }
+
+bool OutcomeFromName(const std::string& s, BenchOutcome* o) { return ValueOf(kOutcomeNames, s, o); }
 
 int Severity(BenchOutcome o) {
   switch (o) {

@@ -10,6 +10,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/error.h"
 #include "tether/core/sqrt_information.h"
 #include "tether/factors/between_se2.h"
@@ -18,27 +19,14 @@
 
 namespace tether {
 
-const char* ToString(SimWorld w) {
-  switch (w) {
-    case SimWorld::kManhattan:
-      return "manhattan";
-    case SimWorld::kSphere:
-      return "sphere";
-    case SimWorld::kLandmarks:
-      return "landmarks";
-  }
-  return "unknown";
-}
+namespace {
+constexpr EnumName<SimWorld> kWorldNames[] = {
+    {SimWorld::kManhattan, "manhattan"}, {SimWorld::kSphere, "sphere"}, {SimWorld::kLandmarks, "landmarks"}};
+}  // namespace
 
-bool FromString(const std::string& s, SimWorld* w) {
-  for (SimWorld c : {SimWorld::kManhattan, SimWorld::kSphere, SimWorld::kLandmarks}) {
-    if (s == ToString(c)) {
-      *w = c;
-      return true;
-    }
-  }
-  return false;
-}
+const char* ToString(SimWorld w) { return NameOf(kWorldNames, w); }
+
+bool FromString(const std::string& s, SimWorld* w) { return ValueOf(kWorldNames, s, w); }
 
 namespace {
 
