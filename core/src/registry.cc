@@ -202,7 +202,10 @@ void Registry::CheckAgainstProbe(const FactorType& type) const {
   const std::size_t n = type.variable_types.size();
   std::vector<Key> keys(n);
   for (std::size_t i = 0; i < n; ++i) keys[i] = i;
-  std::vector<double> m(static_cast<std::size_t>(type.measurement_size), 0.0);
+  // Zeros past measurement_size too: a factory that reads more than its type declares (a
+  // plugin bug that reading a file would also hit) must not read past the probe's buffer.
+  constexpr std::size_t kProbePadding = 64;
+  std::vector<double> m(static_cast<std::size_t>(type.measurement_size) + kProbePadding, 0.0);
   const VarType last = type.variable_types.back();
   if (AmbientDim(last) == type.measurement_size) IdentityParams(last, m.data());
   std::unique_ptr<Factor> probe;
