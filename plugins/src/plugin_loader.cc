@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
+#include <mutex>
 
 #include "tether/plugins/plugin.h"
 
@@ -49,13 +51,67 @@ std::vector<LinearSolverEntry> TrialLinearSolvers(const PluginRegistrar& registr
   return added;
 }
 
+std::map<std::string, PluginExtensionKind>& ExtensionKinds() {
+  static std::map<std::string, PluginExtensionKind> kinds;
+  return kinds;
+}
+
+std::mutex& ExtensionKindsMutex() {
+  static std::mutex m;
+  return m;
+}
+
+// The handler of each extension the plugin adds, after checking that every name can be
+// taken (nothing is registered yet). An extension of a kind no module of this program knows is
+// refused, naming it.
+std::vector<PluginExtensionKind> TrialExtensions(const PluginRegistrar& registrar, const std::string& path,
+                                                 LoadedPlugin* loaded) {
+  const std::string& name = registrar.plugin_name();
+  std::vector<PluginExtensionKind> kinds;
+  std::lock_guard<std::mutex> lock(ExtensionKindsMutex());
+  for (std::size_t i = 0; i < registrar.extensions().size(); ++i) {
+    const PluginExtension& e = registrar.extensions()[i];
+    const auto it = ExtensionKinds().find(e.kind);
+    if (it == ExtensionKinds().end()) {
+      throw PluginError("plugin " + path + " ('" + name + "'): it adds a " + e.kind + " ('" + e.name +
+                        "'), which this program does not know how to register (link the module that provides " +
+                        e.kind + "s, tether::solvers); nothing of it was registered");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (registrar.extensions()[j].kind == e.kind && registrar.extensions()[j].name == e.name) {
+        throw PluginError("plugin " + path + " ('" + name + "'): it adds the " + e.kind + " '" + e.name +
+                          "' twice; nothing of it was registered");
+      }
+    }
+    try {
+      it->second.check(e.name);
+    } catch (const Error& err) {
+      throw PluginError("plugin " + path + " ('" + name + "'): " + err.what() + "; nothing of it was registered");
+    }
+    kinds.push_back(it->second);
+    loaded->extension_names.push_back(e.kind + " '" + e.name + "'");
+  }
+  return kinds;
+}
+
 }  // namespace
+
+void RegisterPluginExtensionKind(const std::string& kind, PluginExtensionKind handler) {
+  if (!handler.check || !handler.commit || !handler.remove) {
+    throw InvalidArgument("extension kind '" + kind + "' needs check, commit and remove");
+  }
+  std::lock_guard<std::mutex> lock(ExtensionKindsMutex());
+  if (!ExtensionKinds().emplace(kind, std::move(handler)).second) {
+    throw InvalidArgument("extension kind '" + kind + "' is known already");
+  }
+}
 
 std::string LoadedPlugin::Summary() const {
   std::string s = "loaded plugin " + name + " " + version + " from " + path + " (";
   if (!variable_names.empty()) s += Count(variable_names.size(), "variable type") + ", ";
   s += Count(type_names.size(), "factor type");
   if (!linear_solver_names.empty()) s += ", " + Count(linear_solver_names.size(), "linear solver");
+  for (const std::string& e : extension_names) s += ", " + e;
   return s + ")";
 }
 
@@ -178,7 +234,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
   // exactly as it was. Then the same types go into the registry itself, added beside the
   // entries already there: a FactorType found before the load stays where it is (replacing
   // the registry by the copy would free every one of them).
-  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}};
+  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}, {}};
   {
     Registry trial = registry_;
     try {
@@ -195,8 +251,9 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     }
   }
   const std::vector<LinearSolverEntry> solvers = TrialLinearSolvers(registrar, linear_solvers_, path, &loaded);
+  const std::vector<PluginExtensionKind> kinds = TrialExtensions(registrar, path, &loaded);
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
-  std::size_t variables = 0, committed = 0, committed_solvers = 0;
+  std::size_t variables = 0, committed = 0, committed_solvers = 0, extensions = 0;
   try {
     for (const VariableType& t : registrar.variable_types()) {
       registry_.RegisterVariable(t);
@@ -210,12 +267,17 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       linear_solvers_.Register(e);
       ++committed_solvers;
     }
+    for (std::size_t i = 0; i < kinds.size(); ++i) {
+      kinds[i].commit(registrar.extensions()[i]);
+      ++extensions;
+    }
   } catch (...) {
     // Not expected (the trial took the same types), short of memory: take back exactly
     // what this load added.
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
     for (std::size_t i = 0; i < committed_solvers; ++i) linear_solvers_.Remove(solvers[i].name);
+    for (std::size_t i = 0; i < extensions; ++i) kinds[i].remove(registrar.extensions()[i].name);
     throw;
   }
   loaded_.push_back(std::move(loaded));

@@ -29,7 +29,7 @@ class DogLeg : public StepStrategy {
   const char* display_name() const override { return "dog-leg"; }
   void Describe(IterationSummary* it) const override { it->trust_radius = radius_; }
 
-  Step ComputeStep(LinearSystem& system, std::vector<double>* delta, IterationSummary* it) override {
+  Step ComputeStep(StepSystem& system, std::vector<double>* delta, IterationSummary* it) override {
     Step step;
     if (system.assemblies() != linearisation_) {
       step.status = ComputePoints(system, it);
@@ -67,7 +67,7 @@ class DogLeg : public StepStrategy {
 
  private:
   // The Gauss-Newton and Cauchy points of the current linearisation.
-  LinearSolverStatus ComputePoints(LinearSystem& system, IterationSummary* it) {
+  LinearSolverStatus ComputePoints(StepSystem& system, IterationSummary* it) {
     const std::vector<double>& g = system.gradient();
     const std::size_t n = g.size();
     for (std::vector<double>* v : {&gn_, &sd_, &work_}) v->resize(n);

@@ -12,7 +12,7 @@ class GaussNewton : public StepStrategy {
   const char* display_name() const override { return "Gauss-Newton"; }
   void Describe(IterationSummary* it) const override { it->lambda = 0; }
   bool AcceptsUphillSteps() const override { return true; }
-  Step ComputeStep(LinearSystem& system, std::vector<double>* delta, IterationSummary* it) override {
+  Step ComputeStep(StepSystem& system, std::vector<double>* delta, IterationSummary* it) override {
     Step step;
     step.status = system.Solve(0.0, delta, it);
     return step;  // the predicted decrease is not needed: no step is judged by it

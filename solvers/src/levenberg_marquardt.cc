@@ -21,7 +21,7 @@ class LevenbergMarquardt : public StepStrategy {
   const char* display_name() const override { return "Levenberg-Marquardt"; }
   void Describe(IterationSummary* it) const override { it->lambda = lambda_; }
 
-  Step ComputeStep(LinearSystem& system, std::vector<double>* delta, IterationSummary* it) override {
+  Step ComputeStep(StepSystem& system, std::vector<double>* delta, IterationSummary* it) override {
     Step step;
     step.status = system.Solve(lambda_, delta, it);
     if (step.status != LinearSolverStatus::kOk) return step;
@@ -34,7 +34,7 @@ class LevenbergMarquardt : public StepStrategy {
   // damping starts: a chi2 evaluation is far cheaper than the factorisation a damped step
   // needs, and along the very flat directions some datasets have (parking-garage) damping
   // shortens the steps far too much. Along a*d the model predicts -g.d (2a - a^2) at lambda 0.
-  double Refine(Problem& p, std::vector<double>* delta, double chi2, double new_chi2, Step* step,
+  double Refine(TrialPoint& p, std::vector<double>* delta, double chi2, double new_chi2, Step* step,
                 IterationSummary* it) override {
     if (lambda_ != 0.0) return new_chi2;
     double a = 1.0;

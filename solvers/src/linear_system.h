@@ -12,6 +12,7 @@
 #include "problem.h"
 #include "tether/core/linear_solver.h"
 #include "tether/solvers/solver_options.h"
+#include "tether/solvers/step_strategy.h"
 
 namespace tether {
 namespace internal {
@@ -25,7 +26,7 @@ struct LinearSolveStats {
   int iterative_iterations = 0;  ///< an iterative solver's iterations (LinearSolver::last_iterations)
 };
 
-class LinearSystem {
+class LinearSystem : public StepSystem {
  public:
   /// Builds the structure and lets the solver analyse it. Throws tether::Error where the
   /// solver cannot handle the problem.
@@ -34,25 +35,25 @@ class LinearSystem {
   /// After Problem::Linearize: builds H (or J) and the gradient for the current point.
   void Assemble();
   /// How many times Assemble ran: a strategy that keeps work per linearisation compares it.
-  int assemblies() const { return assemblies_; }
+  int assemblies() const override { return assemblies_; }
 
   /// delta solving (H + lambda D) delta = -g. Where a factorisation of an earlier H exists,
   /// the system is first solved by conjugate gradients preconditioned with it (at most
   /// max_reuse_iterations); only if that does not converge is H factorised afresh.
   /// it->reused_factorization and it->cg_iterations say which happened.
-  LinearSolverStatus Solve(double lambda, std::vector<double>* delta, IterationSummary* it);
+  LinearSolverStatus Solve(double lambda, std::vector<double>* delta, IterationSummary* it) override;
 
   /// The linear model's decrease of chi2 along d, -2 g.d - d^T H d (H undamped; dDd =
   /// d^T D d), for d solved at `lambda`. For a step solved exactly, (H + lambda D) d = -g turns
   /// it into -g.d + lambda d^T D d; a step from conjugate gradients or an iterative solver is
   /// exact only to their tolerance, so H d is formed.
-  double PredictedDecrease(const std::vector<double>& d, double lambda, double dDd, bool reused);
+  double PredictedDecrease(const std::vector<double>& d, double lambda, double dDd, bool reused) override;
   /// d^T D d.
-  double ScaledSquaredNorm(const std::vector<double>& d) const;
+  double ScaledSquaredNorm(const std::vector<double>& d) const override;
   /// y = H x with H undamped (the matrix of the last Assemble).
-  void MultiplyUndamped(const std::vector<double>& x, std::vector<double>* y);
+  void MultiplyUndamped(const std::vector<double>& x, std::vector<double>* y) override;
 
-  const std::vector<double>& gradient() const { return g_; }
+  const std::vector<double>& gradient() const override { return g_; }
   const LinearSolveStats& stats() const { return stats_; }
   std::string Description() const { return solver_->Description(); }
 

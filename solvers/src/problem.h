@@ -16,6 +16,7 @@
 
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
+#include "tether/solvers/step_strategy.h"
 
 namespace tether {
 namespace internal {
@@ -29,7 +30,7 @@ struct Csc {
   std::vector<double> values;
 };
 
-class Problem {
+class Problem : public TrialPoint {
  public:
   /// `values` must outlive the Problem and must not gain variables while it lives.
   Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads = 1);
@@ -44,7 +45,7 @@ class Problem {
   std::vector<int> BlockSizes() const;
 
   /// chi2 at the current values; +inf if a factor fails or produces a non-finite value.
-  double Chi2() const;
+  double Chi2() const override;
   /// Whitened residuals and Jacobians at the current values; returns chi2 (inf on failure).
   /// Whether every Jacobian entry came out finite is kept in jacobian_finite().
   double Linearize();
@@ -63,12 +64,12 @@ class Problem {
   void BuildJacobianStructure(Csc* j, std::vector<int>* damping_positions);
 
   /// x <- x (+) delta for every free variable.
-  void Retract(const double* delta);
+  void Retract(const double* delta) override;
   /// Norm of all free variables' parameters (for the step tolerance).
   double ParameterNorm() const;
   /// Save copies the free variables aside; Restore puts them back (a no-op before any Save).
   void Save();
-  void Restore();
+  void Restore() override;
 
  private:
   struct Var {

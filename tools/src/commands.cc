@@ -67,11 +67,9 @@ GraphCounts Count(const Values& v) {
 // The one place that turns the command's arguments into SolverOptions (the solver's names and
 // fields); returns false after saying why where an argument is not usable.
 bool FillSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::ostream& err) {
-  if (!FromString(cmd.solver, &options->algorithm)) {
-    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use " << AlgorithmNames() << "\n";
-    return false;
-  }
-  // A plugin's linear solver is known once the plugin is loaded (CheckSolverOptions).
+  // A plugin's step strategy or linear solver is known once the plugin is loaded
+  // (CheckSolverOptions checks both names then).
+  options->algorithm = Algorithm(cmd.solver);
   options->linear_solver = LinearSolverType(cmd.linear);
   if (options->algorithm == Algorithm::kCeres && options->linear_solver != LinearSolverType::kCholmod) {
     err << "tether optimize: --solver ceres solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; use "
@@ -89,8 +87,14 @@ bool FillSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::
   return true;
 }
 
-// After the plugins are loaded: the linear solver's name, then every option.
+// After the plugins are loaded: the step strategy's and the linear solver's names, then every
+// option.
 bool CheckSolverOptions(const OptimizeCommand& cmd, SolverOptions* options, std::ostream& err) {
+  if (!FromString(cmd.solver, &options->algorithm)) {
+    err << "tether optimize: unknown --solver '" << cmd.solver << "'; use " << AlgorithmNames()
+        << " (or load the plugin that provides it with --plugin)\n";
+    return false;
+  }
   if (!FromString(cmd.linear, &options->linear_solver)) {
     err << "tether optimize: unknown --linear '" << cmd.linear << "'; use " << LinearSolverNames()
         << " (or load the plugin that provides it with --plugin)\n";

@@ -18,6 +18,7 @@
 //   }
 //   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,15 @@ inline BuildFingerprint CurrentBuildFingerprint() {
 /// One line per field that differs: "eigen_max_align_bytes: tether 16, plugin 32".
 std::vector<std::string> CompareFingerprints(const BuildFingerprint& tether, const BuildFingerprint& plugin);
 
+/// Something a plugin adds that a module above plugins knows how to register (a step strategy:
+/// tether/solvers/step_strategy.h, AddStepStrategy). `kind` names the handler
+/// (RegisterPluginExtensionKind, plugin_loader.h); `payload` is the handler's to interpret.
+struct PluginExtension {
+  std::string kind;
+  std::string name;
+  std::shared_ptr<const void> payload;
+};
+
 /// Collects what a plugin registers; the loader commits it to the registry afterwards.
 class PluginRegistrar {
  public:
@@ -100,6 +110,9 @@ class PluginRegistrar {
   /// The same with every field of the entry given; its owner is set to the plugin's name.
   void AddLinearSolver(LinearSolverEntry entry);
   const std::vector<LinearSolverEntry>& linear_solvers() const { return linear_solvers_; }
+  /// Adds an extension of a kind a module above plugins registers (see PluginExtension).
+  void AddExtension(PluginExtension extension) { extensions_.push_back(std::move(extension)); }
+  const std::vector<PluginExtension>& extensions() const { return extensions_; }
   const std::string& plugin_name() const { return plugin_; }
 
  private:
@@ -107,6 +120,7 @@ class PluginRegistrar {
   std::vector<FactorType> types_;
   std::vector<VariableType> variables_;
   std::vector<LinearSolverEntry> linear_solvers_;
+  std::vector<PluginExtension> extensions_;
 };
 
 struct PluginDescription {

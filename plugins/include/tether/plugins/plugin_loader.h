@@ -13,12 +13,14 @@
 // factor of those types exists. A FactorType pointer or reference found in the registry
 // (FindByTag, FindByName) stays valid until its own owner is removed: loading other plugins,
 // or failing to, moves no registered type.
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "tether/core/error.h"
 #include "tether/core/linear_solver.h"
 #include "tether/core/registry.h"
+#include "tether/plugins/plugin.h"
 
 namespace tether {
 
@@ -35,9 +37,22 @@ struct LoadedPlugin {
   std::vector<std::string> type_names;           ///< factor types it registered
   std::vector<std::string> variable_names;       ///< variable types it registered
   std::vector<std::string> linear_solver_names;  ///< linear solvers it registered
+  std::vector<std::string> extension_names;      ///< extensions it registered: "step strategy 'name'"
   /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types, 1 linear solver)".
   std::string Summary() const;
 };
+
+/// How the loader registers one kind of PluginExtension. `check` throws (InvalidArgument) where
+/// the name cannot be taken; `commit` registers it; `remove` takes it back.
+struct PluginExtensionKind {
+  std::function<void(const std::string& name)> check;
+  std::function<void(const PluginExtension& extension)> commit;
+  std::function<void(const std::string& name)> remove;
+};
+
+/// Makes a kind of extension known to every loader (called once by the module that owns the
+/// kind, when it is loaded; throws InvalidArgument where the kind is known already).
+void RegisterPluginExtensionKind(const std::string& kind, PluginExtensionKind handler);
 
 class PluginLoader {
  public:

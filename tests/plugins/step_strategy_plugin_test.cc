@@ -1,0 +1,87 @@
+// Step strategies from plugins: a test plugin adds "gn-halving" (Gauss-Newton with step
+// halving) through AddStepStrategy; it is selected by name like a built-in strategy, reaches
+// LM's optimum, and a plugin that claims a built-in strategy's name registers nothing.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "testing/simulated.h"
+#include "tether/core/graph_io.h"
+#include "tether/factors/builtin.h"
+#include "tether/plugins/plugin_loader.h"
+#include "tether/solvers/optimizer.h"
+#include "tether/solvers/step_strategy.h"
+
+namespace tether {
+namespace {
+
+std::string TestPlugin(const std::string& name) {
+  return std::string(TETHER_TEST_PLUGIN_DIR) + "/test_" + name + ".so";
+}
+
+TEST(StepStrategyPluginTest, AddsAStrategySelectedByNameThatReachesTheOptimum) {
+  Registry registry;
+  RegisterBuiltinFactors(registry);
+  PluginLoader loader(registry);
+  const LoadedPlugin p = loader.Load(TestPlugin("step_strategy"));
+  EXPECT_EQ(p.extension_names, std::vector<std::string>{"step strategy 'gn-halving'"});
+  EXPECT_NE(p.Summary().find("(1 factor type, step strategy 'gn-halving')"), std::string::npos) << p.Summary();
+  ASSERT_NE(FindStepStrategy("gn-halving"), nullptr);
+  Algorithm a;
+  ASSERT_TRUE(FromString("gn-halving", &a));
+  EXPECT_NE(AlgorithmNames().find("gn-halving"), std::string::npos);
+
+  const SimulatedGraph sim = testing::SimulateWorld(SimWorld::kManhattan, 400, 3);
+  Values lm_values = sim.initial, values = sim.initial;
+  const SolverSummary lm = Optimize(sim.graph, &lm_values, {});
+  SolverOptions o;
+  o.algorithm = a;
+  const SolverSummary s = Optimize(sim.graph, &values, o);
+  ASSERT_TRUE(s.IsSolutionUsable()) << s.FullReport();
+  EXPECT_NEAR(s.final_chi2, lm.final_chi2, 1e-6 * lm.final_chi2) << s.FullReport();
+  EXPECT_NE(s.FullReport().find("gn-halving"), std::string::npos) << s.FullReport();
+
+  // Loading it again changes nothing; the name stays taken for a program's own strategy.
+  EXPECT_NO_THROW(loader.Load(TestPlugin("step_strategy")));
+  EXPECT_THROW(RegisterStepStrategy("gn-halving", [](const SolverOptions&) { return nullptr; }), InvalidArgument);
+}
+
+TEST(StepStrategyPluginTest, APluginClaimingABuiltInStrategyRegistersNothing) {
+  Registry registry;
+  PluginLoader loader(registry);
+  try {
+    loader.Load(TestPlugin("dup_step_strategy"));
+    FAIL() << "the plugin was loaded";
+  } catch (const PluginError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("cannot register step strategy 'lm': the name is taken already (built in)"), std::string::npos)
+        << m;
+    EXPECT_NE(m.find("nothing of it was registered"), std::string::npos) << m;
+  }
+  EXPECT_EQ(registry.FindByName("TestDupStrategyPrior"), nullptr);  // its factor type was not kept
+  EXPECT_TRUE(loader.loaded().empty());
+  ASSERT_NE(FindStepStrategy("lm"), nullptr);  // the built-in one is untouched
+  EXPECT_FALSE(RemoveStepStrategy("lm"));
+}
+
+TEST(StepStrategyPluginTest, TheCommandLineSelectsIt) {
+  const SimulatedGraph sim = testing::SimulateWorld(SimWorld::kManhattan, 200, 5);
+  const std::string dir = ::testing::TempDir();
+  const std::string in = dir + "/strategy_in.g2o", log = dir + "/strategy_cli.txt";
+  WriteG2oFile(in, sim.initial, sim.graph, DefaultRegistry());
+  const std::string cli = std::string(TETHER_CLI) + " optimize " + in + " -q --plugin " + TestPlugin("step_strategy");
+  ASSERT_EQ(std::system((cli + " --solver gn-halving > " + log + " 2>&1").c_str()), 0);
+  std::ifstream f(log);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("step strategy 'gn-halving'"), std::string::npos) << text;
+  EXPECT_NE(text.find("converged"), std::string::npos) << text;
+  // Without the plugin the name is unknown: a usage error naming the choices.
+  const int code =
+      std::system((std::string(TETHER_CLI) + " optimize " + in + " -q --solver gn-halving > " + log + " 2>&1").c_str());
+  EXPECT_EQ(WEXITSTATUS(code), 2);
+}
+
+}  // namespace
+}  // namespace tether
