@@ -38,3 +38,4 @@
 #include "tether/solvers/optimizer.h"
 #include "tether/solvers/pipeline.h"
 #include "tether/solvers/solver_options.h"
+#include "tether/solvers/step_strategy.h"
