@@ -1,10 +1,12 @@
 #include "tether/core/factor_graph.h"
 
+#include <algorithm>
+
 #include "tether/core/values.h"
 
 namespace tether {
 
-FactorGraph::FactorGraph(const FactorGraph& other) : fixed_(other.fixed_) {
+FactorGraph::FactorGraph(const FactorGraph& other) : ids_(other.ids_), next_id_(other.next_id_), fixed_(other.fixed_) {
   factors_.reserve(other.factors_.size());
   for (const auto& f : other.factors_) factors_.push_back(f->Clone());
 }
@@ -15,6 +17,21 @@ FactorGraph& FactorGraph::operator=(const FactorGraph& other) {
     *this = std::move(copy);
   }
   return *this;
+}
+
+bool FactorGraph::IndexOf(FactorId id, std::size_t* index) const {
+  const auto it = std::lower_bound(ids_.begin(), ids_.end(), id);
+  if (it == ids_.end() || *it != id) return false;
+  *index = static_cast<std::size_t>(it - ids_.begin());
+  return true;
+}
+
+bool FactorGraph::Remove(FactorId id) {
+  std::size_t i;
+  if (!IndexOf(id, &i)) return false;
+  factors_.erase(factors_.begin() + static_cast<std::ptrdiff_t>(i));
+  ids_.erase(ids_.begin() + static_cast<std::ptrdiff_t>(i));
+  return true;
 }
 
 double FactorGraph::Chi2(const Values& values) const {

@@ -340,6 +340,31 @@ TEST(UserApiTest, PosesPrintAndFactorsAreBuiltInPlace) {
   EXPECT_EQ(f.keys(), (std::vector<Key>{3, 4}));
 }
 
+TEST(UserApiTest, FactorsAreRemovedByTheHandleAddingThemReturned) {
+  FactorGraph g;
+  const SqrtInformation n = SqrtInformation::Identity(3);
+  const FactorId a = g.Add(std::make_unique<BetweenSE2>(0, 1, SE2d(1, 0, 0), n));
+  g.Add<BetweenSE2>(1, 2, SE2d(1, 0, 0), n);
+  const FactorId b = g.id(1);
+  const FactorId c = g.Add(std::make_unique<BetweenSE2>(2, 3, SE2d(1, 0, 0), n));
+  EXPECT_NE(a, b);
+  EXPECT_TRUE(g.Remove(b));
+  EXPECT_FALSE(g.Remove(b));
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_EQ(g.at(0).keys(), (std::vector<Key>{0, 1}));  // the others keep their order
+  EXPECT_EQ(g.at(1).keys(), (std::vector<Key>{2, 3}));
+  std::size_t i;
+  ASSERT_TRUE(g.IndexOf(c, &i));
+  EXPECT_EQ(i, 1u);
+  const FactorGraph copy = g;  // a copy keeps the handles
+  EXPECT_EQ(copy.id(1), c);
+  FactorGraph h = g;
+  const FactorId d = h.Add(std::make_unique<BetweenSE2>(3, 4, SE2d(1, 0, 0), n));
+  EXPECT_GT(d, c);  // never reused
+  EXPECT_TRUE(h.Remove(a));
+  EXPECT_EQ(h.at(0).keys(), (std::vector<Key>{2, 3}));
+}
+
 TEST(NoiseTest, FromSigmasIsDiagonalAndNamesABadAxis) {
   const SqrtInformation n = SqrtInformation::FromSigmas(Eigen::Vector3d(0.1, 0.2, 0.05));
   const Eigen::MatrixXd info = n.Information();
