@@ -186,6 +186,34 @@ void Registry::Register(FactorType type) {
   }
 }
 
+Registry::Registry(const Registry& other)
+    : by_name_(other.by_name_),
+      tag_to_name_(other.tag_to_name_),
+      variables_(other.variables_),
+      variable_owner_(other.variable_owner_),
+      variable_tag_(other.variable_tag_),
+      vertex_tag_to_name_(other.vertex_tag_to_name_) {
+  for (const auto& kv : variables_) internal::HoldVariableType(kv.second);
+}
+
+Registry& Registry::operator=(const Registry& other) {
+  if (this != &other) {
+    for (const auto& kv : other.variables_) internal::HoldVariableType(kv.second);
+    for (const auto& kv : variables_) internal::ReleaseVariableType(kv.second);
+    by_name_ = other.by_name_;
+    tag_to_name_ = other.tag_to_name_;
+    variables_ = other.variables_;
+    variable_owner_ = other.variable_owner_;
+    variable_tag_ = other.variable_tag_;
+    vertex_tag_to_name_ = other.vertex_tag_to_name_;
+  }
+  return *this;
+}
+
+Registry::~Registry() {
+  for (const auto& kv : variables_) internal::ReleaseVariableType(kv.second);
+}
+
 Registry::Registry() {
   RegisterVariable<SE2d>();
   RegisterVariable<SE3d>();
@@ -212,10 +240,11 @@ void Registry::CheckAgainstProbe(const FactorType& type) const {
   try {
     probe = type.make(keys, m.data(), SqrtInformation::Identity(type.dim));
   } catch (const std::exception& e) {
-    throw InvalidArgument("cannot register factor type " + Owned(type) +
-                          ": its factory `make` threw on a probe factor (keys 0..k-1, the identity of the last variable type as "
-                          "measurement where the sizes agree and zeros otherwise, unit noise): " +
-                          e.what() + "; `make` must accept the type's standard arguments");
+    throw InvalidArgument(
+        "cannot register factor type " + Owned(type) +
+        ": its factory `make` threw on a probe factor (keys 0..k-1, the identity of the last variable type as "
+        "measurement where the sizes agree and zeros otherwise, unit noise): " +
+        e.what() + "; `make` must accept the type's standard arguments");
   }
   if (!probe) {
     throw InvalidArgument("cannot register factor type " + Owned(type) + ": its factory `make` returned no factor");
@@ -260,21 +289,26 @@ VarType Registry::RegisterVariable(const VariableType& type) {
   variables_.emplace(type.name, id);
   try {
     variable_owner_.emplace(type.name, type.owner);
+    variable_tag_.emplace(type.name, type.tag);
     if (!type.tag.empty()) vertex_tag_to_name_.emplace(type.tag, type.name);
   } catch (...) {
     variables_.erase(type.name);
     variable_owner_.erase(type.name);
+    variable_tag_.erase(type.name);
     throw;
   }
+  internal::HoldVariableType(id);
   return id;
 }
 
 bool Registry::RemoveVariable(const std::string& name) {
   const auto it = variables_.find(name);
   if (it == variables_.end()) return false;
-  const std::string& tag = Describe(it->second).tag;
+  const std::string& tag = variable_tag_.at(name);  // the tag registered here
   if (!tag.empty()) vertex_tag_to_name_.erase(tag);
+  internal::ReleaseVariableType(it->second);
   variable_owner_.erase(name);
+  variable_tag_.erase(name);
   variables_.erase(it);
   return true;
 }

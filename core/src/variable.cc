@@ -18,8 +18,10 @@ namespace {
 // Quaternions further than this from unit length are reported when normalised.
 constexpr double kQuaternionNormWarning = 1e-3;
 
-// The process-wide table. Entries are never freed or moved, so a description found once
-// stays valid; readers need no lock (an id is only handed out after its entry is stored).
+// The process-wide table. A description, once published, is never freed or changed (a
+// replacement is a new description whose pointer takes the old one's place), so a description
+// found once stays valid; readers need no lock (an id is only handed out after its entry is
+// stored).
 class Table {
  public:
   Table() {
@@ -33,12 +35,22 @@ class Table {
     std::lock_guard<std::mutex> lock(mutex_);
     const int n = size_.load(std::memory_order_relaxed);
     for (int i = 0; i < n; ++i) {
-      const VariableType& e = *entries_[i];
+      const VariableType& e = *entries_[i].load(std::memory_order_acquire);
       if (e.name != t.name) continue;
       if (e.ambient_dim != t.ambient_dim || e.tangent_dim != t.tangent_dim) {
         throw InvalidArgument("variable type '" + t.name + "' exists already with " + Sizes(e) + " (owner '" + e.owner +
                               "'), not " + Sizes(t) + "; give the new type another name");
       }
+      if (Same(e, t)) return static_cast<VarType>(i);
+      if (holders_[i].load(std::memory_order_relaxed) > 0) {
+        throw InvalidArgument("variable type '" + t.name + "' is registered already by '" + e.owner +
+                              "' with another box-plus, box-minus, identity, canonical form or tag; give the new "
+                              "type another name, or remove '" +
+                              e.owner + "' from every registry first");
+      }
+      // No registry holds the old description (its plugin was refused or removed): the new one
+      // takes its place under the same id.
+      entries_[i].store(new VariableType(t), std::memory_order_release);
       return static_cast<VarType>(i);
     }
     if (n >= kMaxVarTypes) {
@@ -50,23 +62,29 @@ class Table {
 
   const VariableType* Get(VarType t) const {
     const int i = static_cast<int>(t);
-    return i < size_.load(std::memory_order_acquire) ? entries_[i] : nullptr;
+    return i < size_.load(std::memory_order_acquire) ? entries_[i].load(std::memory_order_acquire) : nullptr;
   }
   int size() const { return size_.load(std::memory_order_acquire); }
+  void Hold(VarType t, int delta) { holders_[static_cast<int>(t)].fetch_add(delta, std::memory_order_relaxed); }
 
  private:
   static std::string Sizes(const VariableType& t) {
     return "ambient size " + std::to_string(t.ambient_dim) + " and tangent size " + std::to_string(t.tangent_dim);
   }
+  static bool Same(const VariableType& a, const VariableType& b) {
+    return a.retract == b.retract && a.local == b.local && a.identity == b.identity &&
+           a.canonicalize == b.canonicalize && a.tag == b.tag;
+  }
   VarType Add(const VariableType& t) {
     const int n = size_.load(std::memory_order_relaxed);
-    entries_[n] = new VariableType(t);  // never freed: ids and descriptions live as long as the process
+    entries_[n].store(new VariableType(t), std::memory_order_release);  // never freed: see above
     size_.store(n + 1, std::memory_order_release);
     return static_cast<VarType>(n);
   }
 
   std::mutex mutex_;
-  std::array<const VariableType*, kMaxVarTypes> entries_{};
+  std::array<std::atomic<const VariableType*>, kMaxVarTypes> entries_{};
+  std::array<std::atomic<int>, kMaxVarTypes> holders_{};  // registries that hold each type
   std::atomic<int> size_{0};
 };
 
@@ -108,6 +126,11 @@ VarType InternVariableType(const VariableType& t) {
 }
 
 bool IsKnown(VarType t) { return GetTable().Get(t) != nullptr; }
+
+namespace internal {
+void HoldVariableType(VarType t) { GetTable().Hold(t, +1); }
+void ReleaseVariableType(VarType t) { GetTable().Hold(t, -1); }
+}  // namespace internal
 
 const VariableType& Describe(VarType t) { return *GetTable().Get(t); }
 

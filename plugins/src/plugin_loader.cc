@@ -61,21 +61,22 @@ std::mutex& ExtensionKindsMutex() {
   return m;
 }
 
-// The handler of each extension the plugin adds, after checking that every name can be
-// taken (nothing is registered yet). An extension of a kind no module of this program knows is
-// refused, naming it.
-std::vector<PluginExtensionKind> TrialExtensions(const PluginRegistrar& registrar, const std::string& path,
-                                                 LoadedPlugin* loaded) {
+// The handler of each extension the plugin adds that is not registered by it already, after
+// checking that every name can be taken (nothing is registered yet). An extension of a kind no
+// module of this program knows is refused, naming it.
+std::vector<std::pair<PluginExtensionKind, const PluginExtension*>> TrialExtensions(const PluginRegistrar& registrar,
+                                                                                    const std::string& path,
+                                                                                    LoadedPlugin* loaded) {
   const std::string& name = registrar.plugin_name();
-  std::vector<PluginExtensionKind> kinds;
+  std::vector<std::pair<PluginExtensionKind, const PluginExtension*>> kinds;
   std::lock_guard<std::mutex> lock(ExtensionKindsMutex());
   for (std::size_t i = 0; i < registrar.extensions().size(); ++i) {
     const PluginExtension& e = registrar.extensions()[i];
     const auto it = ExtensionKinds().find(e.kind);
     if (it == ExtensionKinds().end()) {
       throw PluginError("plugin " + path + " ('" + name + "'): it adds a " + e.kind + " ('" + e.name +
-                        "'), which this program does not know how to register (link the module that provides " +
-                        e.kind + "s, tether::solvers); nothing of it was registered");
+                        "'), which this program does not know how to register (link tether::solvers, which "
+                        "registers them); nothing of it was registered");
     }
     for (std::size_t j = 0; j < i; ++j) {
       if (registrar.extensions()[j].kind == e.kind && registrar.extensions()[j].name == e.name) {
@@ -83,12 +84,13 @@ std::vector<PluginExtensionKind> TrialExtensions(const PluginRegistrar& registra
                           "' twice; nothing of it was registered");
       }
     }
+    bool fresh = false;
     try {
-      it->second.check(e.name);
+      fresh = it->second.check(e.name, name);
     } catch (const Error& err) {
       throw PluginError("plugin " + path + " ('" + name + "'): " + err.what() + "; nothing of it was registered");
     }
-    kinds.push_back(it->second);
+    if (fresh) kinds.emplace_back(it->second, &e);
     loaded->extension_names.push_back(e.kind + " '" + e.name + "'");
   }
   return kinds;
@@ -251,7 +253,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     }
   }
   const std::vector<LinearSolverEntry> solvers = TrialLinearSolvers(registrar, linear_solvers_, path, &loaded);
-  const std::vector<PluginExtensionKind> kinds = TrialExtensions(registrar, path, &loaded);
+  const auto kinds = TrialExtensions(registrar, path, &loaded);
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
   std::size_t variables = 0, committed = 0, committed_solvers = 0, extensions = 0;
   try {
@@ -267,8 +269,8 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       linear_solvers_.Register(e);
       ++committed_solvers;
     }
-    for (std::size_t i = 0; i < kinds.size(); ++i) {
-      kinds[i].commit(registrar.extensions()[i]);
+    for (const auto& [kind, extension] : kinds) {
+      kind.commit(*extension, name);
       ++extensions;
     }
   } catch (...) {
@@ -277,7 +279,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
     for (std::size_t i = 0; i < committed_solvers; ++i) linear_solvers_.Remove(solvers[i].name);
-    for (std::size_t i = 0; i < extensions; ++i) kinds[i].remove(registrar.extensions()[i].name);
+    for (std::size_t i = 0; i < extensions; ++i) kinds[i].first.remove(kinds[i].second->name);
     throw;
   }
   loaded_.push_back(std::move(loaded));

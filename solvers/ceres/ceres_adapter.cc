@@ -64,17 +64,18 @@ std::string CheckStart(const FactorGraph& graph, const Values& values, const Cer
       ptrs[k] = problem.IsConstant(f.keys()[k]) ? nullptr : jac.data() + off;
       off += static_cast<std::size_t>(f.dim()) * TangentDim(types[k]);
     }
-    const std::string where = "factor " + std::to_string(fi) + " (" + f.Describe() + ")";
+    // Built only where something is wrong: most solves find nothing.
+    const auto where = [&] { return "factor " + std::to_string(fi) + " (" + f.Describe() + ")"; };
     const bool ok = f.Linearize(p.data(), r.data(), ptrs.data());
     if (!ok || !std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) {
-      return "chi2 at the initial values is not finite: " + where +
+      return "chi2 at the initial values is not finite: " + where() +
              (ok ? " has a non-finite error" : " fails to evaluate") + "; check the initial values and measurements";
     }
     for (std::size_t k = 0; k < types.size(); ++k) {
       if (ptrs[k] == nullptr) continue;
       for (int i = 0; i < f.dim() * TangentDim(types[k]); ++i) {
         if (!std::isfinite(ptrs[k][i])) {
-          return "the Jacobian at the initial values is not finite: " + where +
+          return "the Jacobian at the initial values is not finite: " + where() +
                  " has a non-finite Jacobian with respect to " + KeyToString(f.keys()[k]) +
                  "; check the initial values";
         }

@@ -57,7 +57,9 @@ void RetractJacobian(VarType type, const double* x, double* jacobian) {
       // Ceres multiplies by P only after the cost function has multiplied by L, a left
       // inverse of this same P (see the header), so J_a P = J_t whatever P's rounding.
       std::vector<double> d(static_cast<std::size_t>(t), 0.0), plus(a), minus(a);
-      constexpr double h = 1e-6;
+      double scale = 1.0;  // a step relative to the parameters' size, so that x + h != x
+      for (int i = 0; i < a; ++i) scale = std::max(scale, std::abs(x[i]));
+      const double h = 1e-6 * scale;
       for (int c = 0; c < t; ++c) {
         d[c] = h;
         RetractParams<double>(type, x, d.data(), plus.data());

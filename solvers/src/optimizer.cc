@@ -107,12 +107,22 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   if (p == nullptr || !LinearizeStart(*p, &s, &chi2)) return s;
   // The log grows without reallocating for the first 1024 iterations (none in the loop).
   s.log.reserve(static_cast<std::size_t>(std::min(options.max_iterations, 1023)) + 1);
-  const std::unique_ptr<internal::StepStrategy> strategy =
-      (*internal::FindStepStrategy(options.algorithm.name()))(options);
+  // Looked up once, here: a plugin may remove a strategy after IsValid saw it.
+  const StepStrategyFactory make = internal::FindStepStrategy(options.algorithm.name());
+  if (!make) return Invalid(s, "no step strategy is named '" + options.algorithm.name() + "'");
+  std::unique_ptr<internal::StepStrategy> strategy;
+  try {
+    strategy = make(options);
+  } catch (const std::exception& e) {
+    return Invalid(s, "the step strategy '" + options.algorithm.name() + "' could not be made: " + e.what());
+  }
+  if (!strategy)
+    return Invalid(s, "the step strategy '" + options.algorithm.name() + "' made no strategy (a bug in its plugin)");
   if (p->tangent_dim() == 0) return NothingToOptimise(std::move(s), options, *strategy, chi2, t0);
   std::unique_ptr<internal::LinearSystem> system;
   try {
     const LinearSolverEntry* entry = internal::LinearSolvers().Find(options.linear_solver.name());
+    if (entry == nullptr) return Invalid(s, "no linear solver is named '" + options.linear_solver.name() + "'");
     system = std::make_unique<internal::LinearSystem>(p, *entry, options.linear);
   } catch (const Error& e) {
     return Invalid(s, e.what());

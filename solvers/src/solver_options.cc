@@ -35,7 +35,7 @@ std::string LinearSolverNames() {
 }
 
 bool FromString(const std::string& s, Algorithm* a) {
-  if (s != Algorithm::kCeres.name() && internal::FindStepStrategy(s) == nullptr) return false;
+  if (s != Algorithm::kCeres.name() && !internal::FindStepStrategy(s)) return false;
   *a = Algorithm(s);
   return true;
 }
@@ -83,7 +83,7 @@ bool DogLegOptions::IsValid(std::string* why) const {
 }
 
 bool SolverOptions::IsValid(std::string* why) const {
-  if (algorithm != Algorithm::kCeres && internal::FindStepStrategy(algorithm.name()) == nullptr) {
+  if (algorithm != Algorithm::kCeres && !internal::FindStepStrategy(algorithm.name())) {
     return Fail(why, "algorithm '" + algorithm.name() + "' is not registered; use one of " + AlgorithmNames());
   }
   if (internal::LinearSolvers().Find(linear_solver.name()) == nullptr) {

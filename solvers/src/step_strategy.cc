@@ -13,14 +13,19 @@ namespace {
 
 constexpr const char* kBuiltin[] = {"gn", "lm", "dogleg"};
 
+struct Entry {
+  StepStrategyFactory make;
+  std::string owner;  // "builtin", a plugin's name, or "" (a program's own)
+};
+
 // Guarded by Mutex(): a plugin may register while another thread looks a strategy up.
-std::map<std::string, StepStrategyFactory>& Strategies() {
-  static std::map<std::string, StepStrategyFactory> strategies;
+std::map<std::string, Entry>& Strategies() {
+  static std::map<std::string, Entry> strategies;
   static std::once_flag once;
   std::call_once(once, [] {
-    strategies.emplace("gn", internal::MakeGaussNewton);
-    strategies.emplace("lm", internal::MakeLevenbergMarquardt);
-    strategies.emplace("dogleg", internal::MakeDogLeg);
+    strategies.emplace("gn", Entry{internal::MakeGaussNewton, "builtin"});
+    strategies.emplace("lm", Entry{internal::MakeLevenbergMarquardt, "builtin"});
+    strategies.emplace("dogleg", Entry{internal::MakeDogLeg, "builtin"});
   });
   return strategies;
 }
@@ -36,24 +41,38 @@ bool IsBuiltin(const std::string& name) {
   return false;
 }
 
-void CheckFree(const std::string& name) {
+// True where `owner` may register `name` (false: it holds it already); throws where another
+// owner holds it.
+bool CheckFree(const std::string& name, const std::string& owner) {
   if (name.empty()) throw InvalidArgument("a step strategy needs a name");
-  if (name == "ceres" || Strategies().count(name) != 0) {
-    throw InvalidArgument("cannot register step strategy '" + name + "': the name is taken already" +
-                          (IsBuiltin(name) || name == "ceres" ? " (built in)" : "") + "; choose another name");
+  const auto it = Strategies().find(name);
+  if (it != Strategies().end() && !owner.empty() && it->second.owner == owner) return false;
+  if (name == "ceres" || it != Strategies().end()) {
+    const std::string who = name == "ceres" || IsBuiltin(name) ? " (built in)"
+                            : it->second.owner.empty()         ? " (by the program)"
+                                                               : " (by plugin '" + it->second.owner + "')";
+    throw InvalidArgument("cannot register step strategy '" + name + "': the name is taken already" + who +
+                          "; choose another name");
   }
+  return true;
+}
+
+void Insert(const std::string& name, StepStrategyFactory make, const std::string& owner) {
+  if (!make) throw InvalidArgument("step strategy '" + name + "' has no factory");
+  std::lock_guard<std::mutex> lock(Mutex());
+  if (CheckFree(name, owner)) Strategies().emplace(name, Entry{std::move(make), owner});
 }
 
 // Plugins add step strategies through the loader's extension kinds: checked with the
 // plugin's other types first, committed with them, taken back on failure.
 const bool kPluginKindRegistered = [] {
   PluginExtensionKind kind;
-  kind.check = [](const std::string& name) {
+  kind.check = [](const std::string& name, const std::string& owner) {
     std::lock_guard<std::mutex> lock(Mutex());
-    CheckFree(name);
+    return CheckFree(name, owner);
   };
-  kind.commit = [](const PluginExtension& e) {
-    RegisterStepStrategy(e.name, *std::static_pointer_cast<const StepStrategyFactory>(e.payload));
+  kind.commit = [](const PluginExtension& e, const std::string& owner) {
+    Insert(e.name, *std::static_pointer_cast<const StepStrategyFactory>(e.payload), owner);
   };
   kind.remove = [](const std::string& name) { RemoveStepStrategy(name); };
   RegisterPluginExtensionKind("step strategy", std::move(kind));
@@ -62,12 +81,7 @@ const bool kPluginKindRegistered = [] {
 
 }  // namespace
 
-void RegisterStepStrategy(const std::string& name, StepStrategyFactory make) {
-  if (!make) throw InvalidArgument("step strategy '" + name + "' has no factory");
-  std::lock_guard<std::mutex> lock(Mutex());
-  CheckFree(name);
-  Strategies().emplace(name, std::move(make));
-}
+void RegisterStepStrategy(const std::string& name, StepStrategyFactory make) { Insert(name, std::move(make), ""); }
 
 bool RemoveStepStrategy(const std::string& name) {
   if (IsBuiltin(name)) return false;
@@ -75,11 +89,11 @@ bool RemoveStepStrategy(const std::string& name) {
   return Strategies().erase(name) != 0;
 }
 
-const StepStrategyFactory* FindStepStrategy(const std::string& name) {
+StepStrategyFactory FindStepStrategy(const std::string& name) {
   std::lock_guard<std::mutex> lock(Mutex());
   const auto& s = Strategies();
   const auto it = s.find(name);
-  return it == s.end() ? nullptr : &it->second;  // map nodes stay put until removed
+  return it == s.end() ? StepStrategyFactory() : it->second.make;
 }
 
 std::vector<std::string> StepStrategyNames() {

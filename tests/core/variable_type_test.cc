@@ -162,6 +162,53 @@ TEST(VariableTypeTest, SameNameWithOtherSizesOrTakenTagsAreRefused) {
   EXPECT_CONTAINS(ErrorOf([&] { r.RegisterVariable(empty); }), "both must be at least 1");
 }
 
+VariableType Foo(const char* tag, const char* owner, VariableType::RetractFn retract) {
+  VariableType t;
+  t.name = "TestFoo";
+  t.tag = tag;
+  t.owner = owner;
+  t.ambient_dim = t.tangent_dim = 1;
+  t.retract = retract;
+  t.local = [](const double* x, const double* y, double* d) { d[0] = y[0] - x[0]; };
+  t.identity = [](double* x) { x[0] = 0; };
+  return t;
+}
+
+// Two descriptions of one name: the second is refused while a registry holds the first, and
+// takes its place (same id) once none does, as a plugin refused or removed earlier leaves it.
+TEST(VariableTypeTest, ADescriptionHeldByARegistryIsNotReplaced) {
+  const auto plus = [](const double* x, const double* d, double* out) { out[0] = x[0] + d[0]; };
+  const auto twice = [](const double* x, const double* d, double* out) { out[0] = x[0] + 2 * d[0]; };
+  VarType id;
+  {
+    Registry first;
+    id = first.RegisterVariable(Foo("VERTEX_FOO", "p1", plus));
+    Registry second;
+    EXPECT_CONTAINS(ErrorOf([&] { second.RegisterVariable(Foo("VERTEX_FOO2", "p2", twice)); }),
+                    "variable type 'TestFoo' is registered already by 'p1' with another box-plus");
+    EXPECT_EQ(second.RegisterVariable(Foo("VERTEX_FOO", "p1", plus)), id);  // the same description is shared
+    Registry copy = first;                                                  // a copy holds it too
+    EXPECT_TRUE(first.RemoveVariable("TestFoo"));
+    EXPECT_TRUE(second.RemoveVariable("TestFoo"));
+    EXPECT_CONTAINS(ErrorOf([&] {
+                      Registry r;
+                      r.RegisterVariable(Foo("VERTEX_FOO2", "p2", twice));
+                    }),
+                    "registered already by 'p1'");
+  }
+  Registry later;
+  EXPECT_EQ(later.RegisterVariable(Foo("VERTEX_FOO2", "p2", twice)), id);
+  EXPECT_EQ(Describe(id).tag, "VERTEX_FOO2");
+  const double x[1] = {1}, d[1] = {1};
+  double y[1];
+  RetractParams<double>(id, x, d, y);
+  EXPECT_EQ(y[0], 3.0);
+  VarType found;
+  ASSERT_TRUE(later.FindVariableByTag("VERTEX_FOO2", &found));
+  EXPECT_TRUE(later.RemoveVariable("TestFoo"));
+  EXPECT_FALSE(later.FindVariableByTag("VERTEX_FOO2", &found));  // the tag registered here goes
+}
+
 TEST(VariableTypeTest, RemoveOwnerTakesTheVertexTagBackButKeepsTheId) {
   Registry r;
   VariableType t = DescribeVariable<Heading>();

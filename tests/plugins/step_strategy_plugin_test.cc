@@ -28,7 +28,7 @@ TEST(StepStrategyPluginTest, AddsAStrategySelectedByNameThatReachesTheOptimum) {
   const LoadedPlugin p = loader.Load(TestPlugin("step_strategy"));
   EXPECT_EQ(p.extension_names, std::vector<std::string>{"step strategy 'gn-halving'"});
   EXPECT_NE(p.Summary().find("(1 factor type, step strategy 'gn-halving')"), std::string::npos) << p.Summary();
-  ASSERT_NE(FindStepStrategy("gn-halving"), nullptr);
+  ASSERT_TRUE(FindStepStrategy("gn-halving"));
   Algorithm a;
   ASSERT_TRUE(FromString("gn-halving", &a));
   EXPECT_NE(AlgorithmNames().find("gn-halving"), std::string::npos);
@@ -43,8 +43,13 @@ TEST(StepStrategyPluginTest, AddsAStrategySelectedByNameThatReachesTheOptimum) {
   EXPECT_NEAR(s.final_chi2, lm.final_chi2, 1e-6 * lm.final_chi2) << s.FullReport();
   EXPECT_NE(s.FullReport().find("gn-halving"), std::string::npos) << s.FullReport();
 
-  // Loading it again changes nothing; the name stays taken for a program's own strategy.
+  // Loading it again changes nothing, nor does a second loader with a registry of its own (the
+  // strategy is the plugin's already); the name stays taken for a program's own strategy.
   EXPECT_NO_THROW(loader.Load(TestPlugin("step_strategy")));
+  Registry other;
+  PluginLoader second(other);
+  EXPECT_NO_THROW(second.Load(TestPlugin("step_strategy")));
+  EXPECT_NE(other.FindByName("TestStrategyPrior"), nullptr);
   EXPECT_THROW(RegisterStepStrategy("gn-halving", [](const SolverOptions&) { return nullptr; }), InvalidArgument);
 }
 
@@ -62,8 +67,26 @@ TEST(StepStrategyPluginTest, APluginClaimingABuiltInStrategyRegistersNothing) {
   }
   EXPECT_EQ(registry.FindByName("TestDupStrategyPrior"), nullptr);  // its factor type was not kept
   EXPECT_TRUE(loader.loaded().empty());
-  ASSERT_NE(FindStepStrategy("lm"), nullptr);  // the built-in one is untouched
+  ASSERT_TRUE(FindStepStrategy("lm"));  // the built-in one is untouched
   EXPECT_FALSE(RemoveStepStrategy("lm"));
+}
+
+TEST(StepStrategyPluginTest, AFactoryThatMakesNothingOrThrowsIsInvalidInput) {
+  RegisterStepStrategy("test-null", [](const SolverOptions&) { return std::unique_ptr<StepStrategy>(); });
+  RegisterStepStrategy(
+      "test-throws", [](const SolverOptions&) -> std::unique_ptr<StepStrategy> { throw InvalidArgument("not today"); });
+  const SimulatedGraph sim = testing::SimulateWorld(SimWorld::kManhattan, 50, 1);
+  for (const char* name : {"test-null", "test-throws"}) {
+    Values v = sim.initial;
+    SolverOptions o;
+    ASSERT_TRUE(FromString(name, &o.algorithm));
+    const SolverSummary s = Optimize(sim.graph, &v, o);
+    EXPECT_EQ(s.status, SolverStatus::kInvalidInput) << name;
+    EXPECT_NE(s.message.find(std::string("the step strategy '") + name + "'"), std::string::npos) << s.message;
+    EXPECT_EQ(v.Data(VarType::kSE2), sim.initial.Data(VarType::kSE2));  // untouched
+  }
+  EXPECT_TRUE(RemoveStepStrategy("test-null"));
+  EXPECT_TRUE(RemoveStepStrategy("test-throws"));
 }
 
 TEST(StepStrategyPluginTest, TheCommandLineSelectsIt) {

@@ -77,6 +77,9 @@ class Registry {
  public:
   /// A registry with the four built-in variable types (and no factor types).
   Registry();
+  Registry(const Registry& other);
+  Registry& operator=(const Registry& other);
+  ~Registry();
 
   /// Adds a factor type. Throws InvalidArgument if the name or tag is taken (naming both
   /// owners), the description is incomplete, a variable type is unknown, or a probe factor
@@ -127,6 +130,7 @@ class Registry {
   std::map<std::string, std::string> tag_to_name_;
   std::map<std::string, VarType> variables_;               // by name
   std::map<std::string, std::string> variable_owner_;      // by name
+  std::map<std::string, std::string> variable_tag_;        // by name: the tag registered here
   std::map<std::string, std::string> vertex_tag_to_name_;  // g2o vertex tag -> variable name
 };
 

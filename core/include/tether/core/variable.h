@@ -63,8 +63,10 @@ struct VariableType {
 };
 
 /// Puts `type` into the process-wide table of variable types (or finds it there, by name) and
-/// returns its id. Throws InvalidArgument where the description is incomplete, or where a
-/// type of that name exists already with other sizes.
+/// returns its id. Throws InvalidArgument where the description is incomplete, where a type of
+/// that name exists already with other sizes, or where one exists with another box-plus,
+/// box-minus, identity, canonical form or tag and some registry holds it (a description no
+/// registry holds, such as a refused plugin's, is replaced, keeping its id).
 VarType InternVariableType(const VariableType& type);
 /// True for the built-in ids and every id InternVariableType has handed out.
 bool IsKnown(VarType t);
@@ -86,7 +88,7 @@ inline int AmbientDim(VarType t) {
 }
 /// The identity (origin) of a type in its ambient parameters.
 void IdentityParams(VarType t, double* p);
-/// The type's name ("SE2", "Point2", or a registered name); "unknown#N" for an unknown id.
+/// The type's name ("SE2", "Point2", or a registered name); "unknown" for an unknown id.
 std::string_view ToString(VarType t);
 /// Inverse of ToString over every known type; returns false for an unknown name.
 bool FromString(std::string_view name, VarType* t);
@@ -156,6 +158,9 @@ template <class V>
 struct HasCanonicalize<V, std::void_t<decltype(&VariableTraits<V>::Canonicalize)>> : std::true_type {};
 /// The id of a registered type by name; throws InvalidArgument naming it where it is not registered.
 VarType FindRegisteredVarType(const char* name);
+/// Registries count themselves as holders of the types they register (Registry does this).
+void HoldVariableType(VarType t);
+void ReleaseVariableType(VarType t);
 }  // namespace internal
 
 /// The run-time description of the value type V (for Registry::RegisterVariable).
@@ -186,10 +191,10 @@ VarType VarTypeOf() {
     return VariableTraits<V>::kBuiltin;
   } else {
     static std::atomic<int> cached{-1};
-    int id = cached.load(std::memory_order_relaxed);
+    int id = cached.load(std::memory_order_acquire);
     if (id < 0) {
       id = static_cast<int>(internal::FindRegisteredVarType(VariableTraits<V>::kName));
-      cached.store(id, std::memory_order_relaxed);
+      cached.store(id, std::memory_order_release);
     }
     return static_cast<VarType>(id);
   }

@@ -42,11 +42,13 @@ struct LoadedPlugin {
   std::string Summary() const;
 };
 
-/// How the loader registers one kind of PluginExtension. `check` throws (InvalidArgument) where
-/// the name cannot be taken; `commit` registers it; `remove` takes it back.
+/// How the loader registers one kind of PluginExtension for the plugin `owner`. `check` throws
+/// (InvalidArgument) where another owner holds the name, and returns false where `owner` holds
+/// it already (a second loader, a reload: nothing to do); `commit` registers it; `remove`
+/// takes it back.
 struct PluginExtensionKind {
-  std::function<void(const std::string& name)> check;
-  std::function<void(const PluginExtension& extension)> commit;
+  std::function<bool(const std::string& name, const std::string& owner)> check;
+  std::function<void(const PluginExtension& extension, const std::string& owner)> commit;
   std::function<void(const std::string& name)> remove;
 };
 

@@ -97,8 +97,9 @@ void RegisterStepStrategy(const std::string& name, StepStrategyFactory make);
 /// Removes a strategy added by RegisterStepStrategy; false where there is none. Built-in
 /// strategies cannot be removed.
 bool RemoveStepStrategy(const std::string& name);
-/// nullptr where none has that name.
-const StepStrategyFactory* FindStepStrategy(const std::string& name);
+/// A copy of the factory of that name (safe to call while another thread registers or
+/// removes strategies); an empty function where none has that name.
+StepStrategyFactory FindStepStrategy(const std::string& name);
 /// The registered names, sorted.
 std::vector<std::string> StepStrategyNames();
 
