@@ -20,10 +20,26 @@
 #include "serial_openmp.h"
 #include "tether/solvers/covariance.h"
 
+// The BLAS and LAPACK CHOLMOD itself runs on (OpenBLAS where installed), for the large
+// supernodes.
+extern "C" {
+void dsymm_(const char* side, const char* uplo, const int* m, const int* n, const double* alpha, const double* a,
+            const int* lda, const double* b, const int* ldb, const double* beta, double* c, const int* ldc);
+void dgemm_(const char* ta, const char* tb, const int* m, const int* n, const int* k, const double* alpha,
+            const double* a, const int* lda, const double* b, const int* ldb, const double* beta, double* c,
+            const int* ldc);
+void dtrsm_(const char* side, const char* uplo, const char* ta, const char* diag, const int* m, const int* n,
+            const double* alpha, const double* a, const int* lda, double* b, const int* ldb);
+void dpotri_(const char* uplo, const int* n, double* a, const int* lda, int* info);
+}
+
 namespace tether {
 namespace internal {
 
 namespace {
+
+// Below this many multiply-adds in Z_RR W, Eigen's kernels beat the call into BLAS.
+constexpr long kBlasFlops = 32 * 32 * 32;
 
 using Block = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 using ConstBlock = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
@@ -75,7 +91,7 @@ class CholmodCovariance : public CovarianceFactor {
   }
 
   std::vector<Eigen::MatrixXd> DiagonalBlocks(const std::vector<int>& offsets, const std::vector<int>& dims) override {
-    if (z_.empty()) SparseInverse();
+    if (!z_) SparseInverse();
     std::vector<Eigen::MatrixXd> out(offsets.size());
     for (std::size_t v = 0; v < offsets.size(); ++v) {
       Eigen::MatrixXd& c = out[v];
@@ -190,7 +206,8 @@ class CholmodCovariance : public CovarianceFactor {
 
   // Z on L's pattern, from the last supernode to the first.
   void SparseInverse() {
-    z_.assign(static_cast<std::size_t>(valptr_[nsuper_]), 0.0);
+    // Every entry Lookup and GatherZrr read is written below: no need to clear it first.
+    z_.reset(new double[static_cast<std::size_t>(valptr_[nsuper_])]);
     int max_ns = 1, max_m = 1;
     for (int s = 0; s < nsuper_; ++s) {
       const int ns = super_[s + 1] - super_[s];
@@ -205,22 +222,72 @@ class CholmodCovariance : public CovarianceFactor {
       const int nr = rowptr_[s + 1] - rowptr_[s];
       const int m = nr - ns;
       const double* ls = lx_ + valptr_[s];
-      double* zs = z_.data() + valptr_[s];
-      Block zss(zs, ns, ns, Eigen::OuterStride<>(nr));
-      Eigen::Map<Eigen::MatrixXd> li(linv.data(), ns, ns);
+      double* zs = z_.get() + valptr_[s];
+      if (m > 0) GatherZrr(rows_ + rowptr_[s] + ns, m, pos.data(), zrr.data());
+      if (ns == 1) {
+        SingleColumn(ls, m, zrr.data(), w.data(), zs);
+      } else {
+        Supernode(ls, ns, m, zrr.data(), w.data(), linv.data(), zs);
+      }
+    }
+  }
+
+  // One column (a simplicial factor's): w = l_R / l_jj, Z_Rj = -Z_RR w, Z_jj = 1/l_jj^2 + w.Z_RR w.
+  static void SingleColumn(const double* ls, int m, const double* zrr, double* w, double* zs) {
+    const double il = 1.0 / ls[0];
+    double* y = zs + 1;
+    for (int u = 0; u < m; ++u) {
+      w[u] = ls[1 + u] * il;
+      y[u] = 0;
+    }
+    for (int t = 0; t < m; ++t) {  // y = Z_RR w from Z_RR's lower triangle
+      const double* zc = zrr + static_cast<long>(t) * m;
+      const double wt = w[t];
+      double acc = zc[t] * wt;
+      for (int u = t + 1; u < m; ++u) {
+        y[u] += zc[u] * wt;
+        acc += zc[u] * w[u];
+      }
+      y[t] += acc;
+    }
+    double d = il * il;
+    for (int u = 0; u < m; ++u) {
+      d += w[u] * y[u];
+      y[u] = -y[u];
+    }
+    zs[0] = d;
+  }
+
+  // One supernode of ns columns and m rows below them; the small ones with Eigen, the large
+  // ones with BLAS and LAPACK (Z_SS's lower triangle only: nothing reads its upper one).
+  static void Supernode(const double* ls, int ns, int m, const double* zrr, double* w, double* linv, double* zs) {
+    const int nr = ns + m;
+    Block zss(zs, ns, ns, Eigen::OuterStride<>(nr));
+    if (static_cast<long>(ns) * ns * ns + static_cast<long>(m) * m * ns < kBlasFlops) {
+      Eigen::Map<Eigen::MatrixXd> li(linv, ns, ns);
       li.setIdentity();
       ConstBlock(ls, ns, ns, Eigen::OuterStride<>(nr)).triangularView<Eigen::Lower>().solveInPlace(li);
       zss.noalias() = li.transpose() * li.triangularView<Eigen::Lower>();
-      if (m == 0) continue;
-      const int* r = rows_ + rowptr_[s] + ns;
-      Eigen::Map<Eigen::MatrixXd> zr(zrr.data(), m, m);
-      GatherZrr(r, m, pos.data(), zr.data());
-      Eigen::Map<Eigen::MatrixXd> wm(w.data(), m, ns);
+      if (m == 0) return;
+      Eigen::Map<Eigen::MatrixXd> wm(w, m, ns);
       wm.noalias() = ConstBlock(ls + ns, m, ns, Eigen::OuterStride<>(nr)) * li.triangularView<Eigen::Lower>();
+      Eigen::Map<const Eigen::MatrixXd> zr(zrr, m, m);
       Block zrs(zs + ns, m, ns, Eigen::OuterStride<>(nr));
       zrs.noalias() = -(zr.selfadjointView<Eigen::Lower>() * wm);
       zss.noalias() -= wm.transpose() * zrs;
+      return;
     }
+    zss.triangularView<Eigen::Lower>() = ConstBlock(ls, ns, ns, Eigen::OuterStride<>(nr));
+    int info = 0;
+    dpotri_("L", &ns, zs, &nr, &info);  // (L1 L1^T)^-1 from L1
+    if (info != 0)
+      throw Error("LAPACK could not invert a supernode's diagonal block (info " + std::to_string(info) + ")");
+    if (m == 0) return;
+    Eigen::Map<Eigen::MatrixXd>(w, m, ns) = ConstBlock(ls + ns, m, ns, Eigen::OuterStride<>(nr));
+    const double minus_one = -1, zero = 0, one = 1;
+    dtrsm_("R", "L", "N", "N", &m, &ns, &one, ls, &nr, w, &m);                       // W = L2 L1^-1
+    dsymm_("L", "L", &m, &ns, &minus_one, zrr, &m, w, &m, &zero, zs + ns, &nr);      // Z_RS = -Z_RR W
+    dgemm_("T", "N", &ns, &ns, &m, &minus_one, w, &m, zs + ns, &nr, &one, zs, &nr);  // Z_SS -= W^T Z_RS
   }
 
   // The lower triangle of Z_RR (m x m, column-major) for the sorted rows r of a supernode,
@@ -242,7 +309,7 @@ class CholmodCovariance : public CovarianceFactor {
         pos[u] = p - t0;
       }
       for (int c = t; c < t1; ++c) {
-        const double* zt = z_.data() + valptr_[T] + static_cast<long>(r[c] - c0) * nrt;
+        const double* zt = z_.get() + valptr_[T] + static_cast<long>(r[c] - c0) * nrt;
         double* oc = out + static_cast<long>(c) * m;
         for (int u = c; u < m; ++u) oc[u] = zt[pos[u]];
       }
@@ -275,7 +342,8 @@ class CholmodCovariance : public CovarianceFactor {
   const int *super_ = nullptr, *rowptr_ = nullptr, *rows_ = nullptr, *valptr_ = nullptr;
   const double* lx_ = nullptr;
   std::vector<int> own_super_, own_rows_, col_super_, pinv_;
-  std::vector<double> own_x_, z_;
+  std::vector<double> own_x_;
+  std::unique_ptr<double[]> z_;
 };
 
 }  // namespace

@@ -1,6 +1,10 @@
 #include "tether/solvers/covariance.h"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <unordered_map>
 
 #include "covariance_factor.h"
@@ -157,6 +161,42 @@ std::string Marginals::Description() const {
   std::string d = impl_->factor ? impl_->factor->Description() : std::string("no free variables");
   if (gauge_fixed_automatically()) d += "; variable " + std::to_string(gauge_key()) + " held fixed (automatic gauge)";
   return d;
+}
+
+void WriteCovarianceFile(const std::string& path, const Values& values, const std::vector<Key>& keys,
+                         const std::vector<Eigen::MatrixXd>& covariances) {
+  if (keys.size() != covariances.size()) {
+    throw InvalidArgument("WriteCovarianceFile: " + std::to_string(keys.size()) + " keys but " +
+                          std::to_string(covariances.size()) + " covariances");
+  }
+  const std::string tmp = path + ".tmp." + std::to_string(static_cast<long>(::getpid()));
+  {
+    std::ofstream f(tmp);
+    if (!f) throw IoError(path + ": cannot write the covariances (cannot create " + tmp + "); check the folder");
+    f << "# tether marginal covariances in tangent coordinates (box-plus delta): id type n, then the upper "
+         "triangle row by row\n";
+    char buf[32];
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const Eigen::MatrixXd& c = covariances[i];
+      f << keys[i] << ' ' << ToString(values.TypeOf(keys[i])) << ' ' << c.rows();
+      for (Eigen::Index r = 0; r < c.rows(); ++r) {
+        for (Eigen::Index k = r; k < c.cols(); ++k) {
+          std::snprintf(buf, sizeof buf, " %.17g", c(r, k));
+          f << buf;
+        }
+      }
+      f << '\n';
+    }
+    f.flush();
+    if (!f) {
+      std::remove(tmp.c_str());
+      throw IoError(path + ": writing the covariances failed (disk full?)");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw IoError(path + ": cannot rename " + tmp + " into place; check the folder's permissions");
+  }
 }
 
 }  // namespace tether

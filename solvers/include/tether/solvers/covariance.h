@@ -86,4 +86,13 @@ class Marginals {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Writes covariances as text, one line per variable:
+///   id type n c11 c12 ... c1n c22 ... cnn
+/// (type as ToString(VarType), n the tangent dimension, then the upper triangle row by row,
+/// printed with 17 significant digits), after one comment line starting with '#'. The file is
+/// written to a temporary name and renamed, so a failure never leaves half a file. Throws
+/// IoError where it cannot be written.
+void WriteCovarianceFile(const std::string& path, const Values& values, const std::vector<Key>& keys,
+                         const std::vector<Eigen::MatrixXd>& covariances);
+
 }  // namespace tether
