@@ -127,7 +127,12 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
 
 // --covariance: "all", or comma-separated ids into `keys`; false after saying why.
 bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std::ostream& err) {
-  if (cmd.covariance.empty() || cmd.covariance == "all") return true;
+  if (cmd.covariance.empty()) return true;
+  if (cmd.output.empty() && cmd.covariance_output.empty()) {
+    err << "tether optimize: --covariance needs -o OUTPUT (the covariances go to OUTPUT.cov) or --covariance-out\n";
+    return false;
+  }
+  if (cmd.covariance == "all") return true;
   std::stringstream ss(cmd.covariance);
   std::string item;
   while (std::getline(ss, item, ',')) {
@@ -143,10 +148,6 @@ bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std
       return false;
     }
     keys->push_back(static_cast<Key>(id));
-  }
-  if (cmd.output.empty() && cmd.covariance_output.empty()) {
-    err << "tether optimize: --covariance needs -o OUTPUT (the covariances go to OUTPUT.cov) or --covariance-out\n";
-    return false;
   }
   return true;
 }
