@@ -17,6 +17,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   optimize->add_option("--linear", opt.linear, "cholmod | ldlt | qr | a plugin's linear solver (pcg)")
       ->capture_default_str();
+  optimize->add_option("--covariance", opt.covariance,
+                       "After the solve, marginal covariances of these ids (comma-separated) or of all");
+  optimize->add_option("--covariance-out", opt.covariance_output, "Covariance file (default: OUTPUT.cov)");
   optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();

@@ -43,6 +43,10 @@ class Problem : public TrialPoint {
   int num_residuals() const { return m_; }
   /// The free variables' tangent dimensions in column order (the blocks of H's columns).
   std::vector<int> BlockSizes() const;
+  /// Free variable i (in column order): its key, type and first column.
+  Key free_key(int i) const { return vars_[i].key; }
+  VarType free_type(int i) const { return vars_[i].type; }
+  int free_offset(int i) const { return vars_[i].offset; }
 
   /// chi2 at the current values; +inf if a factor fails or produces a non-finite value.
   double Chi2() const override;

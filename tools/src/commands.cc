@@ -1,12 +1,15 @@
 #include "tether/tools/commands.h"
 
+#include <chrono>
 #include <cstdio>
 #include <ostream>
+#include <sstream>
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
+#include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/pipeline.h"
 #include "tether/tools/simulate.h"
@@ -126,6 +129,64 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
   return true;
 }
 
+// --covariance: "all", or comma-separated ids into `keys`; false after saying why.
+bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std::ostream& err) {
+  if (cmd.covariance.empty()) return true;
+  if (cmd.output.empty() && cmd.covariance_output.empty()) {
+    err << "tether optimize: --covariance needs -o OUTPUT (the covariances go to OUTPUT.cov) or --covariance-out\n";
+    return false;
+  }
+  if (cmd.covariance == "all") return true;
+  std::stringstream ss(cmd.covariance);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    std::size_t used = 0;
+    unsigned long long id = 0;
+    try {
+      id = std::stoull(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (item.empty() || used != item.size() || item[0] == '-') {
+      err << "tether optimize: --covariance takes comma-separated variable ids or all; '" << item << "' is not an id\n";
+      return false;
+    }
+    keys->push_back(static_cast<Key>(id));
+  }
+  return true;
+}
+
+// The marginal covariances at the solution, written to the covariance file; 0, or 1 after
+// saying why (an id that has none, a singular system, a file that cannot be written).
+int WriteCovariances(const OptimizeCommand& cmd, const PipelineResult& result, std::vector<Key> keys, std::ostream& out,
+                     std::ostream& err) {
+  const std::string path = cmd.covariance_output.empty() ? cmd.output + ".cov" : cmd.covariance_output;
+  CovarianceOptions options;
+  if (cmd.linear == "ldlt" || cmd.linear == "qr") options.linear_solver = cmd.linear;
+  options.num_threads = cmd.threads;
+  try {
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point t0 = Clock::now();
+    const Marginals marginals(result.file.graph, result.values, options);
+    const Clock::time_point t1 = Clock::now();
+    if (cmd.covariance == "all") keys = marginals.free_keys();
+    const std::vector<Eigen::MatrixXd> cov = marginals.MarginalsOf(keys);
+    const Clock::time_point t2 = Clock::now();
+    WriteCovarianceFile(path, result.values, keys, cov);
+    const auto s = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "covariance of %zu variables in %.4f s: linearise %.4f s, factorise %.4f s, marginals %.4f s\n",
+                  keys.size(), s(t2 - t0), marginals.linearize_seconds(), marginals.factorize_seconds(), s(t2 - t1));
+    out << buf << "covariance method: " << marginals.Description() << "\n";
+    out << "wrote " << path << "\n";
+  } catch (const Error& e) {
+    err << "error: covariance: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
@@ -135,6 +196,8 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   PluginLoader loader(registry);
   if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
   if (!CheckSolverOptions(cmd, &po.solver, err)) return 2;
+  std::vector<Key> covariance_keys;
+  if (!ParseCovarianceKeys(cmd, &covariance_keys, err)) return 2;
   GraphFile truth;
   if (!cmd.ground_truth.empty()) {
     try {
@@ -173,6 +236,10 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     return result.ExitCode();
   }
   if (result.written) out << "wrote " << cmd.output << "\n";
+  if (!cmd.covariance.empty()) {
+    const int rc = WriteCovariances(cmd, result, covariance_keys, out, err);
+    if (rc != 0) return rc;
+  }
   if (!cmd.ground_truth.empty()) {
     const TrajectoryError start = AbsoluteTrajectoryError(result.file.values, truth.values);
     const TrajectoryError end = AbsoluteTrajectoryError(result.values, truth.values);

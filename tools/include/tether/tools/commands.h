@@ -25,6 +25,10 @@ struct OptimizeCommand {
   bool quiet = false;                                                      ///< no iteration table
   bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
   std::vector<std::string> plugins;     ///< factor plugins to load first (paths or names)
+  /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
+  /// free variable); empty: none. Written to covariance_output (default: output + ".cov").
+  std::string covariance;
+  std::string covariance_output;
 };
 
 struct PluginsListCommand {
