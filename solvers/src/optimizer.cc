@@ -121,9 +121,11 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   if (p->tangent_dim() == 0) return NothingToOptimise(std::move(s), options, *strategy, chi2, t0);
   std::unique_ptr<internal::LinearSystem> system;
   try {
-    const LinearSolverEntry* entry = internal::LinearSolvers().Find(options.linear_solver.name());
-    if (entry == nullptr) return Invalid(s, "no linear solver is named '" + options.linear_solver.name() + "'");
-    system = std::make_unique<internal::LinearSystem>(p, *entry, options.linear);
+    LinearSolverEntry entry;  // a copy: a plugin may remove its solver while this one solves
+    if (!internal::LinearSolvers().Get(options.linear_solver.name(), &entry)) {
+      return Invalid(s, "no linear solver is named '" + options.linear_solver.name() + "'");
+    }
+    system = std::make_unique<internal::LinearSystem>(p, entry, options.linear);
   } catch (const Error& e) {
     return Invalid(s, e.what());
   }

@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -98,8 +99,14 @@ struct LinearSolverEntry {
 
 /// Linear solvers by name. DefaultLinearSolverRegistry() is the one the solvers use; the
 /// built-in solvers join it as soon as tether::solvers is loaded.
+/// Thread-safe: a plugin may register while another thread looks a solver up (use Get, which
+/// copies, where an entry might be removed meanwhile).
 class LinearSolverRegistry {
  public:
+  LinearSolverRegistry() = default;
+  LinearSolverRegistry(const LinearSolverRegistry& other);
+  LinearSolverRegistry& operator=(const LinearSolverRegistry& other);
+
   /// Throws InvalidArgument where the name is empty or taken (naming both owners), or `make`
   /// is missing.
   void Register(LinearSolverEntry entry);
@@ -109,10 +116,13 @@ class LinearSolverRegistry {
   int RemoveOwner(const std::string& owner);
   /// nullptr where none has that name. The pointer stays valid until that entry is removed.
   const LinearSolverEntry* Find(const std::string& name) const;
+  /// A copy of the entry of that name into *out; false where there is none.
+  bool Get(const std::string& name, LinearSolverEntry* out) const;
   /// The registered names, sorted.
   std::vector<std::string> Names() const;
 
  private:
+  mutable std::mutex mutex_;
   std::map<std::string, LinearSolverEntry> by_name_;
 };
 
