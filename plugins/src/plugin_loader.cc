@@ -96,6 +96,97 @@ std::vector<std::pair<PluginExtensionKind, const PluginExtension*>> TrialExtensi
   return kinds;
 }
 
+// Whether everything an earlier load of the plugin registered is still there, owned by it.
+bool StillRegistered(const LoadedPlugin& p, const Registry& registry, const LinearSolverRegistry& solvers) {
+  const auto owned_type = [&](const std::string& n) {
+    const FactorType* t = registry.FindByName(n);
+    return t != nullptr && t->owner == p.name;
+  };
+  const auto owned_variable = [&](const std::string& n) { return registry.VariableOwner(n) == p.name; };
+  const auto owned_solver = [&](const std::string& n) {
+    LinearSolverEntry e;
+    return solvers.Get(n, &e) && e.owner == p.name;
+  };
+  return std::all_of(p.type_names.begin(), p.type_names.end(), owned_type) &&
+         std::all_of(p.variable_names.begin(), p.variable_names.end(), owned_variable) &&
+         std::all_of(p.linear_solver_names.begin(), p.linear_solver_names.end(), owned_solver);
+}
+
+// Opens the library and checks its description: entry symbol, interface version, name, build
+// fingerprint. The library stays loaded for the life of the process (see the header).
+const PluginDescription* OpenDescription(const std::string& path) {
+  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* why = dlerror();
+    throw PluginError("plugin " + path + ": cannot be loaded as a shared library: " + (why ? why : "unknown error") +
+                      "; check that it is a plugin built for this machine and that the libraries it needs are "
+                      "installed");
+  }
+  dlerror();
+  void* symbol = dlsym(handle, TETHER_PLUGIN_ENTRY_SYMBOL);
+  if (symbol == nullptr) {
+    throw PluginError("plugin " + path +
+                      ": the entry symbol '" TETHER_PLUGIN_ENTRY_SYMBOL
+                      "' is missing; define it with TETHER_PLUGIN(name, version, register_function) "
+                      "in one source file of the plugin");
+  }
+  using Entry = const PluginDescription* (*)();
+  const PluginDescription* d = reinterpret_cast<Entry>(symbol)();
+  if (d == nullptr) throw PluginError("plugin " + path + ": " TETHER_PLUGIN_ENTRY_SYMBOL " returned no description");
+  if (d->interface_version != TETHER_PLUGIN_INTERFACE_VERSION) {
+    throw PluginError("plugin " + path + ": plugin interface version " + std::to_string(d->interface_version) +
+                      ", but this tether speaks version " + std::to_string(TETHER_PLUGIN_INTERFACE_VERSION) +
+                      "; rebuild the plugin against this tether's headers");
+  }
+  const std::string name = d->name ? d->name : "";
+  if (name.empty()) throw PluginError("plugin " + path + ": the description has no name; give TETHER_PLUGIN a name");
+  const std::vector<std::string> diffs = CompareFingerprints(CurrentBuildFingerprint(), d->fingerprint);
+  if (!diffs.empty()) {
+    std::string m = "plugin " + path + " ('" + name + "'): built with different settings than this tether (";
+    for (std::size_t i = 0; i < diffs.size(); ++i) m += (i ? "; " : "") + diffs[i];
+    throw PluginError(m + "); rebuild the plugin with the same tether, Eigen version and compiler flags");
+  }
+  if (d->register_types == nullptr) {
+    throw PluginError("plugin " + path + " ('" + name + "'): the description has no registration function");
+  }
+  return d;
+}
+
+// Runs the plugin's registration function; what it adds is collected, not yet registered.
+PluginRegistrar RunRegistration(const PluginDescription& d, const std::string& path) {
+  const std::string name = d.name;
+  PluginRegistrar registrar(name);
+  try {
+    d.register_types(registrar);
+  } catch (const std::exception& e) {
+    throw PluginError("plugin " + path + " ('" + name + "'): registration failed: " + e.what() +
+                      "; nothing of it was registered");
+  } catch (...) {
+    throw PluginError("plugin " + path + " ('" + name +
+                      "'): registration threw something that is not a std::exception; nothing of it was registered");
+  }
+  return registrar;
+}
+
+// The plugin's variable and factor types, tried on a copy of the registry.
+void TrialTypes(const PluginRegistrar& registrar, const Registry& registry, const std::string& path,
+                LoadedPlugin* loaded) {
+  Registry trial = registry;
+  try {
+    for (const VariableType& t : registrar.variable_types()) {
+      trial.RegisterVariable(t);
+      loaded->variable_names.push_back(t.name);
+    }
+    for (const FactorType& t : registrar.factor_types()) {
+      trial.Register(t);
+      loaded->type_names.push_back(t.name);
+    }
+  } catch (const Error& e) {
+    throw PluginError("plugin " + path + " ('" + registrar.plugin_name() + "'): " + e.what() +
+                      "; nothing of it was registered");
+  }
+}
+
 }  // namespace
 
 void RegisterPluginExtensionKind(const std::string& kind, PluginExtensionKind handler) {
@@ -165,96 +256,35 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     if (it->path != path) continue;
     // Loading the same file twice is harmless. But where its types were removed since
     // (Registry::RemoveOwner), it is registered afresh below, as a new loader would do.
-    const bool registered = std::all_of(it->type_names.begin(), it->type_names.end(),
-                                        [&](const std::string& n) {
-                                          const FactorType* t = registry_.FindByName(n);
-                                          return t != nullptr && t->owner == it->name;
-                                        }) &&
-                            std::all_of(it->variable_names.begin(), it->variable_names.end(),
-                                        [&](const std::string& n) { return registry_.VariableOwner(n) == it->name; });
-    const bool solvers =
-        std::all_of(it->linear_solver_names.begin(), it->linear_solver_names.end(), [&](const std::string& n) {
-          const LinearSolverEntry* e = linear_solvers_.Find(n);
-          return e != nullptr && e->owner == it->name;
-        });
-    if (registered && solvers) return *it;
+    if (StillRegistered(*it, registry_, linear_solvers_)) return *it;
     loaded_.erase(it);
     break;
   }
-  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (handle == nullptr) {
-    const char* why = dlerror();
-    throw PluginError("plugin " + path + ": cannot be loaded as a shared library: " + (why ? why : "unknown error") +
-                      "; check that it is a plugin built for this machine and that the libraries it needs are "
-                      "installed");
-  }
-  // From here on the library stays loaded for the life of the process (see the header).
-  dlerror();
-  void* symbol = dlsym(handle, TETHER_PLUGIN_ENTRY_SYMBOL);
-  if (symbol == nullptr) {
-    throw PluginError("plugin " + path +
-                      ": the entry symbol '" TETHER_PLUGIN_ENTRY_SYMBOL
-                      "' is missing; define it with TETHER_PLUGIN(name, version, register_function) "
-                      "in one source file of the plugin");
-  }
-  using Entry = const PluginDescription* (*)();
-  const PluginDescription* d = reinterpret_cast<Entry>(symbol)();
-  if (d == nullptr) throw PluginError("plugin " + path + ": " TETHER_PLUGIN_ENTRY_SYMBOL " returned no description");
-  if (d->interface_version != TETHER_PLUGIN_INTERFACE_VERSION) {
-    throw PluginError("plugin " + path + ": plugin interface version " + std::to_string(d->interface_version) +
-                      ", but this tether speaks version " + std::to_string(TETHER_PLUGIN_INTERFACE_VERSION) +
-                      "; rebuild the plugin against this tether's headers");
-  }
-  const std::string name = d->name ? d->name : "";
-  if (name.empty()) throw PluginError("plugin " + path + ": the description has no name; give TETHER_PLUGIN a name");
-  const std::vector<std::string> diffs = CompareFingerprints(CurrentBuildFingerprint(), d->fingerprint);
-  if (!diffs.empty()) {
-    std::string m = "plugin " + path + " ('" + name + "'): built with different settings than this tether (";
-    for (std::size_t i = 0; i < diffs.size(); ++i) m += (i ? "; " : "") + diffs[i];
-    throw PluginError(m + "); rebuild the plugin with the same tether, Eigen version and compiler flags");
-  }
+  const PluginDescription* d = OpenDescription(path);
+  const std::string name = d->name;
   for (const LoadedPlugin& p : loaded_) {
     if (p.name == name) {
       throw PluginError("plugin " + path + ": a plugin named '" + name + "' is loaded already from " + p.path +
                         "; load only one of them");
     }
   }
-  if (d->register_types == nullptr) {
-    throw PluginError("plugin " + path + " ('" + name + "'): the description has no registration function");
-  }
-  PluginRegistrar registrar(name);
-  try {
-    d->register_types(registrar);
-  } catch (const std::exception& e) {
-    throw PluginError("plugin " + path + " ('" + name + "'): registration failed: " + e.what() +
-                      "; nothing of it was registered");
-  } catch (...) {
-    throw PluginError("plugin " + path + " ('" + name +
-                      "'): registration threw something that is not a std::exception; nothing of it was registered");
-  }
-  // All types or none: a trial copy takes them first, so a conflict leaves the registry
-  // exactly as it was. Then the same types go into the registry itself, added beside the
-  // entries already there: a FactorType found before the load stays where it is (replacing
-  // the registry by the copy would free every one of them).
+  const PluginRegistrar registrar = RunRegistration(*d, path);
+  // All or nothing: trial copies take everything first, so a conflict leaves every registry
+  // exactly as it was. Then the same entries go into the registries themselves, added beside
+  // the entries already there: a FactorType found before the load stays where it is
+  // (replacing the registry by the copy would free every one of them).
   LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}, {}};
-  {
-    Registry trial = registry_;
-    try {
-      for (const VariableType& t : registrar.variable_types()) {
-        trial.RegisterVariable(t);
-        loaded.variable_names.push_back(t.name);
-      }
-      for (const FactorType& t : registrar.factor_types()) {
-        trial.Register(t);
-        loaded.type_names.push_back(t.name);
-      }
-    } catch (const Error& e) {
-      throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
-    }
-  }
+  TrialTypes(registrar, registry_, path, &loaded);
   const std::vector<LinearSolverEntry> solvers = TrialLinearSolvers(registrar, linear_solvers_, path, &loaded);
   const auto kinds = TrialExtensions(registrar, path, &loaded);
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
+  Commit(registrar, solvers, kinds);
+  loaded_.push_back(std::move(loaded));
+  return loaded_.back();
+}
+
+void PluginLoader::Commit(const PluginRegistrar& registrar, const std::vector<LinearSolverEntry>& solvers,
+                          const std::vector<std::pair<PluginExtensionKind, const PluginExtension*>>& kinds) {
   std::size_t variables = 0, committed = 0, committed_solvers = 0, extensions = 0;
   try {
     for (const VariableType& t : registrar.variable_types()) {
@@ -270,11 +300,11 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
       ++committed_solvers;
     }
     for (const auto& [kind, extension] : kinds) {
-      kind.commit(*extension, name);
+      kind.commit(*extension, registrar.plugin_name());
       ++extensions;
     }
   } catch (...) {
-    // Not expected (the trial took the same types), short of memory: take back exactly
+    // Not expected (the trial took the same entries), short of memory: take back exactly
     // what this load added.
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
@@ -282,8 +312,6 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     for (std::size_t i = 0; i < extensions; ++i) kinds[i].first.remove(kinds[i].second->name);
     throw;
   }
-  loaded_.push_back(std::move(loaded));
-  return loaded_.back();
 }
 
 }  // namespace tether

@@ -15,6 +15,7 @@
 // or failing to, moves no registered type.
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tether/core/error.h"
@@ -74,6 +75,10 @@ class PluginLoader {
   static std::string Resolve(const std::string& path_or_name);
 
  private:
+  // Registers what the trials accepted, all of it or (on an unexpected failure) none of it.
+  void Commit(const PluginRegistrar& registrar, const std::vector<LinearSolverEntry>& solvers,
+              const std::vector<std::pair<PluginExtensionKind, const PluginExtension*>>& kinds);
+
   Registry& registry_;
   LinearSolverRegistry& linear_solvers_;
   std::vector<LoadedPlugin> loaded_;
