@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 #include <utility>
 
@@ -32,6 +33,10 @@ bool SmootherOptions::IsValid(std::string* why) const {
   }
   if (!finish.IsValid(&reason)) {
     if (why) *why = "finish: " + reason;
+    return false;
+  }
+  if (std::isnan(skip_solve_chi2)) {
+    if (why) *why = "skip_solve_chi2 is not a number";
     return false;
   }
   if (!covariance.IsValid(&reason)) {
@@ -141,7 +146,24 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     }
   }
 
-  if (!graph_.empty()) {
+  // New factors with zero error leave a stationary point stationary: no solve.
+  if (factors_to_remove.empty() && converged_ && options_.skip_solve_chi2 >= 0) {
+    double added = 0;
+    for (std::size_t i = 0; i < new_factors.size() && added <= options_.skip_solve_chi2; ++i) {
+      added += new_factors.at(i).Chi2(estimate_);
+    }
+    if (added <= options_.skip_solve_chi2) {
+      u.skipped = true;
+      chi2_ += added;
+      u.chi2_before = u.chi2_after = chi2_;
+      u.seconds = SecondsSince(t0);
+      return u;
+    }
+  }
+  if (graph_.empty()) {
+    chi2_ = 0;
+    converged_ = true;
+  } else {
     const SolverSummary s = Optimize(graph_, &estimate_, options_.update);
     u.solved = true;
     u.structure_rebuilt = true;
@@ -150,6 +172,8 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     u.iterations = s.iterations;
     u.chi2_before = s.initial_chi2;
     u.chi2_after = s.final_chi2;
+    chi2_ = s.final_chi2;
+    converged_ = s.status == SolverStatus::kConverged;
   }
   u.seconds = SecondsSince(t0);
   return u;
@@ -162,7 +186,15 @@ Eigen::MatrixXd IncrementalSmoother::Marginal(Key key) const {
 
 const Values& IncrementalSmoother::Finish() {
   marginals_.reset();
-  finish_summary_ = graph_.empty() ? SolverSummary{} : Optimize(graph_, &estimate_, options_.finish);
+  if (graph_.empty()) {
+    finish_summary_ = SolverSummary{};
+    finish_summary_.status = SolverStatus::kConverged;
+    finish_summary_.message = "nothing to optimise: the graph has no factor";
+    return estimate_;
+  }
+  finish_summary_ = Optimize(graph_, &estimate_, options_.finish);
+  chi2_ = finish_summary_.final_chi2;
+  converged_ = finish_summary_.status == SolverStatus::kConverged;
   return estimate_;
 }
 

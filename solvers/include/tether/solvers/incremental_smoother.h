@@ -12,12 +12,14 @@
 //   smoother.Update({}, {}, {u.new_factor_ids[0]});        // take the edge out again
 //   const Values& optimum = smoother.Finish();             // the batch optimum
 //
-// Version 1 (this one) re-solves the whole graph on every update: Levenberg-Marquardt
+// Version 1 (this one) re-solves the whole graph on every update that needs a solve: Levenberg-Marquardt
 // (Optimize, options.update), warm-started from the previous estimate plus the new values,
 // for a few iterations. The structure of the linear system, the ordering and the
 // factorisation are rebuilt by every solve; keeping them between updates and redoing only what
 // an update touches is the next step (docs/smoother.md). The results are therefore exactly
-// those of Optimize on the graph so far, from the previous estimate.
+// those of Optimize on the graph so far, from the previous estimate. The one thing it reuses:
+// an update whose new factors all have zero error at the previous estimate plus the new values
+// (a new pose composed from its odometry edge) skips the solve (skip_solve_chi2).
 //
 // Guarantees:
 // - An update that is invalid (a new value whose key exists, a factor referring to a key that
@@ -55,6 +57,12 @@ struct SmootherOptions {
   /// iterations, function_tolerance 1e-12 (so that the result is the batch optimum to the
   /// last digits, not merely close to it).
   SolverOptions finish;
+  /// An update that removes nothing, after a solve that converged, whose new factors have
+  /// together at most this chi2 at the previous estimate plus the new values (a new pose
+  /// placed where its odometry edge puts it) keeps the estimate without solving: factors with
+  /// zero error add nothing to the gradient, so the previous stationary point is one of the
+  /// new graph too. Default 1e-12; negative: solve after every update.
+  double skip_solve_chi2 = 1e-12;
   /// Marginal(key): the method of tether::Marginals (default CHOLMOD, sparse inverse subset).
   CovarianceOptions covariance;
 
@@ -72,8 +80,10 @@ struct SmootherUpdate {
   /// The handles of the new factors, in the order of the update's graph. Pass them in a later
   /// update's factors_to_remove to take the factors out.
   std::vector<FactorId> new_factor_ids;
-  /// False where there was nothing to solve (no factor in the graph).
+  /// False where there was nothing to solve (no factor in the graph) or the solve was skipped.
   bool solved = false;
+  /// The solve was skipped: the new factors have zero error at the estimate (skip_solve_chi2).
+  bool skipped = false;
   /// Whether the linear system's structure (ordering, symbolic factorisation) was built anew.
   /// Version 1 rebuilds it on every solve.
   bool structure_rebuilt = false;
@@ -122,7 +132,9 @@ class IncrementalSmoother {
   FactorGraph graph_;
   Values estimate_;
   SolverSummary finish_summary_;
-  std::unordered_map<Key, int> uses_;             // factors of graph_ per variable
+  std::unordered_map<Key, int> uses_;  // factors of graph_ per variable
+  double chi2_ = 0;                    // of graph_ at estimate_
+  bool converged_ = true;              // estimate_ is a stationary point of graph_ (to the solve's tolerances)
   mutable std::unique_ptr<Marginals> marginals_;  // of the current graph and estimate
 };
 
