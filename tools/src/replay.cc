@@ -124,7 +124,7 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
       err << "error: the update at step " << i << " failed: " << ToString(u.status) << ": " << u.message << "\n";
       return 3;
     }
-    if (cmd.check > 0 && latencies.size() % static_cast<std::size_t>(cmd.check) == 0 && u.solved) {
+    if (cmd.check > 0 && latencies.size() % static_cast<std::size_t>(cmd.check) == 0 && !smoother.graph().empty()) {
       Values batch = smoother.Estimate();
       const SolverSummary s = Optimize(smoother.graph(), &batch, smoother.options().finish);
       const double gap = RelativeGap(u.chi2_after, s.final_chi2);
