@@ -84,6 +84,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   replay->add_option("-o,--output", rc.output, "Write the final estimate (g2o)");
   replay->add_flag("-q,--quiet", rc.quiet, "Only the summary lines");
+  replay->add_option("--update-iterations", rc.update_iterations, "Iteration limit of each update's solve")
+      ->capture_default_str();
+  replay->add_option("--update-tolerance", rc.update_tolerance, "Function tolerance of each update's solve")
+      ->capture_default_str();
+  replay->add_flag("--no-skip", rc.no_skip, "Solve after every update, even where the new factors have zero error");
 
   try {
     app.parse(argc, argv);

@@ -69,6 +69,15 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     err << "error: --check must be 0 (never) or more\n";
     return 2;
   }
+  SmootherOptions options;
+  options.update.max_iterations = cmd.update_iterations;
+  options.update.function_tolerance = cmd.update_tolerance;
+  if (cmd.no_skip) options.skip_solve_chi2 = -1;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    err << "error: " << why << "\n";
+    return 2;
+  }
   Registry& registry = DefaultRegistry();
   GraphFile file;
   try {
@@ -91,9 +100,11 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     by_step[step].push_back(j);
   }
   out << "replay " << cmd.input << ": " << keys.size() << " variables, " << file.graph.size()
-      << " factors, an update every " << cmd.every << " step(s)\n";
+      << " factors, an update every " << cmd.every << " step(s), at most " << cmd.update_iterations
+      << " iterations each (function tolerance " << cmd.update_tolerance << ")"
+      << (cmd.no_skip ? ", never skipped" : "") << "\n";
 
-  IncrementalSmoother smoother;
+  IncrementalSmoother smoother(options);
   std::vector<double> latencies;
   double max_check_gap = 0;
   int checks = 0;

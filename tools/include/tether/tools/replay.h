@@ -12,6 +12,8 @@
 #include <iosfwd>
 #include <string>
 
+#include "tether/solvers/incremental_smoother.h"
+
 namespace tether {
 
 struct ReplayCommand {
@@ -20,6 +22,11 @@ struct ReplayCommand {
   int check = 0;       ///< every K-th update, solve the graph so far in batch (untimed); 0: never
   std::string output;  ///< g2o file with the final estimate (optional)
   bool quiet = false;  ///< only the summary lines
+  /// The smoother's per-update solve (SmootherOptions::update): iteration limit and
+  /// function tolerance; and whether updates whose new factors have zero error skip the solve.
+  int update_iterations = SmootherOptions().update.max_iterations;
+  double update_tolerance = SmootherOptions().update.function_tolerance;
+  bool no_skip = false;
 };
 
 /// Exit codes: 0 done; 1 bad input (unreadable file, plugin); 2 bad usage; 3 a solve failed.
