@@ -21,6 +21,7 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
 
 SmootherOptions::SmootherOptions() {
   update.max_iterations = 10;
+  update.function_tolerance = 1e-6;
   finish.max_iterations = 100;
   finish.function_tolerance = 1e-12;
 }
