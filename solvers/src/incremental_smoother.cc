@@ -173,6 +173,10 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     u.iterations = s.iterations;
     u.chi2_before = s.initial_chi2;
     u.chi2_after = s.final_chi2;
+    u.setup_seconds = s.setup_seconds;
+    u.linearize_seconds = s.linearize_seconds;
+    u.factorize_seconds = s.factorize_seconds;
+    u.solve_seconds = s.solve_seconds;
     chi2_ = s.final_chi2;
     converged_ = s.status == SolverStatus::kConverged;
   }

@@ -108,6 +108,8 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   std::vector<double> latencies;
   double max_check_gap = 0;
   int checks = 0;
+  int solves = 0, skipped = 0, iterations = 0;
+  double setup = 0, linearize = 0, factorize = 0, solve = 0;  // summed over the updates
   FactorGraph pending_factors;
   Values pending_values;
   std::vector<double> params(16);
@@ -129,6 +131,13 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
       return 1;
     }
     latencies.push_back(SecondsSince(t0));
+    solves += u.solved ? 1 : 0;
+    skipped += u.skipped ? 1 : 0;
+    iterations += u.iterations;
+    setup += u.setup_seconds;
+    linearize += u.linearize_seconds;
+    factorize += u.factorize_seconds;
+    solve += u.solve_seconds;
     pending_factors = FactorGraph();
     pending_values = Values();
     if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
@@ -181,11 +190,14 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   // p99 by the nearest rank: the smallest latency at least 99% of the updates do not exceed.
   const double p99 = n ? sorted[static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(n))) - 1] : 0;
   const double max = n ? sorted.back() : 0;
-  out << "updates: " << n << "\n";
+  out << "updates: " << n << " (" << solves << " solved, " << skipped << " skipped, " << iterations << " iterations)\n";
   out << "total [s]: " << Format("%.3f", updates_seconds + finish_seconds) << " (updates "
       << Format("%.3f", updates_seconds) << ", finish " << Format("%.3f", finish_seconds) << ")\n";
   out << "per step [ms]: mean " << Format("%.3f", 1e3 * mean) << ", p99 " << Format("%.3f", 1e3 * p99) << ", max "
       << Format("%.3f", 1e3 * max) << "\n";
+  out << "update split [s]: setup " << Format("%.3f", setup) << ", linearise " << Format("%.3f", linearize)
+      << ", factorise " << Format("%.3f", factorize) << ", solve " << Format("%.3f", solve) << ", other "
+      << Format("%.3f", updates_seconds - setup - linearize - factorize - solve) << "\n";
   out << "final chi2: " << Format("%.9g", fs.final_chi2) << "\n";
   out << "batch optimum: " << Format("%.9g", bs.final_chi2) << "\n";
   out << "relative gap to batch: " << Format("%.3e", RelativeGap(fs.final_chi2, bs.final_chi2)) << "\n";

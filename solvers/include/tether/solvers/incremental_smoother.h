@@ -95,6 +95,12 @@ struct SmootherUpdate {
   double chi2_before = 0;  ///< of the whole graph at the previous estimate plus the new values
   double chi2_after = 0;   ///< at the new estimate
   double seconds = 0;      ///< the whole update: checks, changes and solve
+  /// The solve's split (SolverSummary): building the structure (ordering, symbolic analysis),
+  /// evaluating and assembling, numeric factorisations, solving for the steps.
+  double setup_seconds = 0;
+  double linearize_seconds = 0;
+  double factorize_seconds = 0;
+  double solve_seconds = 0;
 };
 
 class IncrementalSmoother {
