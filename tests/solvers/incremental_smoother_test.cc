@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -319,6 +320,49 @@ TEST(IncrementalSmoother, SkipsTheSolveWhereTheNewFactorsHaveZeroError) {
     EXPECT_FALSE(c.skipped);
     EXPECT_LT(c.chi2_after, c.chi2_before);
   }
+}
+
+TEST(IncrementalSmoother, AFailedSolveKeepsTheChangesAndRemovingTheCauseRecovers) {
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 40, 11);
+  IncrementalSmoother smoother;
+  Replay(sim, 40, 0.0, 11, &smoother, nullptr);
+  const Values before = smoother.Estimate();
+  // A new pose whose initial guess is not finite: chi2 cannot be evaluated.
+  FactorGraph f;
+  Values v;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  v.Insert(Key(40), SE2d(nan, 0, 0));
+  f.Add<BetweenSE2>(Key(39), Key(40), SE2d(1, 0, 0), SqrtInformation::Identity(3));
+  const SmootherUpdate bad = smoother.Update(std::move(f), std::move(v));
+  EXPECT_TRUE(bad.solved);
+  EXPECT_FALSE(bad.skipped);
+  EXPECT_EQ(bad.status, SolverStatus::kInvalidInput) << bad.message;
+  EXPECT_EQ(bad.factors_added, 1);
+  EXPECT_TRUE(smoother.Estimate().Has(40));
+  for (Key k : before.keys()) {
+    EXPECT_EQ(0, std::memcmp(before.Params(k), smoother.Estimate().Params(k), 3 * sizeof(double))) << k;
+  }
+  // Taking the factor out again erases the pose, and the next solve succeeds.
+  const SmootherUpdate fixed = smoother.Update({}, {}, {bad.new_factor_ids[0]});
+  EXPECT_EQ(fixed.variables_removed, 1);
+  EXPECT_FALSE(smoother.Estimate().Has(40));
+  EXPECT_TRUE(fixed.solved);
+  EXPECT_EQ(fixed.status, SolverStatus::kConverged) << fixed.message;
+}
+
+TEST(IncrementalSmoother, AnEmptySmoother) {
+  IncrementalSmoother smoother;
+  const SmootherUpdate u = smoother.Update();
+  EXPECT_FALSE(u.solved);
+  EXPECT_EQ(u.factors_added + u.variables_added, 0);
+  EXPECT_TRUE(smoother.Finish().empty());
+  EXPECT_EQ(smoother.finish_summary().status, SolverStatus::kConverged);
+  // A variable without factors is held where it was given.
+  Values v;
+  v.Insert(Key(0), SE2d(1, 2, 0.5));
+  smoother.Update({}, std::move(v));
+  EXPECT_EQ(smoother.Estimate().At<SE2d>(0).translation(), Eigen::Vector2d(1, 2));
+  EXPECT_THROW(smoother.Marginal(0), InvalidArgument);
 }
 
 TEST(IncrementalSmoother, InvalidOptionsThrow) {
