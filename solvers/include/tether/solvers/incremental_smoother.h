@@ -12,14 +12,14 @@
 //   smoother.Update({}, {}, {u.new_factor_ids[0]});        // take the edge out again
 //   const Values& optimum = smoother.Finish();             // the batch optimum
 //
-// Version 1 (this one) re-solves the whole graph on every update that needs a solve: Levenberg-Marquardt
-// (Optimize, options.update), warm-started from the previous estimate plus the new values,
-// for a few iterations. The structure of the linear system, the ordering and the
-// factorisation are rebuilt by every solve; keeping them between updates and redoing only what
-// an update touches is the next step (docs/smoother.md). The results are therefore exactly
-// those of Optimize on the graph so far, from the previous estimate. The one thing it reuses:
-// an update whose new factors all have zero error at the previous estimate plus the new values
-// (a new pose composed from its odometry edge) skips the solve (skip_solve_chi2).
+// Version 1 (this one) re-solves the whole graph on every update that needs a solve:
+// Levenberg-Marquardt (Optimize, options.update), warm-started from the previous estimate plus
+// the new values, for a few iterations. The structure of the linear system, the ordering and
+// the factorisation are rebuilt by every solve; keeping them between updates and redoing only
+// what an update touches is the next step (docs/smoother.md). Each solve is exactly Optimize
+// on the graph so far from the previous estimate. The one thing v1 reuses: an update whose new
+// factors all have zero error at the previous estimate plus the new values (a new pose
+// composed from its odometry edge) keeps the estimate without solving (skip_solve_chi2).
 //
 // Guarantees:
 // - An update that is invalid (a new value whose key exists, a factor referring to a key that
