@@ -4,6 +4,7 @@
 
 #include "tether/tools/bench.h"
 #include "tether/tools/commands.h"
+#include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"tether: factor-graph optimisation for SLAM"};
@@ -74,6 +75,21 @@ int main(int argc, char** argv) {
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
 
+  tether::ReplayCommand rc;
+  CLI::App* replay =
+      app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
+  replay->add_option("input", rc.input, "Graph file (.g2o, or TORO .graph)")->required();
+  replay->add_option("--every", rc.every, "Update the estimate every N-th pose")->capture_default_str();
+  replay->add_option("--check", rc.check, "Every K-th update, solve the graph so far in batch (untimed) and compare")
+      ->capture_default_str();
+  replay->add_option("-o,--output", rc.output, "Write the final estimate (g2o)");
+  replay->add_flag("-q,--quiet", rc.quiet, "Only the summary lines");
+  replay->add_option("--update-iterations", rc.update_iterations, "Iteration limit of each update's solve")
+      ->capture_default_str();
+  replay->add_option("--update-tolerance", rc.update_tolerance, "Function tolerance of each update's solve")
+      ->capture_default_str();
+  replay->add_flag("--no-skip", rc.no_skip, "Solve after every update, even where the new factors have zero error");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -84,6 +100,7 @@ int main(int argc, char** argv) {
     if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
     if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
     if (bench->parsed()) return tether::RunBench(bc, std::cout, std::cerr);
+    if (replay->parsed()) return tether::RunReplay(rc, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
     std::cerr << "error: " << e.what() << "\n";
