@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <mutex>
+#include <vector>
 
 #include "tether/core/error.h"
 
@@ -50,6 +51,7 @@ class Table {
       }
       // No registry holds the old description (its plugin was refused or removed): the new one
       // takes its place under the same id.
+      retired_.push_back(entries_[i].load(std::memory_order_relaxed));  // kept: a reader may hold it
       entries_[i].store(new VariableType(t), std::memory_order_release);
       return static_cast<VarType>(i);
     }
@@ -86,6 +88,7 @@ class Table {
   std::array<std::atomic<const VariableType*>, kMaxVarTypes> entries_{};
   std::array<std::atomic<int>, kMaxVarTypes> holders_{};  // registries that hold each type
   std::atomic<int> size_{0};
+  std::vector<const VariableType*> retired_;  // replaced descriptions, never freed
 };
 
 Table& GetTable() {

@@ -53,6 +53,21 @@ class CholmodCovariance : public CovarianceFactor {
     cc_.error_handler = nullptr;
     cc_.quick_return_if_not_posdef = 1;
     n_ = h.cols;
+    try {
+      Factorize(h, name);
+    } catch (...) {
+      Release();  // a constructor that throws runs no destructor
+      throw;
+    }
+  }
+  ~CholmodCovariance() override { Release(); }
+
+  void Release() {
+    if (L_) cholmod_free_factor(&L_, &cc_);
+    cholmod_finish(&cc_);
+  }
+
+  void Factorize(const Csc& h, const ColumnNamer& name) {
     cholmod_sparse a = View(h);
     SerialOpenMp serial;
     L_ = cholmod_analyze(&a, &cc_);
@@ -66,10 +81,6 @@ class CholmodCovariance : public CovarianceFactor {
       cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, L_, &cc_);
     }
     BuildSupernodes();
-  }
-  ~CholmodCovariance() override {
-    if (L_) cholmod_free_factor(&L_, &cc_);
-    cholmod_finish(&cc_);
   }
 
   Eigen::MatrixXd Solve(const Eigen::MatrixXd& b) override {

@@ -95,6 +95,21 @@ class QrCovariance : public CovarianceFactor {
     a.dtype = CHOLMOD_DOUBLE;
     a.sorted = 1;
     a.packed = 1;
+    try {
+      Factorize(&a);
+    } catch (...) {
+      Release();  // a constructor that throws runs no destructor
+      throw;
+    }
+  }
+
+  void Release() {
+    if (qr_) SuiteSparseQR_free<double>(&qr_, &cc_);
+    cholmod_l_finish(&cc_);
+  }
+
+  void Factorize(cholmod_sparse* ap) {
+    cholmod_sparse& a = *ap;
     qr_ = SuiteSparseQR_symbolic<double>(SPQR_ORDERING_DEFAULT, 1, &a, &cc_);
     if (qr_ == nullptr) throw Error("SuiteSparseQR could not analyse J (status " + std::to_string(cc_.status) + ")");
     const Clock::time_point t0 = Clock::now();
@@ -109,10 +124,7 @@ class QrCovariance : public CovarianceFactor {
                                "fixed or add a prior (linear solver cholmod names the variable)");
     }
   }
-  ~QrCovariance() override {
-    if (qr_) SuiteSparseQR_free<double>(&qr_, &cc_);
-    cholmod_l_finish(&cc_);
-  }
+  ~QrCovariance() override { Release(); }
   Eigen::MatrixXd Solve(const Eigen::MatrixXd& b) override {
     cholmod_dense bd;
     std::memset(&bd, 0, sizeof(bd));
