@@ -1,5 +1,7 @@
 // The tether program end to end: exit codes, the iteration table and summary, files written
 // only on success, simulate's determinism.
+#include "testing/cli.h"
+
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,21 +15,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int code;
-  std::string output;  // stdout and stderr together
-};
-
-CliRun Tether(const std::string& args) {
-  const std::string cmd = std::string(TETHER_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using tether::testing::CliRun;
+using tether::testing::Tether;
 
 std::string ReadAll(const fs::path& p) {
   std::ifstream in(p);

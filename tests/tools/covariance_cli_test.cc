@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "testing/cli.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/solvers/covariance.h"
@@ -18,21 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int code;
-  std::string output;  // stdout and stderr together
-};
-
-CliRun Tether(const std::string& args) {
-  const std::string cmd = std::string(TETHER_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using tether::testing::CliRun;
+using tether::testing::Tether;
 
 struct CovLine {
   Key id;
