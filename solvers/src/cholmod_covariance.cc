@@ -15,6 +15,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "builtin_linear_solvers.h"
+#include "cholmod_views.h"
 #include "covariance_factor.h"
 #include "minimizer.h"
 #include "serial_openmp.h"
@@ -68,7 +70,7 @@ class CholmodCovariance : public CovarianceFactor {
   }
 
   void Factorize(const Csc& h, const ColumnNamer& name) {
-    cholmod_sparse a = View(h);
+    cholmod_sparse a = CholmodView(View(h), 1);
     SerialOpenMp serial;
     L_ = cholmod_analyze(&a, &cc_);
     if (L_ == nullptr) throw Error("CHOLMOD could not analyse H (status " + std::to_string(cc_.status) + ")");
@@ -84,15 +86,7 @@ class CholmodCovariance : public CovarianceFactor {
   }
 
   Eigen::MatrixXd Solve(const Eigen::MatrixXd& b) override {
-    cholmod_dense bd;
-    std::memset(&bd, 0, sizeof(bd));
-    bd.nrow = b.rows();
-    bd.ncol = b.cols();
-    bd.nzmax = b.size();
-    bd.d = b.rows();
-    bd.x = const_cast<double*>(b.data());
-    bd.xtype = CHOLMOD_REAL;
-    bd.dtype = CHOLMOD_DOUBLE;
+    cholmod_dense bd = DenseView(const_cast<double*>(b.data()), b.rows(), b.cols());
     SerialOpenMp serial;
     cholmod_dense* x = cholmod_solve(CHOLMOD_A, L_, &bd, &cc_);
     if (x == nullptr) throw Error("CHOLMOD could not solve (status " + std::to_string(cc_.status) + ")");
@@ -124,24 +118,6 @@ class CholmodCovariance : public CovarianceFactor {
   }
 
  private:
-  static cholmod_sparse View(const Csc& h) {
-    cholmod_sparse s;
-    std::memset(&s, 0, sizeof(s));
-    s.nrow = h.rows;
-    s.ncol = h.cols;
-    s.nzmax = h.colptr[h.cols];
-    s.p = const_cast<int*>(h.colptr.data());
-    s.i = const_cast<int*>(h.rowind.data());
-    s.x = const_cast<double*>(h.values.data());
-    s.stype = 1;
-    s.itype = CHOLMOD_INT;
-    s.xtype = CHOLMOD_REAL;
-    s.dtype = CHOLMOD_DOUBLE;
-    s.sorted = 1;
-    s.packed = 1;
-    return s;
-  }
-
   void CheckPositive(const ColumnNamer& name) {
     const int* perm = static_cast<const int*>(L_->Perm);
     int bad = -1;

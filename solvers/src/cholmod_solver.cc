@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "builtin_linear_solvers.h"
+#include "cholmod_views.h"
 #include "serial_openmp.h"
 #include "tether/core/error.h"
 
@@ -12,38 +13,6 @@ namespace tether {
 namespace internal {
 
 namespace {
-
-// A cholmod_sparse header that borrows the arrays of a matrix view (no copy).
-cholmod_sparse CholmodView(const SparseMatrixView& a, int stype) {
-  cholmod_sparse s;
-  std::memset(&s, 0, sizeof(s));
-  s.nrow = a.rows;
-  s.ncol = a.cols;
-  s.nzmax = a.colptr[a.cols];
-  s.p = const_cast<int*>(a.colptr);
-  s.i = const_cast<int*>(a.rowind);
-  s.x = const_cast<double*>(a.values);
-  s.stype = stype;
-  s.itype = CHOLMOD_INT;
-  s.xtype = CHOLMOD_REAL;
-  s.dtype = CHOLMOD_DOUBLE;
-  s.sorted = 1;
-  s.packed = 1;
-  return s;
-}
-
-cholmod_dense DenseView(double* x, int n) {
-  cholmod_dense d;
-  std::memset(&d, 0, sizeof(d));
-  d.nrow = n;
-  d.ncol = 1;
-  d.nzmax = n;
-  d.d = n;
-  d.x = x;
-  d.xtype = CHOLMOD_REAL;
-  d.dtype = CHOLMOD_DOUBLE;
-  return d;
-}
 
 class Cholmod : public LinearSolver {
  public:

@@ -7,6 +7,7 @@
 #include <SuiteSparseQR.hpp>
 #include <cstring>
 
+#include "cholmod_views.h"
 #include "minimizer.h"
 #include "tether/solvers/covariance.h"
 
@@ -126,15 +127,7 @@ class QrCovariance : public CovarianceFactor {
   }
   ~QrCovariance() override { Release(); }
   Eigen::MatrixXd Solve(const Eigen::MatrixXd& b) override {
-    cholmod_dense bd;
-    std::memset(&bd, 0, sizeof(bd));
-    bd.nrow = b.rows();
-    bd.ncol = b.cols();
-    bd.nzmax = b.size();
-    bd.d = b.rows();
-    bd.x = const_cast<double*>(b.data());
-    bd.xtype = CHOLMOD_REAL;
-    bd.dtype = CHOLMOD_DOUBLE;
+    cholmod_dense bd = DenseView(const_cast<double*>(b.data()), b.rows(), b.cols());
     // R^T y = E^T b, then x = E R^-1 y.
     cholmod_dense* y = SuiteSparseQR_solve<double>(SPQR_RTX_EQUALS_ETB, qr_, &bd, &cc_);
     cholmod_dense* x = y ? SuiteSparseQR_solve<double>(SPQR_RETX_EQUALS_B, qr_, y, &cc_) : nullptr;
