@@ -200,37 +200,36 @@ VarType VarTypeOf() {
   }
 }
 
-template <>
-struct VariableTraits<SE2d> {
-  static constexpr VarType kBuiltin = VarType::kSE2;
-  static constexpr const char* kName = "SE2";
-  static constexpr const char* kTag = "VERTEX_SE2";
-  static constexpr const char* kParameterNames = "x y theta";
-  static constexpr int kAmbient = 3, kTangent = 3;
+/// What the two built-in pose types share: box-plus and box-minus through RetractParams and
+/// LocalParams, conversion through the group's own parameter layout.
+template <class Pose, VarType kId, int kAmbientDim, int kTangentDim>
+struct PoseTraits {
+  static constexpr VarType kBuiltin = kId;
+  static constexpr int kAmbient = kAmbientDim, kTangent = kTangentDim;
   template <typename T>
   static void Retract(const T* x, const T* d, T* out) {
     RetractParams<T>(kBuiltin, x, d, out);
   }
   static void Local(const double* x, const double* y, double* d) { LocalParams(kBuiltin, x, y, d); }
-  static void Identity(double* x) { x[0] = x[1] = x[2] = 0.0; }
-  static bool Canonicalize(double* x);  // wraps theta to (-pi, pi]
-  static constexpr const char* kCanonicalizeNote = "";
-  static SE2d FromParams(const double* p) { return SE2d::FromParams(p); }
-  static void ToParams(const SE2d& v, double* p) { v.ToParams(p); }
+  static Pose FromParams(const double* p) { return Pose::FromParams(p); }
+  static void ToParams(const Pose& v, double* p) { v.ToParams(p); }
 };
 
 template <>
-struct VariableTraits<SE3d> {
-  static constexpr VarType kBuiltin = VarType::kSE3;
+struct VariableTraits<SE2d> : PoseTraits<SE2d, VarType::kSE2, 3, 3> {
+  static constexpr const char* kName = "SE2";
+  static constexpr const char* kTag = "VERTEX_SE2";
+  static constexpr const char* kParameterNames = "x y theta";
+  static void Identity(double* x) { x[0] = x[1] = x[2] = 0.0; }
+  static bool Canonicalize(double* x);  // wraps theta to (-pi, pi]
+  static constexpr const char* kCanonicalizeNote = "";
+};
+
+template <>
+struct VariableTraits<SE3d> : PoseTraits<SE3d, VarType::kSE3, 7, 6> {
   static constexpr const char* kName = "SE3";
   static constexpr const char* kTag = "VERTEX_SE3:QUAT";
   static constexpr const char* kParameterNames = "x y z qx qy qz qw";
-  static constexpr int kAmbient = 7, kTangent = 6;
-  template <typename T>
-  static void Retract(const T* x, const T* d, T* out) {
-    RetractParams<T>(kBuiltin, x, d, out);
-  }
-  static void Local(const double* x, const double* y, double* d) { LocalParams(kBuiltin, x, y, d); }
   static void Identity(double* x) {
     for (int i = 0; i < 6; ++i) x[i] = 0.0;
     x[6] = 1.0;
@@ -239,8 +238,6 @@ struct VariableTraits<SE3d> {
   /// InvalidArgument for a zero quaternion.
   static bool Canonicalize(double* x);
   static constexpr const char* kCanonicalizeNote = "normalised quaternions that were far from unit length";
-  static SE3d FromParams(const double* p) { return SE3d::FromParams(p); }
-  static void ToParams(const SE3d& v, double* p) { v.ToParams(p); }
 };
 
 template <int N, VarType kId>
