@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <set>
 #include <utility>
 
+#include "incremental_cholesky.h"
 #include "tether/core/error.h"
 #include "tether/solvers/optimizer.h"
 
@@ -21,33 +24,179 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
 
 SmootherOptions::SmootherOptions() {
   update.max_iterations = 10;
-  update.function_tolerance = 1e-6;
   finish.max_iterations = 100;
   finish.function_tolerance = 1e-12;
 }
 
 bool SmootherOptions::IsValid(std::string* why) const {
   std::string reason;
-  if (!update.IsValid(&reason)) {
-    if (why) *why = "update: " + reason;
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
     return false;
-  }
-  if (!finish.IsValid(&reason)) {
-    if (why) *why = "finish: " + reason;
-    return false;
-  }
-  if (std::isnan(skip_solve_chi2)) {
-    if (why) *why = "skip_solve_chi2 is not a number";
-    return false;
-  }
-  if (!covariance.IsValid(&reason)) {
-    if (why) *why = "covariance: " + reason;
-    return false;
-  }
+  };
+  if (!(relinearize_threshold >= 0)) return fail("relinearize_threshold must be 0 or more");
+  if (!(wildfire_threshold >= 0)) return fail("wildfire_threshold must be 0 or more");
+  if (rounds_per_update < 1) return fail("rounds_per_update must be at least 1");
+  if (!update.IsValid(&reason)) return fail("update: " + reason);
+  if (!finish.IsValid(&reason)) return fail("finish: " + reason);
+  if (!covariance.IsValid(&reason)) return fail("covariance: " + reason);
   return true;
 }
 
-IncrementalSmoother::IncrementalSmoother(const SmootherOptions& options) : options_(options) {
+// The smoother's bookkeeping around the factor: keys and handles to the factor's indices, the
+// linearisation point theta of every variable (the estimate is theta (+) delta), the factors'
+// uses of every variable (for the gauge and for erasing variables), and the variables whose
+// step has grown beyond the threshold.
+struct IncrementalSmoother::State {
+  internal::IncrementalCholesky engine;
+  std::unordered_map<Key, int> index_of;
+  std::vector<Key> key_of;
+  std::vector<VarType> type_of;
+  std::vector<std::vector<double>> theta;  // empty for removed variables
+  std::unordered_map<FactorId, int> slot_of;
+  std::vector<const Factor*> factor_of_slot;  // null for removed factors
+  std::unordered_map<Key, int> uses;
+  std::set<Key> used_poses;  // poses some factor uses: the lowest is the automatic gauge
+  int unary = 0;             // factors on one variable (priors): no automatic gauge then
+  std::set<Key> constants;
+  std::vector<int> pending;  // variables to re-linearise
+  std::vector<char> is_pending;
+  std::vector<const double*> params;  // scratch for Linearize
+  std::vector<double*> jacobians;
+
+  void AddVariable(Key k, VarType type, const double* p) {
+    const int v = engine.AddVariable(TangentDim(type));
+    index_of[k] = v;
+    key_of.push_back(k);
+    type_of.push_back(type);
+    theta.emplace_back(p, p + AmbientDim(type));
+    is_pending.push_back(0);
+  }
+  void Use(Key k, bool unary_factor, VarType type) {
+    if (uses[k]++ == 0 && IsPose(type)) used_poses.insert(k);
+    if (unary_factor) ++unary;
+  }
+  void Unuse(Key k, bool unary_factor) {
+    if (--uses[k] == 0) used_poses.erase(k);
+    if (unary_factor) --unary;
+  }
+  void RemoveVariable(Key k) {
+    const int v = index_of.at(k);
+    engine.RemoveVariable(v);
+    index_of.erase(k);
+    theta[v].clear();
+    theta[v].shrink_to_fit();
+    constants.erase(k);
+  }
+  bool Alive(int v) const { return !theta[v].empty(); }
+
+  // Evaluates a factor at the linearisation point of its variables (and marks them touched).
+  bool Linearize(int slot) {
+    const Factor* f = factor_of_slot[static_cast<std::size_t>(slot)];
+    const std::vector<int>& vars = engine.vars_of(slot);
+    params.resize(vars.size());
+    jacobians.resize(vars.size());
+    for (std::size_t k = 0; k < vars.size(); ++k) {
+      params[k] = theta[vars[k]].data();
+      jacobians[k] = engine.IsConstant(vars[k]) ? nullptr : engine.JacobianBlock(slot, static_cast<int>(k));
+    }
+    double* r = engine.Residual(slot);
+    engine.Touch(slot);
+    if (!f->Linearize(params.data(), r, jacobians.data())) return false;
+    for (int i = 0; i < f->dim(); ++i) {
+      if (!std::isfinite(r[i])) return false;
+    }
+    return true;
+  }
+
+  // Moves the linearisation point of variable v to the estimate (theta (+) delta) and marks
+  // its factors for re-linearisation in *slots.
+  void Fold(int v, const Values& estimate, std::vector<int>* slots) {
+    const double* x = estimate.Params(key_of[v]);
+    std::copy(x, x + theta[v].size(), theta[v].begin());
+    engine.ClearDelta(v);
+    for (int f : engine.factors_of(v)) slots->push_back(f);
+  }
+
+  bool LinearizeAll(std::vector<int>* slots) {
+    std::sort(slots->begin(), slots->end());
+    slots->erase(std::unique(slots->begin(), slots->end()), slots->end());
+    bool ok = true;
+    for (int f : *slots) ok = Linearize(f) && ok;
+    return ok;
+  }
+
+  // The pending variables get their linearisation point moved and their factors re-evaluated.
+  bool Relinearize(const Values& estimate) {
+    std::vector<int> slots;
+    for (int v : pending) {
+      is_pending[v] = 0;
+      if (Alive(v)) Fold(v, estimate, &slots);
+    }
+    pending.clear();
+    return LinearizeAll(&slots);
+  }
+
+  // The graph's fixed set, or where it fixes nothing and no prior anchors it, the lowest-key
+  // pose some factor uses (as Optimize chooses). A variable that changes sides has its step
+  // folded into its linearisation point first, so that its estimate stays where it is.
+  bool UpdateConstants(const FactorGraph& graph, const Values& estimate) {
+    std::set<Key> want = graph.fixed();
+    if (want.empty() && unary == 0 && !used_poses.empty()) want.insert(*used_poses.begin());
+    if (want == constants) return true;
+    std::vector<int> slots;
+    auto flip = [&](Key k, bool constant) {
+      const int v = index_of.at(k);
+      Fold(v, estimate, &slots);
+      engine.SetConstant(v, constant);
+    };
+    for (Key k : constants) {
+      if (!want.count(k) && index_of.count(k)) flip(k, false);
+    }
+    for (Key k : want) {
+      if (!constants.count(k)) flip(k, true);
+    }
+    constants = want;
+    return LinearizeAll(&slots);
+  }
+
+  // The estimate of every variable whose step changed; the ones beyond the threshold become
+  // pending. Nothing changes where a step is not finite.
+  bool Apply(const std::vector<int>& changed, double threshold, Values* estimate, std::string* why) {
+    for (int v : changed) {
+      if (Alive(v) && !engine.delta(v).allFinite()) {
+        *why = "the step of " + KeyToString(key_of[v]) + " is not finite";
+        return false;
+      }
+    }
+    for (int v : changed) {
+      if (!Alive(v)) continue;
+      const Eigen::VectorXd& d = engine.delta(v);
+      RetractParams(type_of[v], theta[v].data(), d.data(), estimate->Params(key_of[v]));
+      if (d.lpNorm<Eigen::Infinity>() > threshold && !is_pending[v]) {
+        is_pending[v] = 1;
+        pending.push_back(v);
+      }
+    }
+    return true;
+  }
+
+  // Linearisation point = estimate everywhere, every factor re-evaluated, and the whole factor
+  // rebuilt at the next solve (after Finish() or a failure).
+  void Reset(const Values& estimate) {
+    std::vector<int> slots;
+    for (std::size_t v = 0; v < theta.size(); ++v) {
+      if (Alive(static_cast<int>(v))) Fold(static_cast<int>(v), estimate, &slots);
+      is_pending[v] = 0;
+    }
+    pending.clear();
+    LinearizeAll(&slots);
+    engine.RequestFullRefactor();
+  }
+};
+
+IncrementalSmoother::IncrementalSmoother(const SmootherOptions& options)
+    : options_(options), state_(std::make_unique<State>()) {
   std::string why;
   if (!options_.IsValid(&why)) throw InvalidArgument("invalid smoother options: " + why);
 }
@@ -111,27 +260,60 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
 
   // The changes. Nothing below throws for bad input any more.
   SmootherUpdate u;
+  State& st = *state_;
   marginals_.reset();
+  if (options_.compute_chi2) {
+    // Of the graph after the update at the previous estimate plus the new values.
+    u.chi2_before = 0;
+    for (const auto& f : graph_.factors()) u.chi2_before += f->Chi2(estimate_);
+    Values with_new = estimate_;
+    for (Key k : new_values.keys()) with_new.InsertParams(k, new_values.TypeOf(k), new_values.Params(k));
+    for (std::size_t i = 0; i < new_factors.size(); ++i) u.chi2_before += new_factors.at(i).Chi2(with_new);
+    for (FactorId id : factors_to_remove) {
+      std::size_t index = 0;
+      graph_.IndexOf(id, &index);
+      u.chi2_before -= graph_.at(index).Chi2(estimate_);
+    }
+  }
   std::vector<Key> touched;  // variables of the removed factors
   for (FactorId id : factors_to_remove) {
     std::size_t index = 0;
     graph_.IndexOf(id, &index);
     for (Key k : graph_.at(index).keys()) {
-      --uses_[k];
+      st.Unuse(k, graph_.at(index).keys().size() == 1);
       touched.push_back(k);
     }
+    auto slot = st.slot_of.find(id);
+    st.engine.RemoveFactor(slot->second);
+    st.factor_of_slot[slot->second] = nullptr;
+    st.slot_of.erase(slot);
     graph_.Remove(id);
     ++u.factors_removed;
   }
   for (Key k : new_values.keys()) {
-    estimate_.InsertParams(k, new_values.TypeOf(k), new_values.Params(k));
+    const VarType type = new_values.TypeOf(k);
+    estimate_.InsertParams(k, type, new_values.Params(k));
+    st.AddVariable(k, type, new_values.Params(k));
     ++u.variables_added;
   }
   u.new_factor_ids.reserve(new_factors.size());
+  std::vector<int> new_slots;
   for (std::size_t i = 0; i < new_factors.size(); ++i) {
     std::unique_ptr<Factor> f = new_factors.at(i).Clone();
-    for (Key k : f->keys()) ++uses_[k];
-    u.new_factor_ids.push_back(graph_.Add(std::move(f)));
+    const Factor* raw = f.get();
+    std::vector<int> vars;
+    for (Key k : f->keys()) {
+      st.Use(k, f->keys().size() == 1, estimate_.TypeOf(k));
+      vars.push_back(st.index_of.at(k));
+    }
+    const FactorId id = graph_.Add(std::move(f));
+    const int slot = st.engine.AddFactor(vars, raw->dim());
+    if (st.factor_of_slot.size() <= static_cast<std::size_t>(slot)) st.factor_of_slot.resize(slot + 1, nullptr);
+    st.factor_of_slot[slot] = raw;
+    st.slot_of[id] = slot;
+    for (int v : vars) st.engine.MarkRecent(v);
+    new_slots.push_back(slot);
+    u.new_factor_ids.push_back(id);
     ++u.factors_added;
   }
   for (Key k : new_factors.fixed()) graph_.Fix(k);
@@ -139,47 +321,68 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   for (Key k : touched) {
-    auto it = uses_.find(k);
-    if (it != uses_.end() && it->second == 0) {
-      uses_.erase(it);
+    auto it = st.uses.find(k);
+    if (it != st.uses.end() && it->second == 0) {
+      st.uses.erase(it);
       graph_.Unfix(k);
+      st.RemoveVariable(k);
       if (estimate_.Erase(k)) ++u.variables_removed;
     }
   }
+  std::string why;
+  const auto t_lin = std::chrono::steady_clock::now();
+  // The constant variables: the graph's fixed set, or the automatic gauge.
+  bool ok = st.UpdateConstants(graph_, estimate_);
+  for (int slot : new_slots) ok = st.Linearize(slot) && ok;
+  u.linearize_seconds += SecondsSince(t_lin);
+  if (!ok) why = "a factor cannot be evaluated at its variables' values";
 
-  // New factors with zero error leave a stationary point stationary: no solve.
-  if (factors_to_remove.empty() && converged_ && options_.skip_solve_chi2 >= 0) {
-    double added = 0;
-    for (std::size_t i = 0; i < new_factors.size() && added <= options_.skip_solve_chi2; ++i) {
-      added += new_factors.at(i).Chi2(estimate_);
-    }
-    if (added <= options_.skip_solve_chi2) {
-      u.skipped = true;
-      chi2_ += added;
-      u.chi2_before = u.chi2_after = chi2_;
-      u.seconds = SecondsSince(t0);
-      return u;
-    }
-  }
   if (graph_.empty()) {
-    chi2_ = 0;
-    converged_ = true;
+    u.chi2_after = 0;
   } else {
-    const SolverSummary s = Optimize(graph_, &estimate_, options_.update);
     u.solved = true;
-    u.structure_rebuilt = true;
-    u.status = s.status;
-    u.message = s.message;
-    u.iterations = s.iterations;
-    u.chi2_before = s.initial_chi2;
-    u.chi2_after = s.final_chi2;
-    u.setup_seconds = s.setup_seconds;
-    u.linearize_seconds = s.linearize_seconds;
-    u.factorize_seconds = s.factorize_seconds;
-    u.solve_seconds = s.solve_seconds;
-    chi2_ = s.final_chi2;
-    converged_ = s.status == SolverStatus::kConverged;
+    for (int round = 0; ok && round < options_.rounds_per_update; ++round) {
+      // Move the linearisation points of the variables whose step is beyond the threshold.
+      const auto t0 = std::chrono::steady_clock::now();
+      u.relinearized += static_cast<int>(st.pending.size());
+      ok = st.Relinearize(estimate_) && ok;
+      u.linearize_seconds += SecondsSince(t0);
+      if (!ok) {
+        why = "a factor cannot be evaluated at its variables' values";
+        break;
+      }
+      std::vector<int> changed;
+      const auto t1 = std::chrono::steady_clock::now();
+      if (!st.engine.Solve(options_.wildfire_threshold, &changed, &why)) {
+        ok = false;
+        break;
+      }
+      u.factorize_seconds += SecondsSince(t1);
+      const internal::IncrementalCholesky::Stats& es = st.engine.stats();
+      ++u.iterations;
+      u.structure_rebuilt = u.structure_rebuilt || es.full;
+      u.affected_columns += es.affected;
+      u.back_substituted += es.back_substituted;
+      if (!st.Apply(changed, options_.relinearize_threshold, &estimate_, &why)) {
+        ok = false;
+        break;
+      }
+      if (st.pending.empty()) break;
+    }
+    if (ok) {
+      u.status = SolverStatus::kConverged;
+      u.chi2_after = options_.compute_chi2 ? graph_.Chi2(estimate_) : std::nan("");
+    } else {
+      // The incremental factorisation failed: solve in batch, then start over from there.
+      u.fell_back = true;
+      const SolverSummary s = Optimize(graph_, &estimate_, options_.update);
+      u.status = s.status;
+      u.message = "the incremental solve failed (" + why + "); solved in batch: " + s.message;
+      u.chi2_after = s.final_chi2;
+      st.Reset(estimate_);
+    }
   }
+  if (!options_.compute_chi2) u.chi2_before = u.chi2_after = std::nan("");
   u.seconds = SecondsSince(t0);
   return u;
 }
@@ -197,9 +400,9 @@ const Values& IncrementalSmoother::Finish() {
     finish_summary_.message = "nothing to optimise: the graph has no factor";
     return estimate_;
   }
+  if (std::getenv("TETHER_DEBUG_L")) std::fprintf(stderr, "L entries %lld\n", (long long)state_->engine.FactorEntries());
   finish_summary_ = Optimize(graph_, &estimate_, options_.finish);
-  chi2_ = finish_summary_.final_chi2;
-  converged_ = finish_summary_.status == SolverStatus::kConverged;
+  state_->Reset(estimate_);
   return estimate_;
 }
 

@@ -70,9 +70,8 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     return 2;
   }
   SmootherOptions options;
-  options.update.max_iterations = cmd.update_iterations;
-  options.update.function_tolerance = cmd.update_tolerance;
-  if (cmd.no_skip) options.skip_solve_chi2 = -1;
+  options.rounds_per_update = cmd.update_iterations;
+  options.relinearize_threshold = cmd.update_tolerance;
   std::string why;
   if (!options.IsValid(&why)) {
     err << "error: " << why << "\n";
@@ -109,6 +108,7 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   double max_check_gap = 0;
   int checks = 0;
   int solves = 0, skipped = 0, iterations = 0;
+  long long affected = 0, backsub = 0, relin = 0;
   double setup = 0, linearize = 0, factorize = 0, solve = 0;  // summed over the updates
   FactorGraph pending_factors;
   Values pending_values;
@@ -132,9 +132,12 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     }
     latencies.push_back(SecondsSince(t0));
     solves += u.solved ? 1 : 0;
-    skipped += u.skipped ? 1 : 0;
+    skipped += u.structure_rebuilt ? 1 : 0;
     iterations += u.iterations;
-    setup += u.setup_seconds;
+    affected += u.affected_columns;
+    backsub += u.back_substituted;
+    relin += u.relinearized;
+    setup += 0;
     linearize += u.linearize_seconds;
     factorize += u.factorize_seconds;
     solve += u.solve_seconds;
@@ -147,11 +150,12 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     if (cmd.check > 0 && latencies.size() % static_cast<std::size_t>(cmd.check) == 0 && !smoother.graph().empty()) {
       Values batch = smoother.Estimate();
       const SolverSummary s = Optimize(smoother.graph(), &batch, smoother.options().finish);
-      const double gap = RelativeGap(u.chi2_after, s.final_chi2);
+      const double online = smoother.graph().Chi2(smoother.Estimate());
+      const double gap = RelativeGap(online, s.final_chi2);
       max_check_gap = std::max(max_check_gap, gap);
       ++checks;
       if (!cmd.quiet) {
-        out << "check at step " << i << ": online chi2 " << Format("%.9g", u.chi2_after) << ", batch "
+        out << "check at step " << i << ": online chi2 " << Format("%.9g", online) << ", batch "
             << Format("%.9g", s.final_chi2) << ", relative gap " << Format("%.3e", gap) << "\n";
       }
     }
@@ -191,6 +195,7 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   const double p99 = n ? sorted[static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(n))) - 1] : 0;
   const double max = n ? sorted.back() : 0;
   out << "updates: " << n << " (" << solves << " solved, " << skipped << " skipped, " << iterations << " iterations)\n";
+  out << "columns refactored: " << affected << ", back-substituted: " << backsub << ", relinearised: " << relin << "\n";
   out << "total [s]: " << Format("%.3f", updates_seconds + finish_seconds) << " (updates "
       << Format("%.3f", updates_seconds) << ", finish " << Format("%.3f", finish_seconds) << ")\n";
   out << "per step [ms]: mean " << Format("%.3f", 1e3 * mean) << ", p99 " << Format("%.3f", 1e3 * p99) << ", max "

@@ -12,14 +12,16 @@
 //   smoother.Update({}, {}, {u.new_factor_ids[0]});        // take the edge out again
 //   const Values& optimum = smoother.Finish();             // the batch optimum
 //
-// Version 1 (this one) re-solves the whole graph on every update that needs a solve:
-// Levenberg-Marquardt (Optimize, options.update), warm-started from the previous estimate plus
-// the new values, for a few iterations. The structure of the linear system, the ordering and
-// the factorisation are rebuilt by every solve; keeping them between updates and redoing only
-// what an update touches is the next step (docs/smoother.md). Each solve is exactly Optimize
-// on the graph so far from the previous estimate. The one thing v1 reuses: an update whose new
-// factors all have zero error at the previous estimate plus the new values (a new pose
-// composed from its odometry edge) keeps the estimate without solving (skip_solve_chi2).
+// How (docs/smoother.md): the smoother keeps a block Cholesky factor of the Gauss-Newton
+// system between updates, linearised at a point theta, with the step delta solved from it;
+// the estimate is theta (+) delta. An update adds and removes the factors' rows, refactors
+// only the columns it affects (the touched variables and their ancestors in the elimination
+// tree, reordered by constrained minimum degree with the newest variables last), redoes the
+// forward solution of those columns and the back substitution where the step changes, and
+// moves the linearisation point of the variables whose step exceeds relinearize_threshold
+// (re-linearising their factors), a few times per update until no step exceeds it. Every
+// estimate is then within a small fraction of the optimum of the graph so far; Finish()
+// solves in batch to convergence.
 //
 // Guarantees:
 // - An update that is invalid (a new value whose key exists, a factor referring to a key that
@@ -33,6 +35,8 @@
 //   number of threads.
 // - After Finish() the estimate is the batch optimum of the graph (Optimize to convergence
 //   from the current estimate).
+// - A factorisation that fails (a variable its factors do not determine, a value that is not
+//   finite) falls back to a batch solve (options.update) for that update; the summary says so.
 #include <Eigen/Core>
 #include <memory>
 #include <string>
@@ -49,22 +53,33 @@ namespace tether {
 struct SmootherOptions {
   SmootherOptions();
 
-  /// The solve after each update, from the previous estimate plus the new values. Defaults:
-  /// Levenberg-Marquardt over CHOLMOD, at most 10 iterations, function_tolerance 1e-6 (not
-  /// Optimize's 1e-8: 15-20% less time on the intel and M3500 replays,
-  /// and every estimate checked stayed within 6e-10 relative chi2 of the optimum so far;
-  /// benchmarks/RESULTS.md), the other settings Optimize's defaults.
+  /// A variable whose step (the infinity norm of its tangent delta from the linearisation
+  /// point) exceeds this is re-linearised: its linearisation point moves to the estimate and
+  /// its factors are evaluated there. Smaller: estimates closer to the optimum so far, more
+  /// columns refactored per update. Default 0.02 (benchmarks/RESULTS.md, "The incremental
+  /// smoother, version 2": every checked estimate of the public files within 1e-4 relative chi2
+  /// of the optimum so far).
+  double relinearize_threshold = 0.02;
+  /// Factorise-solve rounds per update; each round first re-linearises the variables whose
+  /// step exceeded relinearize_threshold, then refactors the affected columns and solves.
+  /// Default 1: re-linearisations found by an update's solve are done at the start of the next
+  /// update (more rounds: closer to the optimum after each update, more time).
+  int rounds_per_update = 1;
+  /// The back substitution goes down the elimination tree below a variable only where the
+  /// variable's step changed by more than this (infinity norm). 0: wherever it changed at all
+  /// (the exact solution of the linear system). Default 1e-9.
+  double wildfire_threshold = 1e-9;
+  /// Evaluate chi2 of the whole graph before and after every update (SmootherUpdate's
+  /// chi2_before and chi2_after): a pass over every factor, so off by default.
+  bool compute_chi2 = false;
+  /// The batch solve an update falls back to where the incremental factorisation fails.
+  /// Defaults: Levenberg-Marquardt over CHOLMOD, at most 10 iterations, the other settings
+  /// Optimize's defaults.
   SolverOptions update;
   /// Finish(): a solve to convergence. Defaults: Levenberg-Marquardt over CHOLMOD, at most 100
   /// iterations, function_tolerance 1e-12 (so that the result is the batch optimum to the
   /// last digits, not merely close to it).
   SolverOptions finish;
-  /// An update that removes nothing, after a solve that converged, whose new factors have
-  /// together at most this chi2 at the previous estimate plus the new values (a new pose
-  /// placed where its odometry edge puts it) keeps the estimate without solving: factors with
-  /// zero error add nothing to the gradient, so the previous stationary point is one of the
-  /// new graph too. Default 1e-12; negative: solve after every update.
-  double skip_solve_chi2 = 1e-12;
   /// Marginal(key): the method of tether::Marginals (default CHOLMOD, sparse inverse subset).
   CovarianceOptions covariance;
 
@@ -82,22 +97,26 @@ struct SmootherUpdate {
   /// The handles of the new factors, in the order of the update's graph. Pass them in a later
   /// update's factors_to_remove to take the factors out.
   std::vector<FactorId> new_factor_ids;
-  /// False where there was nothing to solve (no factor in the graph) or the solve was skipped.
+  /// False where there was nothing to solve (no factor in the graph).
   bool solved = false;
-  /// The solve was skipped: the new factors have zero error at the estimate (skip_solve_chi2).
-  bool skipped = false;
-  /// Whether the linear system's structure (ordering, symbolic factorisation) was built anew.
-  /// Version 1 rebuilds it on every solve.
+  /// Every column was refactored (the first update, a changed gauge or fixed set, after
+  /// Finish() or a failure).
   bool structure_rebuilt = false;
+  /// The incremental factorisation failed and the update was solved in batch (options.update).
+  bool fell_back = false;
   SolverStatus status = SolverStatus::kConverged;  ///< of the solve
-  std::string message;                             ///< the solver's reason to stop
-  int iterations = 0;
-  double chi2_before = 0;  ///< of the whole graph at the previous estimate plus the new values
-  double chi2_after = 0;   ///< at the new estimate
-  double seconds = 0;      ///< the whole update: checks, changes and solve
-  /// The solve's split (SolverSummary): building the structure (ordering, symbolic analysis),
-  /// evaluating and assembling, numeric factorisations, solving for the steps.
-  double setup_seconds = 0;
+  std::string message;                             ///< what happened, where it is not plain
+  int iterations = 0;              ///< factorise-solve rounds
+  int affected_columns = 0;        ///< columns refactored, summed over the rounds
+  int back_substituted = 0;        ///< columns whose step was recomputed, summed over the rounds
+  int relinearized = 0;            ///< variables whose linearisation point moved
+  /// Of the whole graph at the previous estimate plus the new values, and at the new estimate;
+  /// NaN unless options.compute_chi2.
+  double chi2_before = 0;
+  double chi2_after = 0;
+  double seconds = 0;              ///< the whole update: checks, changes and solve
+  /// Evaluating factors; ordering and refactoring the affected columns (with their forward
+  /// solution); the back substitution.
   double linearize_seconds = 0;
   double factorize_seconds = 0;
   double solve_seconds = 0;
@@ -136,13 +155,12 @@ class IncrementalSmoother {
   const SmootherOptions& options() const { return options_; }
 
  private:
+  struct State;
   SmootherOptions options_;
   FactorGraph graph_;
   Values estimate_;
   SolverSummary finish_summary_;
-  std::unordered_map<Key, int> uses_;  // factors of graph_ per variable
-  double chi2_ = 0;                    // of graph_ at estimate_
-  bool converged_ = true;              // estimate_ is a stationary point of graph_ (to the solve's tolerances)
+  std::unique_ptr<State> state_;                  // the factor, linearisation point, bookkeeping
   mutable std::unique_ptr<Marginals> marginals_;  // of the current graph and estimate
 };
 

@@ -24,8 +24,8 @@ struct ReplayCommand {
   bool quiet = false;  ///< only the summary lines
   /// The smoother's per-update solve (SmootherOptions::update): iteration limit and
   /// function tolerance; and whether updates whose new factors have zero error skip the solve.
-  int update_iterations = SmootherOptions().update.max_iterations;
-  double update_tolerance = SmootherOptions().update.function_tolerance;
+  int update_iterations = SmootherOptions().rounds_per_update;
+  double update_tolerance = SmootherOptions().relinearize_threshold;
   bool no_skip = false;
 };
 

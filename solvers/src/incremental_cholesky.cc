@@ -1,0 +1,421 @@
+#include "incremental_cholesky.h"
+
+#include <camd.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <queue>
+#include <utility>
+
+namespace tether {
+namespace internal {
+
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+void EraseValue(std::vector<int>* v, int x) {
+  auto it = std::find(v->begin(), v->end(), x);
+  if (it != v->end()) v->erase(it);
+}
+
+}  // namespace
+
+int IncrementalCholesky::AddVariable(int dim) {
+  Var v;
+  v.dim = dim;
+  v.alive = true;
+  v.y = Eigen::VectorXd::Zero(dim);
+  v.delta = Eigen::VectorXd::Zero(dim);
+  vars_.push_back(std::move(v));
+  stamp_.push_back(0);
+  pos_.push_back(-1);
+  seen_.push_back(0);
+  scratch_.push_back(0);
+  return static_cast<int>(vars_.size()) - 1;
+}
+
+void IncrementalCholesky::RemoveVariable(int v) {
+  // Its column (if any) stays until the next Solve, which walks the tree through it; the
+  // removal of its factors touched it.
+  vars_[v].alive = false;
+  touched_.push_back(v);
+}
+
+void IncrementalCholesky::SetConstant(int v, bool constant) {
+  if (vars_[v].constant == constant) return;
+  vars_[v].constant = constant;
+  full_ = true;
+}
+
+int IncrementalCholesky::AddFactor(const std::vector<int>& vars, int rows) {
+  FactorSlot f;
+  f.alive = true;
+  f.rows = rows;
+  f.vars = vars;
+  int total = 0;
+  for (int v : vars) {
+    f.offsets.push_back(total);
+    total += rows * vars_[v].dim;
+  }
+  f.J.assign(static_cast<std::size_t>(total), 0.0);
+  f.r = Eigen::VectorXd::Zero(rows);
+  factors_.push_back(std::move(f));
+  const int id = static_cast<int>(factors_.size()) - 1;
+  for (int v : vars) vars_[v].factors.push_back(id);
+  Touch(id);
+  return id;
+}
+
+void IncrementalCholesky::RemoveFactor(int id) {
+  FactorSlot& f = factors_[id];
+  Touch(id);
+  for (int v : f.vars) EraseValue(&vars_[v].factors, id);
+  f.alive = false;
+  f.J.clear();
+  f.J.shrink_to_fit();
+  f.r.resize(0);
+}
+
+void IncrementalCholesky::Touch(int f) {
+  for (int v : factors_[f].vars) touched_.push_back(v);
+}
+
+std::int64_t IncrementalCholesky::FactorEntries() const {
+  std::int64_t n = 0;
+  for (const Var& v : vars_) n += v.L.size();
+  return n;
+}
+
+int IncrementalCholesky::Parent(int v) const {
+  const Var& c = vars_[v];
+  return pos_[v] < 0 || c.rows.empty() ? -1 : c.rows.front();
+}
+
+int IncrementalCholesky::RowIndex(const Var& col, std::int64_t pos) const {
+  auto it = std::lower_bound(col.rows.begin(), col.rows.end(), pos,
+                             [&](int r, std::int64_t p) { return pos_[r] < p; });
+  return static_cast<int>(it - col.rows.begin());
+}
+
+// Puts the rows of column k back in position order (its rows among the affected columns got
+// new positions), moving their blocks of L with them.
+void IncrementalCholesky::SortRows(int k) {
+  Var& c = vars_[k];
+  auto by_pos = [&](int a, int b) { return pos_[a] < pos_[b]; };
+  if (std::is_sorted(c.rows.begin(), c.rows.end(), by_pos)) return;
+  std::vector<int> order(c.rows.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return by_pos(c.rows[a], c.rows[b]); });
+  Eigen::MatrixXd L(c.L.rows(), c.L.cols());
+  L.topRows(c.dim) = c.L.topRows(c.dim);
+  std::vector<int> rows(c.rows.size()), offsets(c.rows.size());
+  int at = c.dim;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const int r = c.rows[order[i]];
+    const int dr = vars_[r].dim;
+    L.middleRows(at, dr) = c.L.middleRows(c.offsets[order[i]], dr);
+    rows[i] = r;
+    offsets[i] = at;
+    at += dr;
+  }
+  c.L.swap(L);
+  c.rows.swap(rows);
+  c.offsets.swap(offsets);
+}
+
+// The touched variables and every ancestor of theirs in the elimination tree (all variables
+// for a full refactor), marked with stamp_now_. Their columns are cleared.
+void IncrementalCholesky::Affected(std::vector<int>* affected) {
+  ++stamp_now_;
+  const std::uint32_t mark = stamp_now_;
+  if (full_) {
+    for (std::size_t v = 0; v < vars_.size(); ++v) {
+      if (vars_[v].alive || pos_[v] >= 0) {
+        stamp_[v] = mark;
+        affected->push_back(static_cast<int>(v));
+      }
+    }
+  } else {
+    for (int t : touched_) {
+      for (int v = t; v >= 0 && stamp_[v] != mark; v = Parent(v)) {
+        stamp_[v] = mark;
+        affected->push_back(v);
+      }
+    }
+  }
+  for (int a : *affected) {
+    Var& c = vars_[a];
+    // Columns below the affected ones keep their entries; affected columns are rebuilt.
+    auto& d = c.dependents;
+    d.erase(std::remove_if(d.begin(), d.end(), [&](int k) { return stamp_[k] == mark; }), d.end());
+    c.L.resize(0, 0);
+    c.rows.clear();
+    c.offsets.clear();
+    pos_[a] = -1;
+  }
+}
+
+// Orders the affected columns: CAMD on the graph of their Schur complement (edges of the
+// factors among them, and a clique over the affected rows of every unaffected column that
+// reaches them), with the recent variables constrained to come last.
+void IncrementalCholesky::Order(std::vector<int>* columns) {
+  const int n = static_cast<int>(columns->size());
+  if (n <= 1) return;
+  const std::uint32_t mark = stamp_now_;  // affected
+  for (int i = 0; i < n; ++i) scratch_[(*columns)[i]] = i;
+  auto in_columns = [&](int u) { return stamp_[u] == mark && InSystem(vars_[u]); };
+  // The cliques: an unaffected column whose parent is affected (the root of a subtree the
+  // update leaves alone) adds a clique over its affected rows. Every other unaffected column
+  // below has its rows among its parent's, so its clique is inside one of those.
+  std::vector<std::vector<int>> cliques;
+  std::vector<std::vector<int>> cliques_of(static_cast<std::size_t>(n));
+  ++seen_now_;
+  for (int i = 0; i < n; ++i) {
+    for (int k : vars_[(*columns)[i]].dependents) {
+      const Var& ck = vars_[k];
+      if (pos_[k] < 0 || seen_[k] == seen_now_ || ck.rows.empty() || stamp_[ck.rows.front()] != mark) continue;
+      seen_[k] = seen_now_;
+      std::vector<int> clique;
+      for (int r : ck.rows) {
+        if (in_columns(r)) clique.push_back(scratch_[r]);
+      }
+      if (clique.size() < 2) continue;
+      for (int a : clique) cliques_of[a].push_back(static_cast<int>(cliques.size()));
+      cliques.push_back(std::move(clique));
+    }
+  }
+  std::vector<int> Ap(static_cast<std::size_t>(n) + 1, 0), Ai;
+  std::vector<int> last(static_cast<std::size_t>(n), -1);
+  for (int i = 0; i < n; ++i) {
+    last[i] = i;
+    auto add = [&](int b) {
+      if (last[b] != i) {
+        last[b] = i;
+        Ai.push_back(b);
+      }
+    };
+    for (int f : vars_[(*columns)[i]].factors) {
+      for (int u : factors_[f].vars) {
+        if (in_columns(u)) add(scratch_[u]);
+      }
+    }
+    for (int c : cliques_of[i]) {
+      for (int b : cliques[c]) add(b);
+    }
+    Ap[i + 1] = static_cast<int>(Ai.size());
+  }
+  std::vector<int> C(static_cast<std::size_t>(n), 0);
+  int recent = 0;
+  for (int v : recent_) {
+    if (stamp_[v] == mark && InSystem(vars_[v]) && C[scratch_[v]] == 0) {
+      C[scratch_[v]] = 1;
+      ++recent;
+    }
+  }
+  std::vector<int> P(static_cast<std::size_t>(n));
+  double control[CAMD_CONTROL], info[CAMD_INFO];
+  camd_defaults(control);
+  const int status = camd_order(n, Ap.data(), Ai.empty() ? nullptr : Ai.data(), P.data(), control, info,
+                                recent > 0 && recent < n ? C.data() : nullptr);
+  if (status != CAMD_OK && status != CAMD_OK_BUT_JUMBLED) return;  // keep the order given
+  std::vector<int> ordered(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) ordered[i] = (*columns)[P[i]];
+  columns->swap(ordered);
+}
+
+bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
+  Var& c = vars_[j];
+  const int dj = c.dim;
+  const std::int64_t pj = pos_[j];
+  // The rows: the later variables j shares a factor with, and the later rows of every column
+  // j is a row of (in each, the rows after j: a contiguous tail, rows being in position order).
+  ++stamp_now_;
+  const std::uint32_t mark = stamp_now_;
+  stamp_[j] = mark;
+  std::vector<std::pair<std::int64_t, int>>& rows = row_scratch_;
+  rows.clear();
+  auto add_row = [&](int r) {
+    if (stamp_[r] != mark) {
+      stamp_[r] = mark;
+      rows.emplace_back(pos_[r], r);
+    }
+  };
+  for (int f : c.factors) {
+    for (int u : factors_[f].vars) {
+      if (u != j && InSystem(vars_[u]) && pos_[u] > pj) add_row(u);
+    }
+  }
+  std::vector<int>& at_j = index_scratch_;  // where row j is in each column j depends on
+  at_j.resize(c.dependents.size());
+  for (std::size_t d = 0; d < c.dependents.size(); ++d) {
+    const Var& ck = vars_[c.dependents[d]];
+    at_j[d] = RowIndex(ck, pj);
+    for (std::size_t i = static_cast<std::size_t>(at_j[d]) + 1; i < ck.rows.size(); ++i) add_row(ck.rows[i]);
+  }
+  std::sort(rows.begin(), rows.end());
+  c.rows.resize(rows.size());
+  c.offsets.resize(rows.size());
+  int total = dj;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    c.rows[i] = rows[i].second;
+    c.offsets[i] = total;
+    scratch_[rows[i].second] = total;
+    total += vars_[rows[i].second].dim;
+  }
+  scratch_[j] = 0;
+  c.L.setZero(total, dj);
+  double* F = c.L.data();  // column-major, leading dimension `total`
+  Eigen::VectorXd& b = c.y;  // the right-hand side, then the forward solution
+  b.setZero(dj);
+
+  // H's column j, and the gradient.
+  for (int fi : c.factors) {
+    const FactorSlot& f = factors_[fi];
+    const int kj = static_cast<int>(std::find(f.vars.begin(), f.vars.end(), j) - f.vars.begin());
+    Eigen::Map<const RowMajor> Jj(f.J.data() + f.offsets[kj], f.rows, dj);
+    c.L.topRows(dj).noalias() += Jj.transpose() * Jj;
+    b.noalias() -= Jj.transpose() * f.r;
+    for (std::size_t k = 0; k < f.vars.size(); ++k) {
+      const int u = f.vars[k];
+      if (u == j || stamp_[u] != mark) continue;
+      const int du = vars_[u].dim;
+      Eigen::Map<const RowMajor> Ju(f.J.data() + f.offsets[k], f.rows, du);
+      c.L.middleRows(scratch_[u], du).noalias() += Ju.transpose() * Jj;
+    }
+  }
+  // Minus the contributions of the columns before j that reach row j: for each, one product
+  // of its tail from row j on with its block in row j, scattered into the rows of j.
+  Eigen::MatrixXd& W = product_scratch_;
+  for (std::size_t d = 0; d < c.dependents.size(); ++d) {
+    const Var& ck = vars_[c.dependents[d]];
+    const int dk = ck.dim;
+    const int ij = at_j[d];
+    const int start = ck.offsets[ij];
+    const int len = static_cast<int>(ck.L.rows()) - start;
+    const auto Lkj = ck.L.block(start, 0, dj, dk);
+    b.noalias() -= Lkj * ck.y;
+    W.resize(len, dj);
+    W.noalias() = ck.L.block(start, 0, len, dk).lazyProduct(Lkj.transpose());
+    const double* w = W.data();
+    for (std::size_t i = static_cast<std::size_t>(ij); i < ck.rows.size(); ++i) {
+      const int r = ck.rows[i];
+      const int dr = vars_[r].dim;
+      const int src = ck.offsets[i] - start;
+      const int dst = r == j ? 0 : scratch_[r];
+      for (int col = 0; col < dj; ++col) {
+        double* out = F + static_cast<std::ptrdiff_t>(col) * total + dst;
+        const double* in = w + static_cast<std::ptrdiff_t>(col) * len + src;
+        for (int e = 0; e < dr; ++e) out[e] -= in[e];
+      }
+    }
+  }
+  Eigen::Ref<Eigen::MatrixXd> top = c.L.topRows(dj);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(top);
+  if (llt.info() != Eigen::Success) {
+    if (why) *why = "not positive definite";
+    return false;
+  }
+  c.L.topRows(dj).triangularView<Eigen::StrictlyUpper>().setZero();
+  const auto Ljj = c.L.topRows(dj).triangularView<Eigen::Lower>();
+  if (total > dj) {
+    auto below = c.L.bottomRows(total - dj);
+    Ljj.transpose().solveInPlace<Eigen::OnTheRight>(below);
+  }
+  Ljj.solveInPlace(b);
+  for (int r : c.rows) vars_[r].dependents.push_back(j);
+  return true;
+}
+
+void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double wildfire,
+                                         std::vector<int>* changed) {
+  ++stamp_now_;
+  const std::uint32_t mark = stamp_now_;
+  std::priority_queue<std::pair<std::int64_t, int>> queue;
+  for (int j : columns) {
+    stamp_[j] = mark;
+    queue.emplace(pos_[j], j);
+  }
+  Eigen::VectorXd& x = x_scratch_;
+  Eigen::VectorXd& above = above_scratch_;
+  while (!queue.empty()) {
+    const int j = queue.top().second;
+    queue.pop();
+    Var& c = vars_[j];
+    const int dj = c.dim;
+    const int below = static_cast<int>(c.L.rows()) - dj;
+    x = c.y;
+    if (below > 0) {
+      above.resize(below);
+      for (std::size_t i = 0; i < c.rows.size(); ++i) {
+        const Var& r = vars_[c.rows[i]];
+        above.segment(c.offsets[i] - dj, r.dim) = r.delta;
+      }
+      x.noalias() -= c.L.bottomRows(below).transpose() * above;
+    }
+    c.L.topRows(dj).triangularView<Eigen::Lower>().transpose().solveInPlace(x);
+    const double diff = (x - c.delta).lpNorm<Eigen::Infinity>();
+    c.delta = x;
+    ++stats_.back_substituted;
+    if (diff > 0) changed->push_back(j);
+    if (!(diff <= wildfire)) {
+      for (int k : c.dependents) {
+        if (stamp_[k] != mark) {
+          stamp_[k] = mark;
+          queue.emplace(pos_[k], k);
+        }
+      }
+    }
+  }
+}
+
+bool IncrementalCholesky::Solve(double wildfire, std::vector<int>* changed, std::string* why) {
+  stats_ = Stats{};
+  stats_.full = full_;
+  std::vector<int> affected;
+  Affected(&affected);
+  std::vector<int> columns;
+  columns.reserve(affected.size());
+  for (int a : affected) {
+    Var& c = vars_[a];
+    if (InSystem(c)) {
+      columns.push_back(a);
+      continue;
+    }
+    // Out of the system (removed, constant, or without factors): its step is zero.
+    if (c.delta.size() > 0 && c.delta.lpNorm<Eigen::Infinity>() > 0) {
+      c.delta.setZero();
+      changed->push_back(a);
+    }
+    c.y.setZero();
+    if (!c.alive) c.dependents.clear();
+  }
+  touched_.clear();
+  Order(&columns);
+  recent_.clear();
+  for (int j : columns) pos_[j] = next_pos_++;
+  // The columns below the affected ones that reach them: their rows among the affected ones
+  // have new positions.
+  ++seen_now_;
+  for (int j : columns) {
+    for (int k : vars_[j].dependents) {
+      if (seen_[k] != seen_now_) {
+        seen_[k] = seen_now_;
+        SortRows(k);
+      }
+    }
+  }
+  stats_.affected = static_cast<int>(columns.size());
+  for (int j : columns) {
+    if (!FactorColumn(j, why)) {
+      full_ = true;
+      return false;
+    }
+  }
+  full_ = false;
+  BackSubstitute(columns, wildfire, changed);
+  return true;
+}
+
+}  // namespace internal
+}  // namespace tether

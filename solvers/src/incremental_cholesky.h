@@ -1,0 +1,131 @@
+#pragma once
+// Internal: the incremental smoother's linear algebra. A block-sparse Cholesky factor
+// H = L L^T of the Gauss-Newton system of whitened, linearised factors, kept between updates.
+//
+// Each variable is one block column of L; its elimination position orders the columns. An
+// update marks the variables whose column of H changed ("touched": the variables of added,
+// removed and re-linearised factors). The columns that must be refactored are the touched
+// ones and their ancestors in the elimination tree (the path to the root from each), the
+// "affected" set. Every other column is unchanged, and so is its contribution to the affected
+// columns, which are all eliminated after it. So only the affected columns are reordered (by
+// CAMD, constrained minimum degree, on the graph of their Schur complement; the variables the
+// caller marks as recent go last, where the next update will touch them again), given fresh
+// positions after every other column, and refactored left-looking from the columns they
+// depend on. The forward solution changes only in the affected columns; the back substitution
+// starts at them and goes down the tree while a variable's solution changes by more than a
+// threshold (0: exactly every column that depends on a change).
+//
+// Variables are dense indices handed out by AddVariable; factors are slots from AddFactor,
+// whose whitened Jacobian blocks and residual the caller writes (SetLinearization).
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace tether {
+namespace internal {
+
+class IncrementalCholesky {
+ public:
+  struct Stats {
+    int affected = 0;        ///< columns refactored
+    int back_substituted = 0;  ///< columns whose solution was recomputed
+    bool full = false;       ///< every column was refactored
+  };
+
+  /// A new variable with a tangent of `dim`; its solution starts at zero.
+  int AddVariable(int dim);
+  /// Takes a variable out (it must use no factor). Its index is not reused.
+  void RemoveVariable(int v);
+  /// A constant variable is not solved for (a fixed variable, the gauge); its solution is 0.
+  void SetConstant(int v, bool constant);
+  bool IsConstant(int v) const { return vars_[v].constant; }
+
+  /// A factor over `vars` with `rows` whitened residuals; its linearisation starts at zero.
+  int AddFactor(const std::vector<int>& vars, int rows);
+  void RemoveFactor(int f);
+  /// The factor's whitened Jacobian block of its k-th variable (rows x dim, row-major, as
+  /// Factor::Linearize writes it) and its whitened residual. Marks its variables touched.
+  double* JacobianBlock(int f, int k) { return factors_[f].J.data() + factors_[f].offsets[k]; }
+  double* Residual(int f) { return factors_[f].r.data(); }
+  void Touch(int f);
+
+  /// Marks a variable as recent: the next ordering puts it among the last columns.
+  void MarkRecent(int v) { recent_.push_back(v); }
+  /// Refactors every column on the next Solve (for a changed gauge or fixed set).
+  void RequestFullRefactor() { full_ = true; }
+
+  /// Refactors the affected columns and updates the solution. Returns false, with the reason
+  /// in *why, where a column is not positive definite (the variable it names is not determined
+  /// by its factors); the factor is then invalid until a full refactor succeeds. The variables
+  /// whose solution changed are appended to *changed.
+  bool Solve(double wildfire, std::vector<int>* changed, std::string* why);
+
+  /// The Gauss-Newton step of variable v (zero for constant or unconstrained variables).
+  const Eigen::VectorXd& delta(int v) const { return vars_[v].delta; }
+  /// Sets the step of v to zero (the caller moved its linearisation point by it) and marks
+  /// its factors for re-linearisation by the caller (their variables are touched by Touch).
+  void ClearDelta(int v) { vars_[v].delta.setZero(); }
+  int dim(int v) const { return vars_[v].dim; }
+  const std::vector<int>& factors_of(int v) const { return vars_[v].factors; }
+  const std::vector<int>& vars_of(int f) const { return factors_[f].vars; }
+  const Stats& stats() const { return stats_; }
+  /// Number of stored scalars of L (diagonal blocks in full, for the record).
+  std::int64_t FactorEntries() const;
+
+ private:
+  struct Var {
+    int dim = 0;
+    bool alive = false;
+    bool constant = false;
+    std::vector<int> factors;   // live factor slots using the variable
+    // Column of L: the diagonal block (dim x dim) on top, then one block per row variable.
+    Eigen::MatrixXd L;
+    std::vector<int> rows;      // row variables, in position order
+    std::vector<int> offsets;   // first row of each row variable's block in L
+    std::vector<int> dependents;  // columns whose rows hold this variable
+    Eigen::VectorXd y;          // forward solution
+    Eigen::VectorXd delta;      // back substitution: the step
+  };
+  struct FactorSlot {
+    bool alive = false;
+    int rows = 0;
+    std::vector<int> vars;
+    std::vector<int> offsets;   // of each variable's block in J
+    std::vector<double> J;      // blocks, row-major, one after the other
+    Eigen::VectorXd r;
+  };
+
+  bool InSystem(const Var& v) const { return v.alive && !v.constant && !v.factors.empty(); }
+  int Parent(int v) const;
+  void Affected(std::vector<int>* affected);
+  void Order(std::vector<int>* columns);
+  bool FactorColumn(int j, std::string* why);
+  void BackSubstitute(const std::vector<int>& columns, double wildfire, std::vector<int>* changed);
+  /// The index of the first row of `col` at or after position `pos`.
+  int RowIndex(const Var& col, std::int64_t pos) const;
+  void SortRows(int k);
+
+  std::vector<Var> vars_;
+  std::vector<FactorSlot> factors_;
+  std::vector<int> touched_;
+  std::vector<int> recent_;
+  bool full_ = true;
+  std::int64_t next_pos_ = 0;
+  Stats stats_;
+  // Scratch, indexed by variable.
+  std::vector<std::int64_t> pos_;  // elimination position of each column; -1: none
+  std::vector<std::uint32_t> stamp_;
+  std::uint32_t stamp_now_ = 0;
+  std::vector<std::uint32_t> seen_;
+  std::uint32_t seen_now_ = 0;
+  std::vector<int> scratch_;
+  std::vector<std::pair<std::int64_t, int>> row_scratch_;
+  Eigen::MatrixXd product_scratch_;
+  std::vector<int> index_scratch_;
+  Eigen::VectorXd x_scratch_, above_scratch_;
+};
+
+}  // namespace internal
+}  // namespace tether
