@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <set>
 #include <utility>
@@ -400,7 +398,6 @@ const Values& IncrementalSmoother::Finish() {
     finish_summary_.message = "nothing to optimise: the graph has no factor";
     return estimate_;
   }
-  if (std::getenv("TETHER_DEBUG_L")) std::fprintf(stderr, "L entries %lld\n", (long long)state_->engine.FactorEntries());
   finish_summary_ = Optimize(graph_, &estimate_, options_.finish);
   state_->Reset(estimate_);
   return estimate_;
