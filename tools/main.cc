@@ -79,16 +79,20 @@ int main(int argc, char** argv) {
   CLI::App* replay =
       app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
   replay->add_option("input", rc.input, "Graph file (.g2o, or TORO .graph)")->required();
-  replay->add_option("--every", rc.every, "Update the estimate every N-th pose")->capture_default_str();
-  replay->add_option("--check", rc.check, "Every K-th update, solve the graph so far in batch (untimed) and compare")
+  replay->add_option("--every", rc.options.every, "Update the estimate every N-th pose")->capture_default_str();
+  replay
+      ->add_option("--check", rc.options.check,
+                   "Every K-th update, solve the graph so far in batch (untimed) and compare")
       ->capture_default_str();
-  replay->add_option("-o,--output", rc.output, "Write the final estimate (g2o)");
+  replay->add_option("-o,--output", rc.options.output, "Write the final estimate (g2o)");
+  replay->add_option("--plot", rc.plot, "Write an SVG of every update's latency (mean, p99 and max marked)");
   replay->add_flag("-q,--quiet", rc.quiet, "Only the summary lines");
-  replay->add_option("--update-iterations", rc.update_iterations, "Iteration limit of each update's solve")
+  replay->add_option("--update-iterations", rc.options.update_iterations, "Iteration limit of each update's solve")
       ->capture_default_str();
-  replay->add_option("--update-tolerance", rc.update_tolerance, "Function tolerance of each update's solve")
+  replay->add_option("--update-tolerance", rc.options.update_tolerance, "Function tolerance of each update's solve")
       ->capture_default_str();
-  replay->add_flag("--no-skip", rc.no_skip, "Solve after every update, even where the new factors have zero error");
+  replay->add_flag("--no-skip", rc.options.no_skip,
+                   "Solve after every update, even where the new factors have zero error");
 
   try {
     app.parse(argc, argv);
