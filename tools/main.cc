@@ -63,7 +63,8 @@ int main(int argc, char** argv) {
   list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable")->allow_extra_args(false);
 
   tether::BenchCommand bc;
-  CLI::App* bench = app.add_subcommand("bench", "Time solver configurations on graph files (docs/benchmarking.md)");
+  CLI::App* bench = app.add_subcommand(
+      "bench", "Time solver configurations on graph files, or replays (--replay) (docs/benchmarking.md)");
   bench->add_option("files", bc.files, "Graph files (.g2o, or TORO .graph)");
   bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
   bench->add_option("--linear", bc.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
@@ -72,6 +73,9 @@ int main(int argc, char** argv) {
   bench->add_option("--repeat", bc.repeat, "Runs per configuration")->capture_default_str();
   bench->add_option("--format", bc.format, "md | csv")->capture_default_str();
   bench->add_option("-o,--output", bc.output, "Write the table here instead of stdout");
+  bench->add_flag("--replay", bc.replay,
+                  "Replay each file through the incremental smoother (as tether replay) and tabulate update "
+                  "latencies, chi2 and peak memory");
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
 
