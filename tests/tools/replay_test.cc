@@ -194,7 +194,8 @@ TEST_F(ReplayTest, BadUsageAndMissingFile) {
 }
 
 TEST_F(ReplayTest, CommandLine) {
-  const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " --every 2 -q 2>&1";
+  const std::string plot = (dir_ / "cli.svg").string();
+  const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " --every 2 -q --plot " + plot + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);
   std::string out;
@@ -207,6 +208,10 @@ TEST_F(ReplayTest, CommandLine) {
   const auto f = Fields(out);
   EXPECT_EQ(f.at("updates").substr(0, 4), "100 ");
   EXPECT_GT(std::stod(f.at("peak memory [MiB]")), 0);
+  std::ifstream svg(plot);
+  const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.rfind("<svg", 0), 0u);
+  EXPECT_NE(text.find("class=\"latencies\""), std::string::npos);
   EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
 }
 

@@ -216,7 +216,13 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
                     "the update at step " + std::to_string(i) + " failed: " + ToString(u.status) + ": " + u.message);
     }
     if (ro.check > 0 && r.latencies.size() % static_cast<std::size_t>(ro.check) == 0 && !smoother.graph().empty()) {
-      r.checks.push_back(Check(smoother, i));
+      try {
+        r.checks.push_back(Check(smoother, i));
+      } catch (const Error& e) {
+        LatencyStatistics(&r);
+        return Failed(std::move(r), ReplayStatus::kSolveFailed,
+                      "the check at step " + std::to_string(i) + ": " + e.what());
+      }
       r.max_check_gap = std::max(r.max_check_gap, r.checks.back().gap);
       if (on_check) on_check(r.checks.back());
     }
@@ -224,7 +230,11 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   LatencyStatistics(&r);
 
   const auto t_finish = std::chrono::steady_clock::now();
-  smoother.Finish();
+  try {
+    smoother.Finish();
+  } catch (const Error& e) {
+    return Failed(std::move(r), ReplayStatus::kSolveFailed, std::string("Finish: ") + e.what());
+  }
   r.finish_seconds = SecondsSince(t_finish);
   r.peak_rss_mib = PeakRssMib();
   const SolverSummary& fs = smoother.finish_summary();
