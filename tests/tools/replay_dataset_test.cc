@@ -71,7 +71,8 @@ TEST_P(ReplayDatasetTest, ReachesTheBatchOptimum) {
   RecordProperty("replay_seconds", std::to_string(r.total_seconds()));
   std::cout << GetParam().file << ": " << r.poses << " poses, replay " << r.total_seconds() << " s (p99 "
             << 1e3 * r.p99_seconds << " ms), whole test " << seconds << " s with " << r.checks.size()
-            << " checks, peak " << r.peak_rss_mib << " MiB\n";
+            << " checks (largest gap " << r.max_check_gap << "), final gap " << r.relative_gap << ", peak "
+            << r.peak_rss_mib << " MiB\n";
 
   EXPECT_EQ(r.poses, poses);
   EXPECT_EQ(r.latencies.size(), r.poses) << "one update per pose";
