@@ -63,7 +63,8 @@ int main(int argc, char** argv) {
   list->add_option("--plugin", plist.plugins, "Load this plugin first; repeatable")->allow_extra_args(false);
 
   tether::BenchCommand bc;
-  CLI::App* bench = app.add_subcommand("bench", "Time solver configurations on graph files (docs/benchmarking.md)");
+  CLI::App* bench = app.add_subcommand(
+      "bench", "Time solver configurations on graph files, or replays (--replay) (docs/benchmarking.md)");
   bench->add_option("files", bc.files, "Graph files (.g2o, or TORO .graph)");
   bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
   bench->add_option("--linear", bc.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
@@ -72,6 +73,9 @@ int main(int argc, char** argv) {
   bench->add_option("--repeat", bc.repeat, "Runs per configuration")->capture_default_str();
   bench->add_option("--format", bc.format, "md | csv")->capture_default_str();
   bench->add_option("-o,--output", bc.output, "Write the table here instead of stdout");
+  bench->add_flag("--replay", bc.replay,
+                  "Replay each file through the incremental smoother (as tether replay) and tabulate update "
+                  "latencies, chi2 and peak memory");
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
 
@@ -79,16 +83,22 @@ int main(int argc, char** argv) {
   CLI::App* replay =
       app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
   replay->add_option("input", rc.input, "Graph file (.g2o, or TORO .graph)")->required();
-  replay->add_option("--every", rc.every, "Update the estimate every N-th pose")->capture_default_str();
-  replay->add_option("--check", rc.check, "Every K-th update, solve the graph so far in batch (untimed) and compare")
+  replay->add_option("--every", rc.options.every, "Update the estimate every N-th pose")->capture_default_str();
+  replay
+      ->add_option("--check", rc.options.check,
+                   "Every K-th update, solve the graph so far in batch (untimed) and compare")
       ->capture_default_str();
-  replay->add_option("-o,--output", rc.output, "Write the final estimate (g2o)");
+  replay->add_option("-o,--output", rc.options.output, "Write the final estimate (g2o)");
+  replay->add_option("--plot", rc.plot, "Write an SVG of every update's latency (mean, p99 and max marked)");
   replay->add_flag("-q,--quiet", rc.quiet, "Only the summary lines");
-  replay->add_option("--update-iterations", rc.update_iterations, "Iteration limit of each update's solve")
+  replay
+      ->add_option("--relinearize-threshold", rc.options.relinearize_threshold,
+                   "Re-linearise a variable whose step exceeds this (SmootherOptions::relinearize_threshold)")
       ->capture_default_str();
-  replay->add_option("--update-tolerance", rc.update_tolerance, "Function tolerance of each update's solve")
+  replay
+      ->add_option("--rounds", rc.options.rounds_per_update,
+                   "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();
-  replay->add_flag("--no-skip", rc.no_skip, "Solve after every update, even where the new factors have zero error");
 
   try {
     app.parse(argc, argv);

@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <chrono>
 #include <queue>
 #include <utility>
 
@@ -370,6 +371,7 @@ void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double
 }
 
 bool IncrementalCholesky::Solve(double wildfire, std::vector<int>* changed, std::string* why) {
+  const auto t0 = std::chrono::steady_clock::now();
   stats_ = Stats{};
   stats_.full = full_;
   std::vector<int> affected;
@@ -413,7 +415,10 @@ bool IncrementalCholesky::Solve(double wildfire, std::vector<int>* changed, std:
     }
   }
   full_ = false;
+  const auto t1 = std::chrono::steady_clock::now();
   BackSubstitute(columns, wildfire, changed);
+  stats_.factor_seconds = std::chrono::duration<double>(t1 - t0).count();
+  stats_.back_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   return true;
 }
 

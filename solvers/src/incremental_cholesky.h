@@ -32,6 +32,8 @@ class IncrementalCholesky {
     int affected = 0;        ///< columns refactored
     int back_substituted = 0;  ///< columns whose solution was recomputed
     bool full = false;       ///< every column was refactored
+    double factor_seconds = 0;  ///< finding, ordering and refactoring the affected columns
+    double back_seconds = 0;    ///< the back substitution
   };
 
   /// A new variable with a tangent of `dim`; its solution starts at zero.

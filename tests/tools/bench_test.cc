@@ -1,5 +1,6 @@
 // `tether bench`: rows and columns, agreement with `tether optimize`, the two table formats,
-// progress on stderr, bad usage, and failing or crashing runs reported in their rows.
+// progress on stderr, bad usage, and failing or crashing runs reported in their rows; and the
+// replay mode (--replay).
 #include "tether/tools/bench.h"
 
 #include <gtest/gtest.h>
@@ -10,17 +11,22 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "testing/cli.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/tools/replay.h"
+#include "tether/tools/replay_bench.h"
 #include "tether/tools/simulate.h"
 
 namespace tether {
@@ -454,6 +460,130 @@ TEST_F(BenchTest, PeakMemoryIsPerRun) {
   ASSERT_EQ(small.outcome, BenchOutcome::kSolved) << small.message;
   EXPECT_GT(small.peak_rss_mib, 0);
   EXPECT_GT(large.peak_rss_mib, small.peak_rss_mib + 5) << large.peak_rss_mib << " " << small.peak_rss_mib;
+}
+
+// tether bench --replay: one row per file with the online figures, agreeing with the replay.
+TEST_F(BenchTest, ReplayModeTabulatesEachFile) {
+  BenchCommand cmd;
+  cmd.replay = true;
+  cmd.files = {Simulated("m.g2o", SimWorld::kManhattan, 120), Simulated("s.g2o", SimWorld::kSphere, 60)};
+  cmd.repeat = 2;
+  cmd.format = "csv";
+  ASSERT_EQ(Bench(cmd), 0) << err_.str();
+  const auto rows = ParseCsv(out_.str());
+  ASSERT_EQ(rows.size(), 2u) << out_.str();
+  const long poses[] = {120, 60};
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& row = rows[i];
+    SCOPED_TRACE(row.at("file"));
+    EXPECT_EQ(row.at("file"), cmd.files[i]);
+    EXPECT_EQ(row.at("status"), "done") << row.at("message");
+    EXPECT_EQ(std::stol(row.at("poses")), poses[i]);
+    EXPECT_EQ(std::stol(row.at("updates")), poses[i]);
+    EXPECT_EQ(row.at("runs"), "2");
+    EXPECT_GT(std::stod(row.at("total_median_s")), 0);
+    const double mean = std::stod(row.at("step_mean_ms")), p99 = std::stod(row.at("step_p99_ms")),
+                 max = std::stod(row.at("step_max_ms"));
+    EXPECT_GT(mean, 0);
+    EXPECT_LE(mean, max);
+    EXPECT_LE(p99, max);
+    const double final_chi2 = std::stod(row.at("final_chi2")), batch = std::stod(row.at("batch_chi2"));
+    EXPECT_NEAR(final_chi2, batch, 1e-6 * batch);
+    EXPECT_LT(std::abs(std::stod(row.at("relative_gap"))), 1e-6);
+    EXPECT_GT(std::stod(row.at("peak_rss_mib")), 0);
+  }
+  // Progress: one line per run.
+  EXPECT_EQ(Count(err_.str(), " replay: run "), 4u) << err_.str();
+
+  // The same replay through the library gives the same figures (the runs are deterministic).
+  const ReplayResult direct = ReplayFile(cmd.files[0], ReplayOptions());
+  ASSERT_EQ(direct.status, ReplayStatus::kDone);
+  EXPECT_NEAR(std::stod(rows[0].at("final_chi2")), direct.final_chi2, 1e-9 * direct.final_chi2);
+
+  cmd.format = "md";
+  cmd.repeat = 1;
+  cmd.output = P("table.md");
+  ASSERT_EQ(Bench(cmd), 0) << err_.str();
+  std::ifstream in(cmd.output);
+  const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(md.find("| file | poses | updates | status | total [s] | step mean [ms] | step p99 [ms] | step max [ms] "
+                    "| final chi2 | batch optimum | relative gap | peak memory [MiB] |"),
+            std::string::npos)
+      << md;
+  EXPECT_EQ(Count(md, "| m.g2o | 120 | 120 | done |"), 1u) << md;
+  EXPECT_EQ(Count(md, "| s.g2o | 60 | 60 | done |"), 1u) << md;
+}
+
+TEST_F(BenchTest, ReplayModeBadUsageAndUnreadableFile) {
+  const std::string good = Simulated("m.g2o", SimWorld::kManhattan, 30);
+  BenchCommand cmd;
+  cmd.replay = true;
+  cmd.files = {good};
+  cmd.solvers = "gn";
+  EXPECT_EQ(Bench(cmd), 2);
+  EXPECT_NE(err_.str().find("do not apply to replays"), std::string::npos) << err_.str();
+  cmd.solvers = BenchCommand().solvers;
+  cmd.repeat = 0;
+  EXPECT_EQ(Bench(cmd), 2);
+  cmd.repeat = 1;
+  cmd.files = {P("missing.g2o")};
+  EXPECT_EQ(Bench(cmd), 2);
+  EXPECT_EQ(out_.str(), "");
+
+  {
+    std::ofstream bad(P("bad.g2o"));
+    bad << "EDGE_SE2 0 1 nonsense\n";
+  }
+  cmd.files = {P("bad.g2o"), good};
+  cmd.format = "csv";
+  EXPECT_EQ(Bench(cmd), 1) << err_.str();
+  const auto rows = ParseCsv(out_.str());
+  ASSERT_EQ(rows.size(), 2u) << out_.str();
+  EXPECT_EQ(rows[0].at("status"), "bad-input");
+  EXPECT_FALSE(rows[0].at("message").empty());
+  EXPECT_EQ(rows[1].at("status"), "done");
+}
+
+TEST_F(BenchTest, ReplayModeFromTheCommandLine) {
+  const std::string file = Simulated("m.g2o", SimWorld::kManhattan, 40);
+  const testing::CliRun run = testing::Tether("bench --replay " + file + " --repeat 1 --format csv");
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("file,poses,updates,status,total_median_s,step_mean_ms,step_p99_ms,step_max_ms,"
+                            "final_chi2,batch_chi2,relative_gap,peak_rss_mib,runs,message"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find(file + ",40,40,done,"), std::string::npos) << run.output;
+}
+
+TEST(ReplayBenchSummary, MediansAndWorstOutcome) {
+  ReplayBenchRow row;
+  for (double t : {0.4, 0.1, 0.3}) {
+    ReplayBenchRun r;
+    r.outcome = BenchOutcome::kSolved;
+    r.status = "done";
+    r.total_seconds = t;
+    r.mean_ms = 10 * t;
+    r.p99_ms = 20 * t;
+    r.max_ms = 30 * t;
+    r.peak_rss_mib = 100 * t;
+    row.runs.push_back(r);
+  }
+  SummarizeReplayBenchRow(&row);
+  EXPECT_EQ(row.outcome, BenchOutcome::kSolved);
+  EXPECT_DOUBLE_EQ(row.median_seconds, 0.3);
+  EXPECT_DOUBLE_EQ(row.mean_ms, 3);
+  EXPECT_DOUBLE_EQ(row.p99_ms, 6);
+  EXPECT_DOUBLE_EQ(row.max_ms, 9);
+  EXPECT_DOUBLE_EQ(row.peak_rss_mib, 40);
+  ReplayBenchRun crashed;
+  crashed.outcome = BenchOutcome::kCrashed;
+  crashed.status = "crashed";
+  crashed.message = "killed";
+  row.runs.push_back(crashed);
+  SummarizeReplayBenchRow(&row);
+  EXPECT_EQ(row.outcome, BenchOutcome::kCrashed);
+  EXPECT_EQ(row.message, "killed");
+  EXPECT_DOUBLE_EQ(row.median_seconds, 0.3);  // the medians are of the runs that finished
 }
 
 TEST(BenchSummary, MedianMinMaxAndWorstOutcome) {

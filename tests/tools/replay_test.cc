@@ -1,12 +1,16 @@
 // tether replay on a small simulated Manhattan world: the exit codes, the printed fields, the
-// final chi2 against the batch optimum, --every, --check and -o.
+// final chi2 against the batch optimum, --every, --check, -o, --plot, the peak memory line and
+// the library call ReplayFile.
 #include "tether/tools/replay.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -53,7 +57,7 @@ TEST_F(ReplayTest, FinalChi2IsTheBatchOptimum) {
   for (int every : {1, 7}) {
     ReplayCommand cmd;
     cmd.input = file_;
-    cmd.every = every;
+    cmd.options.every = every;
     cmd.quiet = true;
     std::ostringstream out, err;
     ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
@@ -75,7 +79,7 @@ TEST_F(ReplayTest, FinalChi2IsTheBatchOptimum) {
 TEST_F(ReplayTest, CheckReportsTheGapToTheOptimumSoFar) {
   ReplayCommand cmd;
   cmd.input = file_;
-  cmd.check = 20;
+  cmd.options.check = 20;
   std::ostringstream out, err;
   ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
   const auto f = Fields(out.str());
@@ -92,28 +96,106 @@ TEST_F(ReplayTest, WritesTheFinalEstimate) {
   ReplayCommand cmd;
   cmd.input = file_;
   cmd.quiet = true;
-  cmd.output = (dir_ / "out.g2o").string();
+  cmd.options.output = (dir_ / "out.g2o").string();
   std::ostringstream out, err;
   ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
-  const GraphFile written = ReadGraphFile(cmd.output, DefaultRegistry());
+  const GraphFile written = ReadGraphFile(cmd.options.output, DefaultRegistry());
   EXPECT_EQ(written.values.size(), 200u);
   EXPECT_EQ(written.graph.size(), factors_);
   EXPECT_NEAR(written.graph.Chi2(written.values), std::stod(Fields(out.str()).at("final chi2")), 1e-6);
+}
+
+TEST_F(ReplayTest, PlotsOneVertexPerUpdate) {
+  ReplayCommand cmd;
+  cmd.input = file_;
+  cmd.options.every = 3;
+  cmd.quiet = true;
+  cmd.plot = (dir_ / "latency.svg").string();
+  std::ostringstream out, err;
+  ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
+  EXPECT_NE(out.str().find("wrote " + cmd.plot), std::string::npos) << out.str();
+  std::ifstream in(cmd.plot);
+  const std::string svg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(svg.size(), 20u);
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_EQ(svg.substr(svg.size() - 7), "</svg>\n");
+  EXPECT_NE(svg.find("manhattan.g2o"), std::string::npos);  // the title names the file
+  // The latencies' path: a command letter starts it, and each of the 67 updates (200 steps,
+  // every 3rd and the last) adds one coordinate pair.
+  const std::size_t at = svg.find("<path class=\"latencies\"");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t d = svg.find(" d=\"", at) + 4;
+  const std::string data = svg.substr(d, svg.find('"', d) - d);
+  std::size_t numbers = 0;
+  for (std::size_t i = 0; i < data.size();) {
+    if (data[i] == '-' || std::isdigit(static_cast<unsigned char>(data[i]))) {
+      ++numbers;
+      i += data[i] == '-' ? 1 : 0;
+      while (i < data.size() && (std::isdigit(static_cast<unsigned char>(data[i])) || data[i] == '.')) ++i;
+    } else {
+      ++i;
+    }
+  }
+  EXPECT_EQ(numbers, 2u * 67u);
+  EXPECT_EQ(std::stoi(Fields(out.str()).at("updates")), 67);
+}
+
+TEST_F(ReplayTest, PrintsPeakMemory) {
+  ReplayCommand cmd;
+  cmd.input = file_;
+  cmd.quiet = true;
+  std::ostringstream out, err;
+  ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
+  const auto f = Fields(out.str());
+  ASSERT_EQ(f.count("peak memory [MiB]"), 1u) << out.str();
+  const double mib = std::stod(f.at("peak memory [MiB]"));
+  EXPECT_GT(mib, 0);
+  EXPECT_LT(mib, 1e6);
+}
+
+TEST_F(ReplayTest, LibraryCallReturnsTheMeasurements) {
+  ReplayOptions o;
+  o.check = 50;
+  int seen = 0;
+  const ReplayResult r = ReplayFile(file_, o, [&seen](const ReplayCheck&) { ++seen; });
+  ASSERT_EQ(r.status, ReplayStatus::kDone) << r.message;
+  EXPECT_EQ(r.poses, 200u);
+  EXPECT_EQ(r.factors, factors_);
+  ASSERT_EQ(r.latencies.size(), 200u);
+  ASSERT_EQ(r.update_steps.size(), 200u);
+  EXPECT_EQ(r.update_steps.back(), 199u);
+  ASSERT_EQ(r.checks.size(), 4u);
+  EXPECT_EQ(seen, 4);
+  for (const ReplayCheck& c : r.checks) {
+    EXPECT_GT(c.online_chi2, 0);
+    EXPECT_LE(c.gap, 1e-3);
+    EXPECT_LE(c.gap, r.max_check_gap);
+  }
+  EXPECT_EQ(r.checks[0].step, 49u);
+  EXPECT_LE(r.mean_seconds, r.p99_seconds);
+  EXPECT_LE(r.p99_seconds, r.max_seconds);
+  EXPECT_NEAR(r.final_chi2, r.batch_chi2, 1e-6 * r.batch_chi2);
+  EXPECT_GT(r.peak_rss_mib, 0);
+
+  o.every = 0;
+  EXPECT_EQ(ReplayFile(file_, o).status, ReplayStatus::kBadUsage);
+  EXPECT_EQ(ReplayFile((dir_ / "missing.g2o").string(), ReplayOptions()).status, ReplayStatus::kBadInput);
 }
 
 TEST_F(ReplayTest, BadUsageAndMissingFile) {
   std::ostringstream out, err;
   ReplayCommand cmd;
   cmd.input = file_;
-  cmd.every = 0;
+  cmd.options.every = 0;
   EXPECT_EQ(RunReplay(cmd, out, err), 2);
-  cmd.every = 1;
+  cmd.options.every = 1;
   cmd.input = (dir_ / "missing.g2o").string();
   EXPECT_EQ(RunReplay(cmd, out, err), 1);
 }
 
 TEST_F(ReplayTest, CommandLine) {
-  const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " --every 2 -q 2>&1";
+  const std::string plot = (dir_ / "cli.svg").string();
+  const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " --every 2 -q --plot " + plot + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);
   std::string out;
@@ -125,6 +207,11 @@ TEST_F(ReplayTest, CommandLine) {
   EXPECT_EQ(WEXITSTATUS(status), 0) << out;
   const auto f = Fields(out);
   EXPECT_EQ(f.at("updates").substr(0, 4), "100 ");
+  EXPECT_GT(std::stod(f.at("peak memory [MiB]")), 0);
+  std::ifstream svg(plot);
+  const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.rfind("<svg", 0), 0u);
+  EXPECT_NE(text.find("class=\"latencies\""), std::string::npos);
   EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
 }
 

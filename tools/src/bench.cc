@@ -1,9 +1,6 @@
 #include "tether/tools/bench.h"
 
 #include <dlfcn.h>
-#include <fcntl.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,26 +10,33 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <ostream>
 #include <sstream>
 #include <utility>
 
-#include "tether/core/enum_names.h"
+#include "bench_common.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/replay_bench.h"
 
 namespace tether {
 
 namespace {
 
 namespace fs = std::filesystem;
+using bench::Basename;
+using bench::CsvField;
+using bench::Fmt;
+using bench::Median;
+using bench::OneLine;
+using bench::OutcomeFromName;
+using bench::OutcomeName;
+using bench::Severity;
 using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -48,35 +52,6 @@ void FillSplit(const SolverSummary& s, BenchRun* r) {
     r->factorize_seconds = s.factorize_seconds;
     r->floor_seconds = s.last_factorize_seconds * s.iterations;
   }
-}
-
-constexpr EnumName<BenchOutcome> kOutcomeNames[] = {{BenchOutcome::kSolved, "solved"},
-                                                    {BenchOutcome::kSolveFailed, "solve-failed"},
-                                                    {BenchOutcome::kBadInput, "bad-input"},
-                                                    {BenchOutcome::kCrashed, "crashed"}};
-
-const char* OutcomeName(BenchOutcome o) { return NameOf(kOutcomeNames, o, "crashed"); }
-
-bool OutcomeFromName(const std::string& s, BenchOutcome* o) { return ValueOf(kOutcomeNames, s, o); }
-
-int Severity(BenchOutcome o) {
-  switch (o) {
-    case BenchOutcome::kSolved:
-      return 0;
-    case BenchOutcome::kSolveFailed:
-      return 1;
-    case BenchOutcome::kBadInput:
-      return 2;
-    case BenchOutcome::kCrashed:
-      return 3;
-  }
-  return 3;
-}
-
-std::string OneLine(std::string s) {
-  std::replace(s.begin(), s.end(), '\n', ' ');
-  std::replace(s.begin(), s.end(), '\r', ' ');
-  return s;
 }
 
 // The child's report: one "key value" line per field, then "end".
@@ -99,8 +74,8 @@ std::string Serialize(const BenchRun& r) {
 
 // Returns false unless the text is a complete report.
 bool Deserialize(const std::string& text, BenchRun* r) {
-  std::istringstream in(text);
-  std::string line;
+  std::map<std::string, std::string> fields;
+  if (!bench::ParseReport(text, &fields)) return false;
   std::map<std::string, double*> numbers = {
       {"initial_chi2", &r->initial_chi2}, {"final_chi2", &r->final_chi2},       {"total", &r->total_seconds},
       {"read", &r->read_seconds},         {"init", &r->init_seconds},           {"optimize", &r->optimize_seconds},
@@ -108,11 +83,7 @@ bool Deserialize(const std::string& text, BenchRun* r) {
       {"solve", &r->solve_seconds},       {"write", &r->write_seconds},         {"floor", &r->floor_seconds}};
   std::map<std::string, long*> counts = {{"poses", &r->poses}, {"landmarks", &r->landmarks}, {"edges", &r->edges}};
   bool outcome = false;
-  while (std::getline(in, line)) {
-    if (line == "end") return outcome;
-    const std::size_t sp = line.find(' ');
-    const std::string key = line.substr(0, sp);
-    const std::string value = sp == std::string::npos ? "" : line.substr(sp + 1);
+  for (const auto& [key, value] : fields) {
     if (key == "outcome") {
       outcome = OutcomeFromName(value, &r->outcome);
     } else if (key == "status") {
@@ -127,37 +98,7 @@ bool Deserialize(const std::string& text, BenchRun* r) {
       *c->second = std::strtol(value.c_str(), nullptr, 10);
     }
   }
-  return false;
-}
-
-bool WriteAll(int fd, const std::string& s) {
-  std::size_t done = 0;
-  while (done < s.size()) {
-    const ssize_t n = ::write(fd, s.data() + done, s.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<std::size_t>(n);
-  }
-  return true;
-}
-
-std::string ReadAllFd(int fd) {
-  std::string s;
-  char buf[4096];
-  for (;;) {
-    const ssize_t n = ::read(fd, buf, sizeof(buf));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    s.append(buf, static_cast<std::size_t>(n));
-  }
-  return s;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  return outcome;
 }
 
 // The median over the runs of one field; negative (not available) if any run lacks it.
@@ -178,12 +119,6 @@ const BenchRun* Representative(const BenchRow& row) {
   return nullptr;
 }
 
-std::string Fmt(const char* format, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), format, v);
-  return buf;
-}
-
 // Seconds for Markdown: three significant digits, or whole seconds from 100 s.
 std::string Seconds(double s) {
   if (s < 0) return "n/a";
@@ -191,18 +126,6 @@ std::string Seconds(double s) {
 }
 
 std::string CsvNumber(const char* format, double v) { return v < 0 ? "" : Fmt(format, v); }
-
-std::string CsvField(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) {
-    if (c == '"') q += '"';
-    q += c;
-  }
-  return q + "\"";
-}
-
-std::string Basename(const std::string& path) { return fs::path(path).filename().string(); }
 
 std::string ThreadsText(const BenchConfig& c) {
   return std::to_string(c.threads > 0 ? c.threads : SolverOptions{}.num_threads);
@@ -384,60 +307,30 @@ BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config) {
 }
 
 BenchRun RunBenchInChild(const std::string& file, const BenchConfig& config) {
-  BenchRun r;
-  r.status = "crashed";
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) {
-    r.message = std::string("cannot create a pipe: ") + std::strerror(errno);
-    return r;
-  }
-  std::fflush(nullptr);  // nothing buffered may be written twice
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    r.message = std::string("cannot fork: ") + std::strerror(errno);
-    ::close(fds[0]);
-    ::close(fds[1]);
-    return r;
-  }
-  if (pid == 0) {
-    ::close(fds[0]);
-    std::string report;
+  const bench::ChildResult child = bench::RunInChild([&file, &config] {
     try {
-      report = Serialize(RunBenchOnce(file, config));
+      return Serialize(RunBenchOnce(file, config));
     } catch (const std::exception& e) {
       BenchRun failed;
       failed.status = "crashed";
       failed.message = std::string("uncaught exception: ") + e.what();
-      report = Serialize(failed);
+      return Serialize(failed);
     } catch (...) {
       BenchRun failed;
       failed.status = "crashed";
       failed.message = "uncaught exception";
-      report = Serialize(failed);
+      return Serialize(failed);
     }
-    WriteAll(fds[1], report);
-    ::close(fds[1]);
-    ::_exit(0);  // no atexit handlers, no flushing of the parent's buffers
-  }
-  ::close(fds[1]);
-  const std::string report = ReadAllFd(fds[0]);
-  ::close(fds[0]);
-  int wstatus = 0;
-  struct rusage usage;
-  std::memset(&usage, 0, sizeof(usage));
-  while (::wait4(pid, &wstatus, 0, &usage) < 0 && errno == EINTR) {
-  }
-  const bool complete = Deserialize(report, &r);
-  r.peak_rss_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
-  if (!complete || !WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0) {
+  });
+  BenchRun r;
+  r.status = "crashed";
+  const bool complete = Deserialize(child.report, &r);
+  r.peak_rss_mib = child.peak_rss_mib;
+  if (!complete || !child.exited_cleanly()) {
     r.outcome = BenchOutcome::kCrashed;
     r.status = "crashed";
-    if (WIFSIGNALED(wstatus)) {
-      const int sig = WTERMSIG(wstatus);
-      r.message = "killed by signal " + std::to_string(sig) + " (" + ::strsignal(sig) + ")";
-    } else if (!complete) {
-      r.message = "the run ended (exit code " + std::to_string(WEXITSTATUS(wstatus)) + ") without reporting";
-    }
+    const std::string why = child.Failure(complete);
+    if (!why.empty()) r.message = why;
   }
   return r;
 }
@@ -503,6 +396,7 @@ std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string&
 }
 
 int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
+  if (cmd.replay) return RunReplayBench(cmd, out, err);
   const auto usage = [&err](const std::string& what) {
     err << "tether bench: " << what << "\n";
     return 2;
@@ -552,18 +446,7 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   if (cmd.repeat < 1) return usage("--repeat must be at least 1; got " + std::to_string(cmd.repeat));
   if (cmd.format != "md" && cmd.format != "csv") return usage("unknown --format '" + cmd.format + "'; use md or csv");
-  for (const std::string& f : cmd.files) {
-    std::error_code ec;
-    if (!fs::exists(f, ec)) return usage("no such file: " + f);
-    if (fs::is_directory(f, ec)) return usage(f + " is a directory; name graph files");
-  }
-  if (!cmd.output.empty()) {
-    const fs::path parent = fs::path(cmd.output).parent_path();
-    std::error_code ec;
-    if (!parent.empty() && !fs::is_directory(parent, ec)) {
-      return usage("cannot write " + cmd.output + ": no folder " + parent.string());
-    }
-  }
+  if (const std::string why = bench::CheckFilesAndOutput(cmd.files, cmd.output); !why.empty()) return usage(why);
 
   // Plugins first, into the registry the runs read with (the forked children inherit them).
   PluginLoader loader(DefaultRegistry());
@@ -627,37 +510,11 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
 
   const std::string table =
       cmd.format == "csv" ? FormatBenchCsv(rows, blas) : FormatBenchMarkdown(rows, cmd.repeat, blas);
-  if (cmd.output.empty()) {
-    out << table << std::flush;
-  } else {
-    const std::string tmp = cmd.output + ".tmp" + std::to_string(::getpid());
-    {
-      std::ofstream f(tmp);
-      f << table;
-      f.close();
-      if (!f) {
-        err << "error: cannot write " << tmp << "\n";
-        std::error_code ec;
-        fs::remove(tmp, ec);
-        return 1;
-      }
-    }
-    std::error_code ec;
-    fs::rename(tmp, cmd.output, ec);
-    if (ec) {
-      err << "error: cannot write " << cmd.output << ": " << ec.message() << "\n";
-      fs::remove(tmp, ec);
-      return 1;
-    }
-    err << "wrote " << cmd.output << "\n";
-  }
+  if (bench::WriteTable(table, cmd.output, out, err) != 0) return 1;
 
-  int worst = 0;
-  for (const BenchRow& row : rows) worst = std::max(worst, Severity(row.outcome));
-  if (worst == Severity(BenchOutcome::kSolved)) return 0;
-  bool bad_input = false;
-  for (const BenchRow& row : rows) bad_input = bad_input || row.outcome == BenchOutcome::kBadInput;
-  return bad_input ? 1 : 3;
+  std::vector<BenchOutcome> outcomes;
+  for (const BenchRow& row : rows) outcomes.push_back(row.outcome);
+  return bench::ExitCode(outcomes);
 }
 
 }  // namespace tether

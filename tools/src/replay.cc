@@ -1,11 +1,15 @@
 #include "tether/tools/replay.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <ostream>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "tether/core/error.h"
@@ -14,6 +18,7 @@
 #include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/latency_plot.h"
 
 namespace tether {
 
@@ -28,10 +33,6 @@ std::string Format(const char* fmt, double v) {
   std::snprintf(buf, sizeof(buf), fmt, v);
   return buf;
 }
-
-// (online - batch) / batch, with chi2 below 1e-6 counted as 1e-6 (a graph of odometry alone
-// has chi2 0 at its optimum, where any rounding would be an infinite relative gap).
-double RelativeGap(double online, double batch) { return (online - batch) / std::max(batch, 1e-6); }
 
 // The initial guess of `key`, added at this step: from the edges of this step to variables
 // added before (the one to `previous` first), through the edge's Predict; else the file's.
@@ -58,165 +59,269 @@ void InitialGuess(const GraphFile& file, const std::vector<std::size_t>& factors
   std::copy(p, p + AmbientDim(file.values.TypeOf(key)), params);
 }
 
-}  // namespace
+// The variables in id order, and the factors to add at each step (each at the step of its
+// last variable).
+struct Schedule {
+  std::vector<Key> keys;
+  std::vector<std::vector<std::size_t>> by_step;
+};
 
-int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
-  if (cmd.every < 1) {
-    err << "error: --every must be at least 1\n";
-    return 2;
-  }
-  if (cmd.check < 0) {
-    err << "error: --check must be 0 (never) or more\n";
-    return 2;
-  }
-  SmootherOptions options;
-  options.rounds_per_update = cmd.update_iterations;
-  options.relinearize_threshold = cmd.update_tolerance;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    err << "error: " << why << "\n";
-    return 2;
-  }
-  Registry& registry = DefaultRegistry();
-  GraphFile file;
-  try {
-    file = ReadGraphFile(cmd.input, registry);
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return 1;
-  }
-  for (const std::string& w : file.warnings) err << "warning: " << w << "\n";
-
-  // The variables in id order, and each factor at the step of its last variable.
-  std::vector<Key> keys = file.values.keys();
-  std::sort(keys.begin(), keys.end());
+Schedule MakeSchedule(const GraphFile& file) {
+  Schedule s;
+  s.keys = file.values.keys();
+  std::sort(s.keys.begin(), s.keys.end());
   std::unordered_map<Key, std::size_t> step_of;
-  for (std::size_t i = 0; i < keys.size(); ++i) step_of[keys[i]] = i;
-  std::vector<std::vector<std::size_t>> by_step(keys.size());
+  for (std::size_t i = 0; i < s.keys.size(); ++i) step_of[s.keys[i]] = i;
+  s.by_step.resize(s.keys.size());
   for (std::size_t j = 0; j < file.graph.size(); ++j) {
     std::size_t step = 0;
     for (Key k : file.graph.at(j).keys()) step = std::max(step, step_of.at(k));
-    by_step[step].push_back(j);
+    s.by_step[step].push_back(j);
   }
-  out << "replay " << cmd.input << ": " << keys.size() << " variables, " << file.graph.size()
-      << " factors, an update every " << cmd.every << " step(s), at most " << cmd.update_iterations
-      << " iterations each (function tolerance " << cmd.update_tolerance << ")"
-      << (cmd.no_skip ? ", never skipped" : "") << "\n";
+  return s;
+}
 
-  IncrementalSmoother smoother(options);
-  std::vector<double> latencies;
-  double max_check_gap = 0;
-  int checks = 0;
-  int solves = 0, skipped = 0, iterations = 0;
-  long long affected = 0, backsub = 0, relin = 0;
-  double setup = 0, linearize = 0, factorize = 0, solve = 0;  // summed over the updates
-  FactorGraph pending_factors;
-  Values pending_values;
-  std::vector<double> params(16);
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    const Key key = keys[i];
-    params.assign(static_cast<std::size_t>(AmbientDim(file.values.TypeOf(key))), 0.0);
-    InitialGuess(file, by_step[i], key, i > 0 ? keys[i - 1] : key, smoother.Estimate(), pending_values, params.data());
-    pending_values.InsertParams(key, file.values.TypeOf(key), params.data());
-    if (file.graph.IsFixed(key)) pending_factors.Fix(key);
-    for (std::size_t j : by_step[i]) pending_factors.Add(file.graph.at(j).Clone());
-    if ((i + 1) % static_cast<std::size_t>(cmd.every) != 0 && i + 1 != keys.size()) continue;
+ReplayResult Failed(ReplayResult r, ReplayStatus status, std::string message) {
+  r.status = status;
+  r.message = std::move(message);
+  return r;
+}
 
-    const auto t0 = std::chrono::steady_clock::now();
-    SmootherUpdate u;
-    try {
-      u = smoother.Update(std::move(pending_factors), std::move(pending_values));
-    } catch (const Error& e) {
-      err << "error: the update at step " << i << ": " << e.what() << "\n";
-      return 1;
-    }
-    latencies.push_back(SecondsSince(t0));
-    solves += u.solved ? 1 : 0;
-    skipped += u.structure_rebuilt ? 1 : 0;
-    iterations += u.iterations;
-    affected += u.affected_columns;
-    backsub += u.back_substituted;
-    relin += u.relinearized;
-    setup += 0;
-    linearize += u.linearize_seconds;
-    factorize += u.factorize_seconds;
-    solve += u.solve_seconds;
-    pending_factors = FactorGraph();
-    pending_values = Values();
-    if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
-      err << "error: the update at step " << i << " failed: " << ToString(u.status) << ": " << u.message << "\n";
-      return 3;
-    }
-    if (cmd.check > 0 && latencies.size() % static_cast<std::size_t>(cmd.check) == 0 && !smoother.graph().empty()) {
-      Values batch = smoother.Estimate();
-      const SolverSummary s = Optimize(smoother.graph(), &batch, smoother.options().finish);
-      const double online = smoother.graph().Chi2(smoother.Estimate());
-      const double gap = RelativeGap(online, s.final_chi2);
-      max_check_gap = std::max(max_check_gap, gap);
-      ++checks;
-      if (!cmd.quiet) {
-        out << "check at step " << i << ": online chi2 " << Format("%.9g", online) << ", batch "
-            << Format("%.9g", s.final_chi2) << ", relative gap " << Format("%.3e", gap) << "\n";
-      }
-    }
-  }
-  double updates_seconds = 0;
-  for (double s : latencies) updates_seconds += s;
+// Mean, p99 (nearest rank) and max of the latencies.
+void LatencyStatistics(ReplayResult* r) {
+  const LatencyStats st = ComputeLatencyStats(r->latencies);
+  r->updates_seconds = st.sum;
+  r->mean_seconds = st.mean;
+  r->p99_seconds = st.p99;
+  r->max_seconds = st.max;
+}
 
-  const auto t_finish = std::chrono::steady_clock::now();
-  smoother.Finish();
-  const double finish_seconds = SecondsSince(t_finish);
-  const SolverSummary& fs = smoother.finish_summary();
-  if (!fs.IsSolutionUsable()) {
-    err << "error: Finish failed: " << fs.message << "\n";
-    return 3;
-  }
+void Accumulate(const SmootherUpdate& u, ReplayResult* r) {
+  r->solves += u.solved ? 1 : 0;
+  r->rebuilt += u.structure_rebuilt ? 1 : 0;
+  r->fell_back += u.fell_back ? 1 : 0;
+  r->iterations += u.iterations;
+  r->affected_columns += u.affected_columns;
+  r->back_substituted += u.back_substituted;
+  r->relinearized += u.relinearized;
+  r->linearize_seconds += u.linearize_seconds;
+  r->factorize_seconds += u.factorize_seconds;
+  r->solve_seconds += u.solve_seconds;
+}
 
-  // The batch optimum of the whole file, from the chordal start.
+// The online chi2 of the graph so far, computed from the smoother's graph and estimate, and
+// the batch optimum of that graph from the same start (neither timed).
+ReplayCheck Check(const IncrementalSmoother& smoother, std::size_t step) {
+  ReplayCheck c;
+  c.step = step;
+  c.online_chi2 = smoother.graph().Chi2(smoother.Estimate());
+  Values batch = smoother.Estimate();
+  const SolverSummary s = Optimize(smoother.graph(), &batch, smoother.options().finish);
+  c.batch_chi2 = s.final_chi2;
+  c.gap = RelativeChi2Gap(c.online_chi2, c.batch_chi2);
+  return c;
+}
+
+// The batch optimum of the whole file, from the chordal start; false (and `why`) on failure.
+bool BatchOptimum(const GraphFile& file, double* chi2, std::string* why) {
   Values batch = file.values;
   SolverSummary bs;
   try {
     Initialize(file.graph, &batch, InitMethod::kChordal);
     bs = Optimize(file.graph, &batch);
   } catch (const Error& e) {
-    err << "error: batch solve: " << e.what() << "\n";
-    return 3;
+    *why = std::string("batch solve: ") + e.what();
+    return false;
   }
   if (!bs.IsSolutionUsable()) {
-    err << "error: batch solve failed: " << bs.message << "\n";
-    return 3;
+    *why = "batch solve failed: " + bs.message;
+    return false;
+  }
+  *chi2 = bs.final_chi2;
+  return true;
+}
+
+}  // namespace
+
+bool ReplayOptions::IsValid(std::string* why) const {
+  std::string reason;
+  if (every < 1) {
+    reason = "--every must be at least 1";
+  } else if (check < 0) {
+    reason = "--check must be 0 (never) or more";
+  }
+  if (why != nullptr) *why = reason;
+  return reason.empty();
+}
+
+double RelativeChi2Gap(double online, double batch) { return (online - batch) / std::max(batch, 1e-6); }
+
+double PeakRssMib() {
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
+                        const std::function<void(const ReplayCheck&)>& on_check) {
+  ReplayResult r;
+  std::string why;
+  if (!ro.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
+  SmootherOptions options;
+  options.relinearize_threshold = ro.relinearize_threshold;
+  options.rounds_per_update = ro.rounds_per_update;
+  if (!options.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
+  Registry& registry = DefaultRegistry();
+  GraphFile file;
+  try {
+    file = ReadGraphFile(path, registry);
+  } catch (const Error& e) {
+    return Failed(std::move(r), ReplayStatus::kBadInput, e.what());
+  }
+  r.warnings = file.warnings;
+  const Schedule schedule = MakeSchedule(file);
+  const std::vector<Key>& keys = schedule.keys;
+  r.variables = keys.size();
+  r.poses = file.values.Count(VarType::kSE2) + file.values.Count(VarType::kSE3);
+  r.factors = file.graph.size();
+
+  IncrementalSmoother smoother(options);
+  FactorGraph pending_factors;
+  Values pending_values;
+  std::vector<double> params(16);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const Key key = keys[i];
+    params.assign(static_cast<std::size_t>(AmbientDim(file.values.TypeOf(key))), 0.0);
+    InitialGuess(file, schedule.by_step[i], key, i > 0 ? keys[i - 1] : key, smoother.Estimate(), pending_values,
+                 params.data());
+    pending_values.InsertParams(key, file.values.TypeOf(key), params.data());
+    if (file.graph.IsFixed(key)) pending_factors.Fix(key);
+    for (std::size_t j : schedule.by_step[i]) pending_factors.Add(file.graph.at(j).Clone());
+    if ((i + 1) % static_cast<std::size_t>(ro.every) != 0 && i + 1 != keys.size()) continue;
+
+    const auto t0 = std::chrono::steady_clock::now();
+    SmootherUpdate u;
+    try {
+      u = smoother.Update(std::move(pending_factors), std::move(pending_values));
+    } catch (const Error& e) {
+      LatencyStatistics(&r);
+      return Failed(std::move(r), ReplayStatus::kBadInput, "the update at step " + std::to_string(i) + ": " + e.what());
+    }
+    r.latencies.push_back(SecondsSince(t0));
+    r.update_steps.push_back(i);
+    Accumulate(u, &r);
+    pending_factors = FactorGraph();
+    pending_values = Values();
+    if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
+      LatencyStatistics(&r);
+      return Failed(std::move(r), ReplayStatus::kSolveFailed,
+                    "the update at step " + std::to_string(i) + " failed: " + ToString(u.status) + ": " + u.message);
+    }
+    if (ro.check > 0 && r.latencies.size() % static_cast<std::size_t>(ro.check) == 0 && !smoother.graph().empty()) {
+      try {
+        r.checks.push_back(Check(smoother, i));
+      } catch (const Error& e) {
+        LatencyStatistics(&r);
+        return Failed(std::move(r), ReplayStatus::kSolveFailed,
+                      "the check at step " + std::to_string(i) + ": " + e.what());
+      }
+      r.max_check_gap = std::max(r.max_check_gap, r.checks.back().gap);
+      if (on_check) on_check(r.checks.back());
+    }
+  }
+  LatencyStatistics(&r);
+
+  const auto t_finish = std::chrono::steady_clock::now();
+  try {
+    smoother.Finish();
+  } catch (const Error& e) {
+    return Failed(std::move(r), ReplayStatus::kSolveFailed, std::string("Finish: ") + e.what());
+  }
+  r.finish_seconds = SecondsSince(t_finish);
+  r.peak_rss_mib = PeakRssMib();
+  const SolverSummary& fs = smoother.finish_summary();
+  if (!fs.IsSolutionUsable()) return Failed(std::move(r), ReplayStatus::kSolveFailed, "Finish failed: " + fs.message);
+  r.final_chi2 = fs.final_chi2;
+
+  if (!BatchOptimum(file, &r.batch_chi2, &why)) return Failed(std::move(r), ReplayStatus::kSolveFailed, why);
+  r.relative_gap = RelativeChi2Gap(r.final_chi2, r.batch_chi2);
+
+  if (!ro.output.empty()) {
+    try {
+      WriteG2oFile(ro.output, smoother.Estimate(), smoother.graph(), registry);
+    } catch (const Error& e) {
+      return Failed(std::move(r), ReplayStatus::kBadInput, e.what());
+    }
+  }
+  return r;
+}
+
+int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
+  const ReplayOptions& o = cmd.options;
+  std::string why;
+  if (!o.IsValid(&why)) {
+    err << "error: " << why << "\n";
+    return 2;
+  }
+  out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
+      << o.relinearize_threshold << ", " << o.rounds_per_update << " round(s) per update\n"
+      << std::flush;
+  const auto print_check = [&](const ReplayCheck& c) {
+    if (cmd.quiet) return;
+    out << "check at step " << c.step << ": online chi2 " << Format("%.9g", c.online_chi2) << ", batch "
+        << Format("%.9g", c.batch_chi2) << ", relative gap " << Format("%.3e", c.gap) << "\n"
+        << std::flush;
+  };
+  const ReplayResult r = ReplayFile(cmd.input, o, print_check);
+  for (const std::string& w : r.warnings) err << "warning: " << w << "\n";
+  switch (r.status) {
+    case ReplayStatus::kDone:
+      break;
+    case ReplayStatus::kBadUsage:
+      err << "error: " << r.message << "\n";
+      return 2;
+    case ReplayStatus::kBadInput:
+      err << "error: " << r.message << "\n";
+      return 1;
+    case ReplayStatus::kSolveFailed:
+      err << "error: " << r.message << "\n";
+      return 3;
   }
 
-  std::vector<double> sorted = latencies;
-  std::sort(sorted.begin(), sorted.end());
-  const std::size_t n = sorted.size();
-  const double mean = n ? updates_seconds / static_cast<double>(n) : 0;
-  // p99 by the nearest rank: the smallest latency at least 99% of the updates do not exceed.
-  const double p99 = n ? sorted[static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(n))) - 1] : 0;
-  const double max = n ? sorted.back() : 0;
-  out << "updates: " << n << " (" << solves << " solved, " << skipped << " skipped, " << iterations << " iterations)\n";
-  out << "columns refactored: " << affected << ", back-substituted: " << backsub << ", relinearised: " << relin << "\n";
-  out << "total [s]: " << Format("%.3f", updates_seconds + finish_seconds) << " (updates "
-      << Format("%.3f", updates_seconds) << ", finish " << Format("%.3f", finish_seconds) << ")\n";
-  out << "per step [ms]: mean " << Format("%.3f", 1e3 * mean) << ", p99 " << Format("%.3f", 1e3 * p99) << ", max "
-      << Format("%.3f", 1e3 * max) << "\n";
-  out << "update split [s]: setup " << Format("%.3f", setup) << ", linearise " << Format("%.3f", linearize)
-      << ", factorise " << Format("%.3f", factorize) << ", solve " << Format("%.3f", solve) << ", other "
-      << Format("%.3f", updates_seconds - setup - linearize - factorize - solve) << "\n";
-  out << "final chi2: " << Format("%.9g", fs.final_chi2) << "\n";
-  out << "batch optimum: " << Format("%.9g", bs.final_chi2) << "\n";
-  out << "relative gap to batch: " << Format("%.3e", RelativeGap(fs.final_chi2, bs.final_chi2)) << "\n";
-  if (cmd.check > 0) {
-    out << "check: " << checks << " batch solves, largest relative chi2 gap: " << Format("%.3e", max_check_gap) << "\n";
+  out << "graph: " << r.variables << " variables (" << r.poses << " poses), " << r.factors << " factors\n";
+  out << "updates: " << r.latencies.size() << " (" << r.solves << " solved, " << r.rebuilt << " rebuilt the factor, "
+      << r.fell_back << " fell back to batch, " << r.iterations << " rounds)\n";
+  out << "columns refactored: " << r.affected_columns << ", back-substituted: " << r.back_substituted
+      << ", variables re-linearised: " << r.relinearized << "\n";
+  out << "total [s]: " << Format("%.3f", r.total_seconds()) << " (updates " << Format("%.3f", r.updates_seconds)
+      << ", finish " << Format("%.3f", r.finish_seconds) << ")\n";
+  out << "per step [ms]: mean " << Format("%.3f", 1e3 * r.mean_seconds) << ", p99 "
+      << Format("%.3f", 1e3 * r.p99_seconds) << ", max " << Format("%.3f", 1e3 * r.max_seconds) << "\n";
+  out << "update split [s]: linearise "
+      << Format("%.3f", r.linearize_seconds) << ", factorise " << Format("%.3f", r.factorize_seconds) << ", solve "
+      << Format("%.3f", r.solve_seconds) << ", other "
+      << Format("%.3f",
+                r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds)
+      << "\n";
+  out << "final chi2: " << Format("%.9g", r.final_chi2) << "\n";
+  out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
+  out << "relative gap to batch: " << Format("%.3e", r.relative_gap) << "\n";
+  if (o.check > 0) {
+    out << "check: " << r.checks.size()
+        << " batch solves, largest relative chi2 gap: " << Format("%.3e", r.max_check_gap) << "\n";
   }
-  if (!cmd.output.empty()) {
+  out << "peak memory [MiB]: " << Format("%.1f", r.peak_rss_mib) << "\n";
+  if (!o.output.empty()) out << "wrote " << o.output << "\n";
+  if (!cmd.plot.empty()) {
+    LatencyPlotOptions po;
+    po.title = "tether replay " + std::filesystem::path(cmd.input).filename().string() + ": update latency";
     try {
-      WriteG2oFile(cmd.output, smoother.Estimate(), smoother.graph(), registry);
+      WriteLatencySvgFile(cmd.plot, r.update_steps, r.latencies, po);
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
       return 1;
     }
-    out << "wrote " << cmd.output << "\n";
+    out << "wrote " << cmd.plot << "\n";
   }
   return 0;
 }

@@ -1,22 +1,23 @@
 #include "tether/tools/svg_plot.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
-#include <locale>
-#include <sstream>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/tools/trajectory_error.h"
 
 namespace tether {
 namespace {
+
+using svg::Escape;
+using svg::NiceLength;
+using svg::Num;
+using svg::PathData;
+using svg::Pt;
 
 // Colours and sizes.
 constexpr const char* kBeforeColour = "#b4b4b4";
@@ -32,113 +33,7 @@ constexpr double kLandmarkSize = 4.0;   // side of a landmark square, pixels
 /// Coordinates beyond this are treated like NaN (their differences would overflow).
 constexpr double kHuge = 1e150;
 
-struct Pt {
-  double x = 0.0, y = 0.0;
-};
-
 bool Usable(const Pt& p) { return std::abs(p.x) < kHuge && std::abs(p.y) < kHuge; }  // false for NaN
-
-/// Appends v / 100 in decimal with up to two decimals, trailing zeros dropped: 1250 -> "12.5".
-void AppendHundredths(long long v, std::string* out) {
-  if (v < 0) {
-    out->push_back('-');
-    v = -v;
-  }
-  out->append(std::to_string(v / 100));
-  const int frac = static_cast<int>(v % 100);
-  if (frac != 0) {
-    out->push_back('.');
-    out->push_back(static_cast<char>('0' + frac / 10));
-    if (frac % 10 != 0) out->push_back(static_cast<char>('0' + frac % 10));
-  }
-}
-
-long long ToHundredths(double v) { return std::llround(v * 100.0); }
-
-/// A number for an attribute, rounded to 0.01 (locale-independent).
-std::string Num(double v) {
-  std::string s;
-  AppendHundredths(ToHundredths(v), &s);
-  return s;
-}
-
-std::string Escape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out.push_back(c);
-    }
-  }
-  return out;
-}
-
-/// SVG path data in relative commands on a 0.01 pixel grid. Deltas are taken between rounded
-/// points, so rounding never accumulates; command letters are left out where SVG implies them.
-class PathData {
- public:
-  void MoveTo(const Pt& p) {
-    const long long x = ToHundredths(p.x), y = ToHundredths(p.y);
-    if (!started_) {
-      Command('M', x, y);
-      implicit_ = 'L';
-      started_ = true;
-    } else {
-      Command('m', x - cx_, y - cy_);
-      implicit_ = 'l';
-    }
-    cx_ = sx_ = x;
-    cy_ = sy_ = y;
-  }
-  void LineTo(const Pt& p) {
-    const long long x = ToHundredths(p.x), y = ToHundredths(p.y);
-    Command('l', x - cx_, y - cy_);
-    implicit_ = 'l';
-    cx_ = x;
-    cy_ = y;
-  }
-  void Close() {
-    out_.push_back('z');
-    implicit_ = 0;
-    cx_ = sx_;
-    cy_ = sy_;
-  }
-  bool empty() const { return out_.empty(); }
-  const std::string& str() const { return out_; }
-
- private:
-  void Command(char c, long long a, long long b) {
-    if (c == implicit_) {
-      if (a >= 0) out_.push_back(' ');  // a minus sign separates by itself
-    } else {
-      out_.push_back(c);
-    }
-    AppendHundredths(a, &out_);
-    if (b >= 0) out_.push_back(' ');
-    AppendHundredths(b, &out_);
-  }
-
-  std::string out_;
-  bool started_ = false;
-  char implicit_ = 0;  // the command a coordinate pair without a letter would continue
-  long long cx_ = 0, cy_ = 0, sx_ = 0, sy_ = 0;
-};
 
 /// What one Values contributes to the picture, in world coordinates.
 struct Layer {
@@ -194,20 +89,7 @@ struct Frame {
   Pt operator()(const Pt& p) const { return Pt{ox + (p.x - min_x) * scale, oy + (max_y - p.y) * scale}; }
 };
 
-/// The largest of 1, 2, 5 times a power of ten not above `v` (v > 0).
-double NiceLength(double v) {
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
-  for (double m : {5.0, 2.0, 1.0})
-    if (m * p <= v) return m * p;
-  return p;
-}
-
-std::string LengthLabel(double metres) {
-  std::ostringstream s;
-  s.imbue(std::locale::classic());
-  s << metres << " m";
-  return s.str();
-}
+std::string LengthLabel(double metres) { return svg::Label(metres, 6) + " m"; }
 
 void AppendPath(const PathData& d, const std::string& cls, const std::string& style, std::string* svg) {
   if (d.empty()) return;
@@ -407,21 +289,7 @@ void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Value
 
 void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
                   const Values* truth, const PlotOptions& options) {
-  const std::string svg = RenderSvg(graph, before, after, truth, options);
-  const std::string tmp = path + ".tmp";
-  auto fail = [&](const std::string& what, int err) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot write SVG plot '" + path + "': " + what +
-                  (err != 0 ? std::string(": ") + std::strerror(err) : "") +
-                  "; check that the directory exists and is writable");
-  };
-  errno = 0;
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  if (!out) fail("cannot create '" + tmp + "'", errno);
-  out.write(svg.data(), static_cast<std::streamsize>(svg.size()));
-  out.close();
-  if (!out) fail("writing '" + tmp + "' failed", errno);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("cannot rename '" + tmp + "' to it", errno);
+  svg::WriteTextFile(path, RenderSvg(graph, before, after, truth, options), "SVG plot");
 }
 
 }  // namespace tether

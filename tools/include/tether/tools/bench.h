@@ -30,6 +30,9 @@ struct BenchCommand {
   /// Factor plugins (paths or names) loaded into the default registry before any file is
   /// read, as `tether optimize --plugin` does; one that fails to load: exit code 1, nothing run.
   std::vector<std::string> plugins;
+  /// Replay each file through the incremental smoother instead (`tether bench --replay`,
+  /// replay_bench.h): the solver lists and plugins do not apply.
+  bool replay = false;
 };
 
 /// One configuration: the cross product of the command's lists gives them.

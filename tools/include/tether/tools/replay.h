@@ -9,27 +9,116 @@
 // variables have all been added by then. The smoother is updated every `every`-th step (and
 // after the last). After the last step Finish() solves to convergence, and the result is
 // compared with the batch optimum of the whole file (Optimize from the chordal start).
+//
+// ReplayFile is the replay itself (a library call returning its measurements); RunReplay is
+// the command, which prints them and writes the optional files. `tether bench --replay`
+// (replay_bench.h) calls ReplayFile too.
+#include <cstddef>
+#include <functional>
 #include <iosfwd>
 #include <string>
+#include <vector>
 
 #include "tether/solvers/incremental_smoother.h"
 
 namespace tether {
 
-struct ReplayCommand {
-  std::string input;
-  int every = 1;       ///< update the smoother every N-th step (at least 1)
-  int check = 0;       ///< every K-th update, solve the graph so far in batch (untimed); 0: never
-  std::string output;  ///< g2o file with the final estimate (optional)
-  bool quiet = false;  ///< only the summary lines
-  /// The smoother's per-update solve (SmootherOptions::update): iteration limit and
-  /// function tolerance; and whether updates whose new factors have zero error skip the solve.
-  int update_iterations = SmootherOptions().rounds_per_update;
-  double update_tolerance = SmootherOptions().relinearize_threshold;
-  bool no_skip = false;
+/// How to replay a file.
+struct ReplayOptions {
+  int every = 1;  ///< update the smoother every N-th step (at least 1)
+  int check = 0;  ///< every K-th update, solve the graph so far in batch (untimed); 0: never
+  /// The smoother's SmootherOptions::relinearize_threshold and rounds_per_update.
+  double relinearize_threshold = SmootherOptions().relinearize_threshold;
+  int rounds_per_update = SmootherOptions().rounds_per_update;
+  /// Where given, the final estimate and the graph are written here as g2o after Finish
+  /// (through a temporary file renamed into place); a failure is kBadInput.
+  std::string output;
+
+  /// True when the options can be used; otherwise says why (when `why` is not null).
+  bool IsValid(std::string* why) const;
 };
 
-/// Exit codes: 0 done; 1 bad input (unreadable file, plugin); 2 bad usage; 3 a solve failed.
+/// One --check: after the update at `step`, the online chi2 of the graph so far at the
+/// smoother's estimate (computed from graph() and Estimate(), not taken from the update) and
+/// the batch optimum of that graph from the same start.
+struct ReplayCheck {
+  std::size_t step = 0;    ///< the step (0-based pose index) whose update was checked
+  double online_chi2 = 0;  ///< smoother.graph().Chi2(smoother.Estimate())
+  double batch_chi2 = 0;   ///< Optimize(graph so far, from the estimate, options.finish)
+  double gap = 0;          ///< RelativeChi2Gap(online_chi2, batch_chi2)
+};
+
+/// How a replay ended.
+enum class ReplayStatus {
+  kDone,
+  kBadUsage,     ///< invalid ReplayOptions or smoother options
+  kBadInput,     ///< the file could not be read, or an update was refused
+  kSolveFailed,  ///< an update's solve, Finish or the batch solve failed
+};
+
+/// The measurements of one replay. Times are wall-clock seconds.
+struct ReplayResult {
+  ReplayStatus status = ReplayStatus::kDone;
+  std::string message;                ///< what went wrong (status other than kDone)
+  std::vector<std::string> warnings;  ///< the reader's warnings about the file
+
+  std::size_t variables = 0;  ///< every variable of the file (one step each)
+  std::size_t poses = 0;      ///< SE2 and SE3 variables
+  std::size_t factors = 0;
+
+  /// The latency of every Update call, in order, and the step (0-based) each was made at.
+  std::vector<double> latencies;
+  std::vector<std::size_t> update_steps;
+  /// Summed over the updates (SmootherUpdate's fields): updates that solved, that rebuilt the
+  /// whole factor, that fell back to a batch solve; factorise-solve rounds; columns refactored;
+  /// columns back-substituted; variables re-linearised.
+  int solves = 0, rebuilt = 0, fell_back = 0, iterations = 0;
+  long long affected_columns = 0, back_substituted = 0, relinearized = 0;
+  /// The updates' split, summed (SmootherUpdate's fields).
+  double linearize_seconds = 0, factorize_seconds = 0, solve_seconds = 0;
+  double updates_seconds = 0;  ///< the sum of the latencies
+  double finish_seconds = 0;   ///< Finish()
+
+  /// Latency statistics over the updates: mean, p99 (nearest rank: the smallest latency that
+  /// at least 99% of the updates do not exceed), max. 0 without updates.
+  double mean_seconds = 0, p99_seconds = 0, max_seconds = 0;
+
+  double final_chi2 = 0;    ///< after Finish()
+  double batch_chi2 = 0;    ///< the batch optimum of the whole file (chordal start)
+  double relative_gap = 0;  ///< RelativeChi2Gap(final_chi2, batch_chi2)
+  std::vector<ReplayCheck> checks;
+  double max_check_gap = 0;  ///< the largest ReplayCheck::gap (0 without checks)
+
+  /// The process's peak resident set (getrusage ru_maxrss) right after Finish(), before the
+  /// batch comparison solve: reading the file, the smoother, its solves (and the --check
+  /// solves, where asked for), and whatever the process held before the replay. MiB.
+  double peak_rss_mib = 0;
+
+  double total_seconds() const { return updates_seconds + finish_seconds; }
+};
+
+/// (online - batch) / batch, with chi2 below 1e-6 counted as 1e-6 (a graph of odometry alone
+/// has chi2 0 at its optimum, where any rounding would be an infinite relative gap).
+double RelativeChi2Gap(double online, double batch);
+
+/// The peak resident set of this process so far (getrusage ru_maxrss), MiB.
+double PeakRssMib();
+
+/// Replays `file` (see above). Never throws for bad input or failed solves: the status and
+/// message say what happened, and the measurements up to there are filled in. `on_check`, where
+/// given, is called after each check as it happens (for progress output).
+ReplayResult ReplayFile(const std::string& file, const ReplayOptions& options,
+                        const std::function<void(const ReplayCheck&)>& on_check = {});
+
+struct ReplayCommand {
+  std::string input;
+  ReplayOptions options;
+  std::string plot;    ///< SVG of every update's latency (optional; latency_plot.h)
+  bool quiet = false;  ///< only the summary lines
+};
+
+/// Exit codes: 0 done; 1 bad input (unreadable file, an update refused, a file that cannot be
+/// written); 2 bad usage; 3 a solve failed.
 int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err);
 
 }  // namespace tether

@@ -1,0 +1,98 @@
+// tether replay on every public 2D and 3D pose graph (../shared/datasets/g2o): each file fed
+// to the incremental smoother pose by pose, with a handful of --check batch solves on the way.
+//
+// Asserted per file: one update per pose; every check's online chi2 (computed from the
+// smoother's graph and estimate) within 1e-3 relative of the batch optimum of the graph so
+// far; and the chi2 after Finish within 1e-6 relative of the batch optimum of the whole file
+// (Optimize from the chordal start).
+//
+// These are slow with the smoother that re-solves the whole graph on every update (minutes
+// for sphere2500 and kitti_00), so they are a program of their own with the ctest label
+// `replay_datasets`: `ctest -L replay_datasets` runs them, `ctest -LE replay_datasets` leaves
+// them out (tests/CMakeLists.txt).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <ostream>
+#include <string>
+
+#include "tether/core/graph_io.h"
+#include "tether/factors/builtin.h"
+#include "tether/tools/replay.h"
+
+namespace tether {
+namespace {
+
+struct Dataset {
+  const char* file;
+};
+
+void PrintTo(const Dataset& d, std::ostream* os) { *os << d.file; }
+
+const Dataset kDatasets[] = {
+    {"CSAIL.g2o"},       {"MIT.g2o"},        {"ais2klinik.g2o"}, {"input_M3500_g2o.g2o"},
+    {"intel.g2o"},       {"kitti_00.g2o"},   {"manhattan.g2o"},  {"parking-garage.g2o"},
+    {"smallGrid3D.g2o"}, {"sphere2500.g2o"}, {"tinyGrid3D.g2o"},
+};
+
+constexpr int kChecks = 5;                // about this many --check batch solves per file
+constexpr double kFinalTolerance = 1e-6;  // final chi2 against the batch optimum, relative
+constexpr double kCheckTolerance = 1e-3;  // online chi2 against the optimum so far, relative
+
+std::string DatasetPath(const std::string& name) { return std::string(TETHER_DATASETS_DIR) + "/g2o/" + name; }
+
+// The number of poses (SE2 and SE3 variables) of a graph file, as read (files of edges alone
+// get their variables from the edges).
+std::size_t CountPoses(const std::string& path) {
+  const GraphFile f = ReadGraphFile(path, DefaultRegistry());
+  return f.values.Count(VarType::kSE2) + f.values.Count(VarType::kSE3);
+}
+
+class ReplayDatasetTest : public ::testing::TestWithParam<Dataset> {};
+
+TEST_P(ReplayDatasetTest, ReachesTheBatchOptimum) {
+  const std::string path = DatasetPath(GetParam().file);
+  if (!std::ifstream(path).good()) {
+    GTEST_SKIP() << "dataset " << path << " absent (../shared/datasets not beside the repository)";
+  }
+  const std::size_t poses = CountPoses(path);
+  ASSERT_GT(poses, 0u);
+  ReplayOptions options;
+  options.check = static_cast<int>(std::max<std::size_t>(1, poses / kChecks));
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const ReplayResult r = ReplayFile(path, options);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(r.status, ReplayStatus::kDone) << r.message;
+  RecordProperty("replay_seconds", std::to_string(r.total_seconds()));
+  std::cout << GetParam().file << ": " << r.poses << " poses, replay " << r.total_seconds() << " s (p99 "
+            << 1e3 * r.p99_seconds << " ms), whole test " << seconds << " s with " << r.checks.size()
+            << " checks (largest gap " << r.max_check_gap << "), final gap " << r.relative_gap << ", peak "
+            << r.peak_rss_mib << " MiB\n";
+
+  EXPECT_EQ(r.poses, poses);
+  EXPECT_EQ(r.latencies.size(), r.poses) << "one update per pose";
+  EXPECT_GE(r.checks.size(), static_cast<std::size_t>(kChecks));
+  for (const ReplayCheck& c : r.checks) {
+    EXPECT_LE(c.gap, kCheckTolerance) << "check at step " << c.step << ": online chi2 " << c.online_chi2 << ", batch "
+                                      << c.batch_chi2;
+  }
+  EXPECT_NEAR(r.final_chi2, r.batch_chi2, kFinalTolerance * r.batch_chi2)
+      << "final chi2 " << r.final_chi2 << ", batch optimum " << r.batch_chi2;
+}
+
+INSTANTIATE_TEST_SUITE_P(G2o, ReplayDatasetTest, ::testing::ValuesIn(kDatasets),
+                         [](const ::testing::TestParamInfo<Dataset>& i) {
+                           std::string n = i.param.file;
+                           n = n.substr(0, n.rfind('.'));
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+}  // namespace
+}  // namespace tether
