@@ -96,6 +96,16 @@ int main(int argc, char** argv) {
                    "Re-linearise a variable whose step exceeds this (SmootherOptions::relinearize_threshold)")
       ->capture_default_str();
   replay
+      ->add_option("--relinearize-sigmas", rc.options.relinearize_sigmas,
+                   "Re-linearise a variable whose step exceeds this many standard deviations "
+                   "(SmootherOptions::relinearize_sigmas)")
+      ->capture_default_str();
+  replay
+      ->add_option(
+          "--iterate-ratio", rc.options.iterate_ratio,
+          "Solve again within an update while a step is this many times too large (SmootherOptions::iterate_ratio)")
+      ->capture_default_str();
+  replay
       ->add_option("--rounds", rc.options.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();

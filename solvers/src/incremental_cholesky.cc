@@ -94,8 +94,7 @@ int IncrementalCholesky::Parent(int v) const {
 }
 
 int IncrementalCholesky::RowIndex(const Var& col, std::int64_t pos) const {
-  auto it = std::lower_bound(col.rows.begin(), col.rows.end(), pos,
-                             [&](int r, std::int64_t p) { return pos_[r] < p; });
+  auto it = std::lower_bound(col.rows.begin(), col.rows.end(), pos, [&](int r, std::int64_t p) { return pos_[r] < p; });
   return static_cast<int>(it - col.rows.begin());
 }
 
@@ -266,7 +265,7 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
   }
   scratch_[j] = 0;
   c.L.setZero(total, dj);
-  double* F = c.L.data();  // column-major, leading dimension `total`
+  double* F = c.L.data();    // column-major, leading dimension `total`
   Eigen::VectorXd& b = c.y;  // the right-hand side, then the forward solution
   b.setZero(dj);
 
@@ -285,6 +284,7 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
       c.L.middleRows(scratch_[u], du).noalias() += Ju.transpose() * Jj;
     }
   }
+  c.scale = c.L.topRows(dj).diagonal().cwiseSqrt();
   // Minus the contributions of the columns before j that reach row j: for each, one product
   // of its tail from row j on with its block in row j, scattered into the rows of j.
   Eigen::MatrixXd& W = product_scratch_;
@@ -328,8 +328,7 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
   return true;
 }
 
-void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double wildfire,
-                                         std::vector<int>* changed) {
+void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double wildfire, std::vector<int>* changed) {
   ++stamp_now_;
   const std::uint32_t mark = stamp_now_;
   std::priority_queue<std::pair<std::int64_t, int>> queue;

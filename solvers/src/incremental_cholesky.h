@@ -29,9 +29,9 @@ namespace internal {
 class IncrementalCholesky {
  public:
   struct Stats {
-    int affected = 0;        ///< columns refactored
-    int back_substituted = 0;  ///< columns whose solution was recomputed
-    bool full = false;       ///< every column was refactored
+    int affected = 0;           ///< columns refactored
+    int back_substituted = 0;   ///< columns whose solution was recomputed
+    bool full = false;          ///< every column was refactored
     double factor_seconds = 0;  ///< finding, ordering and refactoring the affected columns
     double back_seconds = 0;    ///< the back substitution
   };
@@ -66,6 +66,10 @@ class IncrementalCholesky {
 
   /// The Gauss-Newton step of variable v (zero for constant or unconstrained variables).
   const Eigen::VectorXd& delta(int v) const { return vars_[v].delta; }
+  /// The square roots of the diagonal of H's block of v (of its factors alone) at the last
+  /// refactor of its column: the step in these units is the step in standard deviations of
+  /// the information the variable's own factors give it.
+  const Eigen::VectorXd& scale(int v) const { return vars_[v].scale; }
   /// Sets the step of v to zero (the caller moved its linearisation point by it) and marks
   /// its factors for re-linearisation by the caller (their variables are touched by Touch).
   void ClearDelta(int v) { vars_[v].delta.setZero(); }
@@ -81,21 +85,22 @@ class IncrementalCholesky {
     int dim = 0;
     bool alive = false;
     bool constant = false;
-    std::vector<int> factors;   // live factor slots using the variable
+    std::vector<int> factors;  // live factor slots using the variable
     // Column of L: the diagonal block (dim x dim) on top, then one block per row variable.
     Eigen::MatrixXd L;
-    std::vector<int> rows;      // row variables, in position order
-    std::vector<int> offsets;   // first row of each row variable's block in L
+    std::vector<int> rows;        // row variables, in position order
+    std::vector<int> offsets;     // first row of each row variable's block in L
     std::vector<int> dependents;  // columns whose rows hold this variable
-    Eigen::VectorXd y;          // forward solution
-    Eigen::VectorXd delta;      // back substitution: the step
+    Eigen::VectorXd y;            // forward solution
+    Eigen::VectorXd delta;        // back substitution: the step
+    Eigen::VectorXd scale;        // sqrt(diag(H_vv))
   };
   struct FactorSlot {
     bool alive = false;
     int rows = 0;
     std::vector<int> vars;
-    std::vector<int> offsets;   // of each variable's block in J
-    std::vector<double> J;      // blocks, row-major, one after the other
+    std::vector<int> offsets;  // of each variable's block in J
+    std::vector<double> J;     // blocks, row-major, one after the other
     Eigen::VectorXd r;
   };
 

@@ -32,9 +32,11 @@ bool SmootherOptions::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (!(relinearize_threshold >= 0)) return fail("relinearize_threshold must be 0 or more");
   if (!(wildfire_threshold >= 0)) return fail("wildfire_threshold must be 0 or more");
   if (rounds_per_update < 1) return fail("rounds_per_update must be at least 1");
+  if (!(relinearize_threshold > 0)) return fail("relinearize_threshold must be positive");
+  if (!(relinearize_sigmas > 0)) return fail("relinearize_sigmas must be positive");
+  if (!(iterate_ratio >= 1)) return fail("iterate_ratio must be at least 1");
   if (!update.IsValid(&reason)) return fail("update: " + reason);
   if (!finish.IsValid(&reason)) return fail("finish: " + reason);
   if (!covariance.IsValid(&reason)) return fail("covariance: " + reason);
@@ -124,6 +126,17 @@ struct IncrementalSmoother::State {
     return ok;
   }
 
+  // The size of v's step against the re-linearisation thresholds (beyond one: re-linearise):
+  // the larger of the step over relinearize_threshold, and the step in standard deviations
+  // of the information v's own factors give it over relinearize_sigmas.
+  double Step(int v, const SmootherOptions& o) const {
+    const Eigen::VectorXd& d = engine.delta(v);
+    const Eigen::VectorXd& s = engine.scale(v);
+    double step = d.lpNorm<Eigen::Infinity>() / o.relinearize_threshold;
+    if (s.size() == d.size()) step = std::max(step, d.cwiseProduct(s).lpNorm<Eigen::Infinity>() / o.relinearize_sigmas);
+    return step;
+  }
+
   // The pending variables get their linearisation point moved and their factors re-evaluated.
   bool Relinearize(const Values& estimate) {
     std::vector<int> slots;
@@ -160,7 +173,7 @@ struct IncrementalSmoother::State {
 
   // The estimate of every variable whose step changed; the ones beyond the threshold become
   // pending. Nothing changes where a step is not finite.
-  bool Apply(const std::vector<int>& changed, double threshold, Values* estimate, std::string* why) {
+  bool Apply(const std::vector<int>& changed, const SmootherOptions& o, Values* estimate, std::string* why) {
     for (int v : changed) {
       if (Alive(v) && !engine.delta(v).allFinite()) {
         *why = "the step of " + KeyToString(key_of[v]) + " is not finite";
@@ -171,7 +184,7 @@ struct IncrementalSmoother::State {
       if (!Alive(v)) continue;
       const Eigen::VectorXd& d = engine.delta(v);
       RetractParams(type_of[v], theta[v].data(), d.data(), estimate->Params(key_of[v]));
-      if (d.lpNorm<Eigen::Infinity>() > threshold && !is_pending[v]) {
+      if (Step(v, o) > 1 && !is_pending[v]) {
         is_pending[v] = 1;
         pending.push_back(v);
       }
@@ -361,11 +374,14 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
       u.structure_rebuilt = u.structure_rebuilt || es.full;
       u.affected_columns += es.affected;
       u.back_substituted += es.back_substituted;
-      if (!st.Apply(changed, options_.relinearize_threshold, &estimate_, &why)) {
+      if (!st.Apply(changed, options_, &estimate_, &why)) {
         ok = false;
         break;
       }
-      if (st.pending.empty()) break;
+      // Another round where a step is still large: the linearisation is far off there.
+      double largest = 0;
+      for (int v : st.pending) largest = std::max(largest, st.Step(v, options_));
+      if (!(largest > options_.iterate_ratio)) break;
     }
     if (ok) {
       u.status = SolverStatus::kConverged;

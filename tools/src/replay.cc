@@ -169,6 +169,8 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   if (!ro.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
   SmootherOptions options;
   options.relinearize_threshold = ro.relinearize_threshold;
+  options.relinearize_sigmas = ro.relinearize_sigmas;
+  options.iterate_ratio = ro.iterate_ratio;
   options.rounds_per_update = ro.rounds_per_update;
   if (!options.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
   Registry& registry = DefaultRegistry();
@@ -264,7 +266,8 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     return 2;
   }
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
-      << o.relinearize_threshold << ", " << o.rounds_per_update << " round(s) per update\n"
+      << o.relinearize_threshold << " or " << o.relinearize_sigmas << " sigma, iterate ratio " << o.iterate_ratio
+      << ", at most " << o.rounds_per_update << " round(s) per update\n"
       << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;
@@ -297,12 +300,9 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
       << ", finish " << Format("%.3f", r.finish_seconds) << ")\n";
   out << "per step [ms]: mean " << Format("%.3f", 1e3 * r.mean_seconds) << ", p99 "
       << Format("%.3f", 1e3 * r.p99_seconds) << ", max " << Format("%.3f", 1e3 * r.max_seconds) << "\n";
-  out << "update split [s]: linearise "
-      << Format("%.3f", r.linearize_seconds) << ", factorise " << Format("%.3f", r.factorize_seconds) << ", solve "
-      << Format("%.3f", r.solve_seconds) << ", other "
-      << Format("%.3f",
-                r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds)
-      << "\n";
+  out << "update split [s]: linearise " << Format("%.3f", r.linearize_seconds) << ", factorise "
+      << Format("%.3f", r.factorize_seconds) << ", solve " << Format("%.3f", r.solve_seconds) << ", other "
+      << Format("%.3f", r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds) << "\n";
   out << "final chi2: " << Format("%.9g", r.final_chi2) << "\n";
   out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
   out << "relative gap to batch: " << Format("%.3e", r.relative_gap) << "\n";

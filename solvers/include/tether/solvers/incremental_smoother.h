@@ -53,18 +53,23 @@ namespace tether {
 struct SmootherOptions {
   SmootherOptions();
 
-  /// A variable whose step (the infinity norm of its tangent delta from the linearisation
-  /// point) exceeds this is re-linearised: its linearisation point moves to the estimate and
-  /// its factors are evaluated there. Smaller: estimates closer to the optimum so far, more
-  /// columns refactored per update. Default 0.02 (benchmarks/RESULTS.md, "The incremental
-  /// smoother, version 2": every checked estimate of the public files within 1e-4 relative chi2
-  /// of the optimum so far).
+  /// A variable whose step (its tangent delta from the linearisation point) is too large is
+  /// re-linearised: its linearisation point moves to the estimate and its factors are
+  /// evaluated there. Too large: beyond relinearize_threshold (infinity norm, the tangent's
+  /// units), or beyond relinearize_sigmas standard deviations of the information the
+  /// variable's own factors give it (sqrt of H's diagonal: catches precise measurements, a
+  /// rotation known to a few milliradians, where a fixed threshold is too coarse). Smaller:
+  /// estimates closer to the optimum so far, more columns refactored per update. Defaults 0.02
+  /// and 1 (benchmarks/RESULTS.md, "The incremental smoother, version 2").
   double relinearize_threshold = 0.02;
-  /// Factorise-solve rounds per update; each round first re-linearises the variables whose
-  /// step exceeded relinearize_threshold, then refactors the affected columns and solves.
-  /// Default 1: re-linearisations found by an update's solve are done at the start of the next
-  /// update (more rounds: closer to the optimum after each update, more time).
-  int rounds_per_update = 1;
+  double relinearize_sigmas = 1;
+  /// An update solves again (re-linearising first) while some variable's step is more than
+  /// this many times too large, at most rounds_per_update times: a step that large means the
+  /// linearisation was far off. Smaller steps that are too large are re-linearised at the start
+  /// of the next update. Default 5.
+  double iterate_ratio = 5;
+  /// At most this many factorise-solve rounds per update. Default 8.
+  int rounds_per_update = 8;
   /// The back substitution goes down the elimination tree below a variable only where the
   /// variable's step changed by more than this (infinity norm). 0: wherever it changed at all
   /// (the exact solution of the linear system). Default 1e-9.
@@ -106,15 +111,15 @@ struct SmootherUpdate {
   bool fell_back = false;
   SolverStatus status = SolverStatus::kConverged;  ///< of the solve
   std::string message;                             ///< what happened, where it is not plain
-  int iterations = 0;              ///< factorise-solve rounds
-  int affected_columns = 0;        ///< columns refactored, summed over the rounds
-  int back_substituted = 0;        ///< columns whose step was recomputed, summed over the rounds
-  int relinearized = 0;            ///< variables whose linearisation point moved
+  int iterations = 0;                              ///< factorise-solve rounds
+  int affected_columns = 0;                        ///< columns refactored, summed over the rounds
+  int back_substituted = 0;                        ///< columns whose step was recomputed, summed over the rounds
+  int relinearized = 0;                            ///< variables whose linearisation point moved
   /// Of the whole graph at the previous estimate plus the new values, and at the new estimate;
   /// NaN unless options.compute_chi2.
   double chi2_before = 0;
   double chi2_after = 0;
-  double seconds = 0;              ///< the whole update: checks, changes and solve
+  double seconds = 0;  ///< the whole update: checks, changes and solve
   /// Evaluating factors; ordering and refactoring the affected columns (with their forward
   /// solution); the back substitution.
   double linearize_seconds = 0;
