@@ -109,6 +109,11 @@ int main(int argc, char** argv) {
       ->add_option("--rounds", rc.options.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();
+  replay
+      ->add_option("--wildfire", rc.options.wildfire_threshold,
+                   "Back-substitute below a variable only where its step changed by more than this "
+                   "(SmootherOptions::wildfire_threshold)")
+      ->capture_default_str();
 
   try {
     app.parse(argc, argv);

@@ -20,6 +20,33 @@ void EraseValue(std::vector<int>* v, int x) {
   if (it != v->end()) v->erase(it);
 }
 
+// out (n x dj, column-major, leading dimension ldo) -= A (n x dk, leading dimension lda) *
+// B^T (B: dj x dk, leading dimension lda). Fixed-size kernels for the common block widths
+// (vectorised along n; Eigen's GEMM packs its operands, which costs more than the product for
+// blocks this narrow), the dynamic product for the rest.
+template <int Dk, int Dj>
+void SubtractProductFixed(double* out, int ldo, const double* A, const double* B, int lda, int n) {
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Dj>, 0, Stride> O(out, n, Dj, Stride(ldo));
+  Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Dk>, 0, Stride> a(A, n, Dk, Stride(lda));
+  Eigen::Map<const Eigen::Matrix<double, Dj, Dk>, 0, Stride> b(B, Dj, Dk, Stride(lda));
+  O.noalias() -= a.lazyProduct(b.transpose());
+}
+
+void SubtractProduct(double* out, int ldo, const double* A, const double* B, int lda, int n, int dk, int dj) {
+  if (dk == 3 && dj == 3) return SubtractProductFixed<3, 3>(out, ldo, A, B, lda, n);
+  if (dk == 6 && dj == 6 && n < 24) return SubtractProductFixed<6, 6>(out, ldo, A, B, lda, n);
+  if (dk == 3 && dj == 6) return SubtractProductFixed<3, 6>(out, ldo, A, B, lda, n);
+  if (dk == 6 && dj == 3) return SubtractProductFixed<6, 3>(out, ldo, A, B, lda, n);
+  if (dk == 2 && dj == 3) return SubtractProductFixed<2, 3>(out, ldo, A, B, lda, n);
+  if (dk == 3 && dj == 2) return SubtractProductFixed<3, 2>(out, ldo, A, B, lda, n);
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<Eigen::MatrixXd, 0, Stride> O(out, n, dj, Stride(ldo));
+  Eigen::Map<const Eigen::MatrixXd, 0, Stride> a(A, n, dk, Stride(lda));
+  Eigen::Map<const Eigen::MatrixXd, 0, Stride> b(B, dj, dk, Stride(lda));
+  O.noalias() -= a * b.transpose();
+}
+
 }  // namespace
 
 int IncrementalCholesky::AddVariable(int dim) {
@@ -285,30 +312,27 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
     }
   }
   c.scale = c.L.topRows(dj).diagonal().cwiseSqrt();
-  // Minus the contributions of the columns before j that reach row j: for each, one product
-  // of its tail from row j on with its block in row j, scattered into the rows of j.
-  Eigen::MatrixXd& W = product_scratch_;
+  // Minus the contributions of the columns before j that reach row j: for each, the product
+  // of its tail from row j on with its block in row j. The tail's row blocks land in the rows
+  // of j; blocks that are consecutive in both are one run, subtracted in one product.
   for (std::size_t d = 0; d < c.dependents.size(); ++d) {
     const Var& ck = vars_[c.dependents[d]];
     const int dk = ck.dim;
     const int ij = at_j[d];
     const int start = ck.offsets[ij];
-    const int len = static_cast<int>(ck.L.rows()) - start;
     const auto Lkj = ck.L.block(start, 0, dj, dk);
     b.noalias() -= Lkj * ck.y;
-    W.resize(len, dj);
-    W.noalias() = ck.L.block(start, 0, len, dk).lazyProduct(Lkj.transpose());
-    const double* w = W.data();
-    for (std::size_t i = static_cast<std::size_t>(ij); i < ck.rows.size(); ++i) {
-      const int r = ck.rows[i];
-      const int dr = vars_[r].dim;
-      const int src = ck.offsets[i] - start;
-      const int dst = r == j ? 0 : scratch_[r];
-      for (int col = 0; col < dj; ++col) {
-        double* out = F + static_cast<std::ptrdiff_t>(col) * total + dst;
-        const double* in = w + static_cast<std::ptrdiff_t>(col) * len + src;
-        for (int e = 0; e < dr; ++e) out[e] -= in[e];
+    std::size_t i = static_cast<std::size_t>(ij);
+    while (i < ck.rows.size()) {
+      const int src = ck.offsets[i];
+      const int r0 = ck.rows[i];
+      const int dst = r0 == j ? 0 : scratch_[r0];
+      int n = vars_[r0].dim;
+      for (++i; i < ck.rows.size() && scratch_[ck.rows[i]] == dst + n && ck.rows[i] != j; ++i) {
+        n += vars_[ck.rows[i]].dim;
       }
+      const int ld = static_cast<int>(ck.L.rows());
+      SubtractProduct(F + dst, total, ck.L.data() + src, ck.L.data() + start, ld, n, dk, dj);
     }
   }
   Eigen::Ref<Eigen::MatrixXd> top = c.L.topRows(dj);

@@ -129,7 +129,6 @@ class IncrementalCholesky {
   std::uint32_t seen_now_ = 0;
   std::vector<int> scratch_;
   std::vector<std::pair<std::int64_t, int>> row_scratch_;
-  Eigen::MatrixXd product_scratch_;
   std::vector<int> index_scratch_;
   Eigen::VectorXd x_scratch_, above_scratch_;
 };

@@ -172,6 +172,7 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   options.relinearize_sigmas = ro.relinearize_sigmas;
   options.iterate_ratio = ro.iterate_ratio;
   options.rounds_per_update = ro.rounds_per_update;
+  options.wildfire_threshold = ro.wildfire_threshold;
   if (!options.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
   Registry& registry = DefaultRegistry();
   GraphFile file;
@@ -267,7 +268,7 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
       << o.relinearize_threshold << " or " << o.relinearize_sigmas << " sigma, iterate ratio " << o.iterate_ratio
-      << ", at most " << o.rounds_per_update << " round(s) per update\n"
+      << ", at most " << o.rounds_per_update << " round(s) per update, wildfire " << o.wildfire_threshold << "\n"
       << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;
