@@ -60,6 +60,7 @@ int IncrementalCholesky::AddVariable(int dim) {
   pos_.push_back(-1);
   seen_.push_back(0);
   scratch_.push_back(0);
+  marked_.push_back(0);
   return static_cast<int>(vars_.size()) - 1;
 }
 
@@ -240,11 +241,19 @@ void IncrementalCholesky::Order(std::vector<int>* columns) {
       ++recent;
     }
   }
+  if (recent == 0 || recent == n) {
+    // No constraint among these columns (a first batch, or a full refactor after Finish()):
+    // the newest variable still goes last, since the next update most likely touches it.
+    // Newest: marked recent last, or where none was marked, added last.
+    auto newer = [&](int a, int b) { return std::make_pair(marked_[a], a) < std::make_pair(marked_[b], b); };
+    const auto last = std::max_element(columns->begin(), columns->end(), newer);
+    std::fill(C.begin(), C.end(), 0);
+    C[last - columns->begin()] = 1;
+  }
   std::vector<int> P(static_cast<std::size_t>(n));
   double control[CAMD_CONTROL], info[CAMD_INFO];
   camd_defaults(control);
-  const int status = camd_order(n, Ap.data(), Ai.empty() ? nullptr : Ai.data(), P.data(), control, info,
-                                recent > 0 && recent < n ? C.data() : nullptr);
+  const int status = camd_order(n, Ap.data(), Ai.empty() ? nullptr : Ai.data(), P.data(), control, info, C.data());
   if (status != CAMD_OK && status != CAMD_OK_BUT_JUMBLED) return;  // keep the order given
   std::vector<int> ordered(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) ordered[i] = (*columns)[P[i]];

@@ -53,8 +53,13 @@ class IncrementalCholesky {
   double* Residual(int f) { return factors_[f].r.data(); }
   void Touch(int f);
 
-  /// Marks a variable as recent: the next ordering puts it among the last columns.
-  void MarkRecent(int v) { recent_.push_back(v); }
+  /// Marks a variable as recent: the next ordering puts it among the last columns. Where
+  /// every reordered column is recent (a first batch) or none is (a full refactor after
+  /// Finish), the one marked last (where none was marked, the one added last) goes last.
+  void MarkRecent(int v) {
+    recent_.push_back(v);
+    marked_[v] = ++mark_count_;
+  }
   /// Refactors every column on the next Solve (for a changed gauge or fixed set).
   void RequestFullRefactor() { full_ = true; }
 
@@ -118,6 +123,8 @@ class IncrementalCholesky {
   std::vector<FactorSlot> factors_;
   std::vector<int> touched_;
   std::vector<int> recent_;
+  std::vector<std::uint64_t> marked_;  // when each variable was last marked recent (0: never)
+  std::uint64_t mark_count_ = 0;
   bool full_ = true;
   std::int64_t next_pos_ = 0;
   Stats stats_;

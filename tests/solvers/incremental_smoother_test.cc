@@ -286,6 +286,42 @@ TEST(IncrementalSmoother, MarginalIsMarginalsOfTheGraphAndEstimate) {
   EXPECT_THROW(smoother.Marginal(1000), InvalidArgument);
 }
 
+TEST(IncrementalSmoother, APoseAfterABatchStartOrFinishRefactorsOnlyTheLastColumns) {
+  // A front-end that starts with a whole map in one update, or calls Finish() now and then:
+  // the next pose at the end of the trajectory must not refactor the whole factor (the full
+  // refactor orders the newest variable last).
+  const int poses = 300;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 12);
+  IncrementalSmoother smoother;
+  FactorGraph all;
+  for (std::size_t i = 0; i < sim.graph.size(); ++i) all.Add(sim.graph.at(i).Clone());
+  Values initial = sim.initial;
+  const SmootherUpdate first = smoother.Update(std::move(all), std::move(initial));
+  EXPECT_TRUE(first.structure_rebuilt);
+  EXPECT_GE(first.affected_columns, poses);
+  auto one_more_pose = [&](Key next) {
+    FactorGraph f;
+    Values v;
+    const SE2d odometry(1, 0, 0.1);
+    v.Insert(next, smoother.Estimate().At<SE2d>(next - 1) * odometry);
+    f.Add<BetweenSE2>(next - 1, next, odometry, SqrtInformation::Identity(3));
+    return smoother.Update(std::move(f), std::move(v));
+  };
+  // Let the start settle (its re-linearisations), then one pose.
+  for (int i = 0; i < 20 && smoother.Update().relinearized > 0; ++i) {
+  }
+  SmootherUpdate u = one_more_pose(poses);
+  EXPECT_FALSE(u.structure_rebuilt);
+  EXPECT_EQ(u.relinearized, 0);
+  EXPECT_LE(u.affected_columns, 4) << "after a batch start";
+  smoother.Finish();
+  u = one_more_pose(poses + 1);
+  EXPECT_TRUE(u.structure_rebuilt) << "Finish() re-linearises everything, so the next update refactors all";
+  u = one_more_pose(poses + 2);
+  EXPECT_FALSE(u.structure_rebuilt);
+  EXPECT_LE(u.affected_columns, 4) << "after Finish()";
+}
+
 TEST(IncrementalSmoother, ANewPoseWithZeroErrorMovesNothingElse) {
   const int poses = 80;
   const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 10);
