@@ -47,6 +47,46 @@ void SubtractProduct(double* out, int ldo, const double* A, const double* B, int
   O.noalias() -= a * b.transpose();
 }
 
+// out (da x db, column-major, leading dimension ldo) += A^T B for the factor's row-major
+// Jacobian blocks A (rows x da) and B (rows x db): one block of H. Fixed sizes for the
+// built-in shapes (SE2 and SE3 between factors), the dynamic product for the rest.
+template <int R, int Da, int Db>
+void AddJtJFixed(double* out, int ldo, const double* A, const double* B) {
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<Eigen::Matrix<double, Da, Db>, 0, Stride> O(out, Da, Db, Stride(ldo));
+  Eigen::Map<const Eigen::Matrix<double, R, Da, Eigen::RowMajor>> a(A);
+  Eigen::Map<const Eigen::Matrix<double, R, Db, Eigen::RowMajor>> b(B);
+  O.noalias() += a.transpose() * b;
+}
+
+void AddJtJ(double* out, int ldo, const double* A, const double* B, int rows, int da, int db) {
+  if (rows == 3 && da == 3 && db == 3) return AddJtJFixed<3, 3, 3>(out, ldo, A, B);
+  if (rows == 6 && da == 6 && db == 6) return AddJtJFixed<6, 6, 6>(out, ldo, A, B);
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<Eigen::MatrixXd, 0, Stride> O(out, da, db, Stride(ldo));
+  Eigen::Map<const RowMajor> a(A, rows, da);
+  Eigen::Map<const RowMajor> b(B, rows, db);
+  O.noalias() += a.transpose() * b;
+}
+
+// x (dj) -= B^T d for a block B (dr x dj, column-major, leading dimension ld) of a column
+// of L and the step d (dr) of its row variable.
+template <int Dr, int Dj>
+void SubtractTransposedProductFixed(double* x, const double* B, int ld, const double* d) {
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const Eigen::Matrix<double, Dr, Dj>, 0, Stride> b(B, Dr, Dj, Stride(ld));
+  Eigen::Map<Eigen::Matrix<double, Dj, 1>>(x).noalias() -=
+      b.transpose() * Eigen::Map<const Eigen::Matrix<double, Dr, 1>>(d);
+}
+
+void SubtractTransposedProduct(double* x, const double* B, int ld, const double* d, int dr, int dj) {
+  if (dr == 3 && dj == 3) return SubtractTransposedProductFixed<3, 3>(x, B, ld, d);
+  if (dr == 6 && dj == 6) return SubtractTransposedProductFixed<6, 6>(x, B, ld, d);
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const Eigen::MatrixXd, 0, Stride> b(B, dr, dj, Stride(ld));
+  Eigen::Map<Eigen::VectorXd>(x, dj).noalias() -= b.transpose() * Eigen::Map<const Eigen::VectorXd>(d, dr);
+}
+
 }  // namespace
 
 int IncrementalCholesky::AddVariable(int dim) {
@@ -309,15 +349,13 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
   for (int fi : c.factors) {
     const FactorSlot& f = factors_[fi];
     const int kj = static_cast<int>(std::find(f.vars.begin(), f.vars.end(), j) - f.vars.begin());
-    Eigen::Map<const RowMajor> Jj(f.J.data() + f.offsets[kj], f.rows, dj);
-    c.L.topRows(dj).noalias() += Jj.transpose() * Jj;
-    b.noalias() -= Jj.transpose() * f.r;
+    const double* Jj = f.J.data() + f.offsets[kj];
+    AddJtJ(F, total, Jj, Jj, f.rows, dj, dj);
+    b.noalias() -= Eigen::Map<const RowMajor>(Jj, f.rows, dj).transpose() * f.r;
     for (std::size_t k = 0; k < f.vars.size(); ++k) {
       const int u = f.vars[k];
       if (u == j || stamp_[u] != mark) continue;
-      const int du = vars_[u].dim;
-      Eigen::Map<const RowMajor> Ju(f.J.data() + f.offsets[k], f.rows, du);
-      c.L.middleRows(scratch_[u], du).noalias() += Ju.transpose() * Jj;
+      AddJtJ(F + scratch_[u], total, f.J.data() + f.offsets[k], Jj, f.rows, vars_[u].dim, dj);
     }
   }
   c.scale = c.L.topRows(dj).diagonal().cwiseSqrt();
@@ -378,7 +416,14 @@ void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double
     const int dj = c.dim;
     const int below = static_cast<int>(c.L.rows()) - dj;
     x = c.y;
-    if (below > 0) {
+    if (below > 0 && (dj == 3 || dj == 6)) {
+      // Block by block where the widths are the built-in ones (no gathering of the steps).
+      const int ld = static_cast<int>(c.L.rows());
+      for (std::size_t i = 0; i < c.rows.size(); ++i) {
+        const Var& r = vars_[c.rows[i]];
+        SubtractTransposedProduct(x.data(), c.L.data() + c.offsets[i], ld, r.delta.data(), r.dim, dj);
+      }
+    } else if (below > 0) {
       above.resize(below);
       for (std::size_t i = 0; i < c.rows.size(); ++i) {
         const Var& r = vars_[c.rows[i]];
