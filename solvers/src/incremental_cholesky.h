@@ -55,10 +55,11 @@ class IncrementalCholesky {
 
   /// Marks a variable as recent: the next ordering puts it among the last columns. Where
   /// every reordered column is recent (a first batch) or none is (a full refactor after
-  /// Finish), the one marked last (where none was marked, the one added last) goes last.
+  /// Finish), the newest goes last: marked in the latest Solve, and of those the one added
+  /// last.
   void MarkRecent(int v) {
     recent_.push_back(v);
-    marked_[v] = ++mark_count_;
+    marked_[v] = generation_;
   }
   /// Refactors every column on the next Solve (for a changed gauge or fixed set).
   void RequestFullRefactor() { full_ = true; }
@@ -123,8 +124,8 @@ class IncrementalCholesky {
   std::vector<FactorSlot> factors_;
   std::vector<int> touched_;
   std::vector<int> recent_;
-  std::vector<std::uint64_t> marked_;  // when each variable was last marked recent (0: never)
-  std::uint64_t mark_count_ = 0;
+  std::vector<std::uint64_t> marked_;  // the Solve before which each variable was last marked recent
+  std::uint64_t generation_ = 1;       // counts the Solves (0 in marked_: never marked)
   bool full_ = true;
   std::int64_t next_pos_ = 0;
   Stats stats_;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <utility>
 
@@ -13,6 +14,8 @@
 namespace tether {
 
 namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -34,8 +37,8 @@ bool SmootherOptions::IsValid(std::string* why) const {
   };
   if (!(wildfire_threshold >= 0)) return fail("wildfire_threshold must be 0 or more");
   if (rounds_per_update < 1) return fail("rounds_per_update must be at least 1");
-  if (!(relinearize_threshold > 0)) return fail("relinearize_threshold must be positive");
-  if (!(relinearize_sigmas > 0)) return fail("relinearize_sigmas must be positive");
+  if (!(relinearize_threshold >= 0)) return fail("relinearize_threshold must be 0 or more");
+  if (!(relinearize_sigmas >= 0)) return fail("relinearize_sigmas must be 0 or more");
   if (!(iterate_ratio >= 1)) return fail("iterate_ratio must be at least 1");
   if (!update.IsValid(&reason)) return fail("update: " + reason);
   if (!finish.IsValid(&reason)) return fail("finish: " + reason);
@@ -132,8 +135,11 @@ struct IncrementalSmoother::State {
   double Step(int v, const SmootherOptions& o) const {
     const Eigen::VectorXd& d = engine.delta(v);
     const Eigen::VectorXd& s = engine.scale(v);
-    double step = d.lpNorm<Eigen::Infinity>() / o.relinearize_threshold;
-    if (s.size() == d.size()) step = std::max(step, d.cwiseProduct(s).lpNorm<Eigen::Infinity>() / o.relinearize_sigmas);
+    // x over a threshold t; where t is 0, any step at all is too large.
+    auto over = [](double x, double t) { return t > 0 ? x / t : (x > 0 ? kInfinity : 0.0); };
+    double step = over(d.lpNorm<Eigen::Infinity>(), o.relinearize_threshold);
+    if (s.size() == d.size())
+      step = std::max(step, over(d.cwiseProduct(s).lpNorm<Eigen::Infinity>(), o.relinearize_sigmas));
     return step;
   }
 

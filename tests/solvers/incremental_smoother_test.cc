@@ -423,6 +423,46 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   EXPECT_NE(why.find("update"), std::string::npos);
   EXPECT_THROW(IncrementalSmoother{o}, InvalidArgument);
   EXPECT_TRUE(SmootherOptions().IsValid(nullptr));
+  // Each re-linearisation setting names itself; NaN is refused like a negative value.
+  const struct {
+    const char* name;
+    double SmootherOptions::*field;
+    double bad;
+  } fields[] = {{"relinearize_threshold", &SmootherOptions::relinearize_threshold, -0.1},
+                {"relinearize_sigmas", &SmootherOptions::relinearize_sigmas, std::nan("")},
+                {"iterate_ratio", &SmootherOptions::iterate_ratio, 0.5},
+                {"wildfire_threshold", &SmootherOptions::wildfire_threshold, -1}};
+  for (const auto& f : fields) {
+    SmootherOptions bad;
+    bad.*f.field = f.bad;
+    EXPECT_FALSE(bad.IsValid(&why)) << f.name;
+    EXPECT_NE(why.find(f.name), std::string::npos) << why;
+  }
+  SmootherOptions rounds;
+  rounds.rounds_per_update = 0;
+  EXPECT_FALSE(rounds.IsValid(&why));
+  EXPECT_NE(why.find("rounds_per_update"), std::string::npos) << why;
+}
+
+TEST(IncrementalSmoother, ZeroThresholdsReLineariseEveryStep) {
+  // relinearize_threshold 0: every variable whose step is not zero is re-linearised, and the
+  // update iterates (Gauss-Newton) up to rounds_per_update: the estimate after an update with
+  // a loop closure is then the optimum of the graph so far to far below the default's gap.
+  const int poses = 60;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 14);
+  SmootherOptions o;
+  o.relinearize_threshold = 0;
+  o.relinearize_sigmas = 0;
+  o.rounds_per_update = 20;
+  ASSERT_TRUE(o.IsValid(nullptr));
+  IncrementalSmoother smoother(o);
+  FactorGraph final;
+  Replay(sim, poses, 0.0, 14, &smoother, &final);
+  Values batch = smoother.Estimate();
+  const SolverSummary s = Optimize(final, &batch);
+  ASSERT_EQ(s.status, SolverStatus::kConverged) << s.message;
+  const double online = final.Chi2(smoother.Estimate());
+  EXPECT_NEAR(online, s.final_chi2, 1e-8 * s.final_chi2);
 }
 
 }  // namespace

@@ -59,8 +59,9 @@ struct SmootherOptions {
   /// units), or beyond relinearize_sigmas standard deviations of the information the
   /// variable's own factors give it (sqrt of H's diagonal: catches precise measurements, a
   /// rotation known to a few milliradians, where a fixed threshold is too coarse). Smaller:
-  /// estimates closer to the optimum so far, more columns refactored per update. Defaults 0.02
-  /// and 1 (benchmarks/RESULTS.md, "The incremental smoother, version 2").
+  /// estimates closer to the optimum so far, more columns refactored per update; 0: any step
+  /// at all (every variable whose step changed is re-linearised). Defaults 0.02 and 1
+  /// (benchmarks/RESULTS.md, "The incremental smoother, version 2").
   double relinearize_threshold = 0.02;
   double relinearize_sigmas = 1;
   /// An update solves again (re-linearising first) while some variable's step is more than
