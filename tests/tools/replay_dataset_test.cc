@@ -1,13 +1,12 @@
 // tether replay on every public 2D and 3D pose graph (../shared/datasets/g2o): each file fed
-// to the incremental smoother pose by pose, with a handful of --check batch solves on the way.
+// to the incremental smoother pose by pose, with about 20 --check batch solves on the way.
 //
 // Asserted per file: one update per pose; every check's online chi2 (computed from the
 // smoother's graph and estimate) within 1e-3 relative of the batch optimum of the graph so
 // far; and the chi2 after Finish within 1e-6 relative of the batch optimum of the whole file
 // (Optimize from the chordal start).
 //
-// These are slow with the smoother that re-solves the whole graph on every update (minutes
-// for sphere2500 and kitti_00), so they are a program of their own with the ctest label
+// sphere2500 takes a minute or two, so they are a program of their own with the ctest label
 // `replay_datasets`: `ctest -L replay_datasets` runs them, `ctest -LE replay_datasets` leaves
 // them out (tests/CMakeLists.txt).
 #include <gtest/gtest.h>
@@ -39,7 +38,7 @@ const Dataset kDatasets[] = {
     {"smallGrid3D.g2o"}, {"sphere2500.g2o"}, {"tinyGrid3D.g2o"},
 };
 
-constexpr int kChecks = 5;                // about this many --check batch solves per file
+constexpr int kChecks = 20;               // about this many --check batch solves per file
 constexpr double kFinalTolerance = 1e-6;  // final chi2 against the batch optimum, relative
 constexpr double kCheckTolerance = 1e-3;  // online chi2 against the optimum so far, relative
 
@@ -76,7 +75,8 @@ TEST_P(ReplayDatasetTest, ReachesTheBatchOptimum) {
 
   EXPECT_EQ(r.poses, poses);
   EXPECT_EQ(r.latencies.size(), r.poses) << "one update per pose";
-  EXPECT_GE(r.checks.size(), static_cast<std::size_t>(kChecks));
+  // Every update of a file shorter than kChecks poses is checked but the first.
+  EXPECT_GE(r.checks.size(), std::min<std::size_t>(kChecks, poses - 1));
   for (const ReplayCheck& c : r.checks) {
     EXPECT_LE(c.gap, kCheckTolerance) << "check at step " << c.step << ": online chi2 " << c.online_chi2 << ", batch "
                                       << c.batch_chi2;
