@@ -284,8 +284,8 @@ void IncrementalCholesky::Order(std::vector<int>* columns) {
   if (recent == 0 || recent == n) {
     // No constraint among these columns (a first batch, or a full refactor after Finish()):
     // the newest variable still goes last, since the next update most likely touches it.
-    // Newest: marked recent in the latest Solve (or the one before it), and of those (or
-    // where none was marked) the one added last.
+    // Newest: marked recent before the latest Solve that marked any of them (marks count
+    // Solves, not calls), and of those, or where none was ever marked, the one added last.
     auto newer = [&](int a, int b) { return std::make_pair(marked_[a], a) < std::make_pair(marked_[b], b); };
     const auto last = std::max_element(columns->begin(), columns->end(), newer);
     std::fill(C.begin(), C.end(), 0);
