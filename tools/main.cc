@@ -92,25 +92,25 @@ int main(int argc, char** argv) {
   replay->add_option("--plot", rc.plot, "Write an SVG of every update's latency (mean, p99 and max marked)");
   replay->add_flag("-q,--quiet", rc.quiet, "Only the summary lines");
   replay
-      ->add_option("--relinearize-threshold", rc.options.relinearize_threshold,
+      ->add_option("--relinearize-threshold", rc.options.smoother.relinearize_threshold,
                    "Re-linearise a variable whose step exceeds this (SmootherOptions::relinearize_threshold)")
       ->capture_default_str();
   replay
-      ->add_option("--relinearize-sigmas", rc.options.relinearize_sigmas,
+      ->add_option("--relinearize-sigmas", rc.options.smoother.relinearize_sigmas,
                    "Re-linearise a variable whose step exceeds this many standard deviations "
                    "(SmootherOptions::relinearize_sigmas)")
       ->capture_default_str();
   replay
       ->add_option(
-          "--iterate-ratio", rc.options.iterate_ratio,
+          "--iterate-ratio", rc.options.smoother.iterate_ratio,
           "Solve again within an update while a step is this many times too large (SmootherOptions::iterate_ratio)")
       ->capture_default_str();
   replay
-      ->add_option("--rounds", rc.options.rounds_per_update,
+      ->add_option("--rounds", rc.options.smoother.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();
   replay
-      ->add_option("--wildfire", rc.options.wildfire_threshold,
+      ->add_option("--wildfire", rc.options.smoother.wildfire_threshold,
                    "Back-substitute below a variable only where its step changed by more than this "
                    "(SmootherOptions::wildfire_threshold)")
       ->capture_default_str();

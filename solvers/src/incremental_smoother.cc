@@ -178,8 +178,11 @@ struct IncrementalSmoother::State {
   }
 
   // The estimate of every variable whose step changed; the ones beyond the threshold become
-  // pending. Nothing changes where a step is not finite.
-  bool Apply(const std::vector<int>& changed, const SmootherOptions& o, Values* estimate, std::string* why) {
+  // pending, and *largest is the largest Step among them (0 where none). Nothing changes where
+  // a step is not finite.
+  bool Apply(const std::vector<int>& changed, const SmootherOptions& o, Values* estimate, double* largest,
+             std::string* why) {
+    *largest = 0;
     for (int v : changed) {
       if (Alive(v) && !engine.delta(v).allFinite()) {
         *why = "the step of " + KeyToString(key_of[v]) + " is not finite";
@@ -190,9 +193,11 @@ struct IncrementalSmoother::State {
       if (!Alive(v)) continue;
       const Eigen::VectorXd& d = engine.delta(v);
       RetractParams(type_of[v], theta[v].data(), d.data(), estimate->Params(key_of[v]));
-      if (Step(v, o) > 1 && !is_pending[v]) {
+      const double step = Step(v, o);
+      if (step > 1 && !is_pending[v]) {
         is_pending[v] = 1;
         pending.push_back(v);
+        *largest = std::max(*largest, step);
       }
     }
     return true;
@@ -380,13 +385,12 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
       u.structure_rebuilt = u.structure_rebuilt || es.full;
       u.affected_columns += es.affected;
       u.back_substituted += es.back_substituted;
-      if (!st.Apply(changed, options_, &estimate_, &why)) {
+      double largest = 0;
+      if (!st.Apply(changed, options_, &estimate_, &largest, &why)) {
         ok = false;
         break;
       }
       // Another round where a step is still large: the linearisation is far off there.
-      double largest = 0;
-      for (int v : st.pending) largest = std::max(largest, st.Step(v, options_));
       if (!(largest > options_.iterate_ratio)) break;
     }
     if (ok) {

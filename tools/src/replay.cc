@@ -167,12 +167,7 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   ReplayResult r;
   std::string why;
   if (!ro.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
-  SmootherOptions options;
-  options.relinearize_threshold = ro.relinearize_threshold;
-  options.relinearize_sigmas = ro.relinearize_sigmas;
-  options.iterate_ratio = ro.iterate_ratio;
-  options.rounds_per_update = ro.rounds_per_update;
-  options.wildfire_threshold = ro.wildfire_threshold;
+  const SmootherOptions& options = ro.smoother;
   if (!options.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
   Registry& registry = DefaultRegistry();
   GraphFile file;
@@ -267,8 +262,9 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     return 2;
   }
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
-      << o.relinearize_threshold << " or " << o.relinearize_sigmas << " sigma, iterate ratio " << o.iterate_ratio
-      << ", at most " << o.rounds_per_update << " round(s) per update, wildfire " << o.wildfire_threshold << "\n"
+      << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
+      << o.smoother.iterate_ratio << ", at most " << o.smoother.rounds_per_update << " round(s) per update, wildfire "
+      << o.smoother.wildfire_threshold << "\n"
       << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;

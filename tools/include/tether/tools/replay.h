@@ -27,13 +27,8 @@ namespace tether {
 struct ReplayOptions {
   int every = 1;  ///< update the smoother every N-th step (at least 1)
   int check = 0;  ///< every K-th update, solve the graph so far in batch (untimed); 0: never
-  /// The smoother's SmootherOptions::relinearize_threshold, relinearize_sigmas, iterate_ratio,
-  /// rounds_per_update and wildfire_threshold.
-  double relinearize_threshold = SmootherOptions().relinearize_threshold;
-  double relinearize_sigmas = SmootherOptions().relinearize_sigmas;
-  double iterate_ratio = SmootherOptions().iterate_ratio;
-  int rounds_per_update = SmootherOptions().rounds_per_update;
-  double wildfire_threshold = SmootherOptions().wildfire_threshold;
+  /// The smoother's options (re-linearisation, rounds, wildfire; checked by IsValid).
+  SmootherOptions smoother;
   /// Where given, the final estimate and the graph are written here as g2o after Finish
   /// (through a temporary file renamed into place); a failure is kBadInput.
   std::string output;
