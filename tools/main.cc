@@ -109,6 +109,15 @@ int main(int argc, char** argv) {
       ->add_option("--rounds", rc.options.smoother.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();
+  const std::map<std::string, tether::SmootherFactorization> factorizations = {
+      {"auto", tether::SmootherFactorization::kAuto},
+      {"left-looking", tether::SmootherFactorization::kLeftLooking},
+      {"multifrontal", tether::SmootherFactorization::kMultifrontal}};
+  replay
+      ->add_option("--factorization", rc.options.smoother.factorization,
+                   "auto, left-looking or multifrontal (SmootherOptions::factorization)")
+      ->transform(CLI::CheckedTransformer(factorizations, CLI::ignore_case))
+      ->capture_default_str();
   replay
       ->add_option("--wildfire", rc.options.smoother.wildfire_threshold,
                    "Back-substitute below a variable only where its step changed by more than this "

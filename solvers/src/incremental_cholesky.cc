@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <queue>
 #include <utility>
 
@@ -161,9 +162,13 @@ int IncrementalCholesky::Parent(int v) const {
   return pos_[v] < 0 || c.rows.empty() ? -1 : c.rows.front();
 }
 
-int IncrementalCholesky::RowIndex(const Var& col, std::int64_t pos) const {
-  auto it = std::lower_bound(col.rows.begin(), col.rows.end(), pos, [&](int r, std::int64_t p) { return pos_[r] < p; });
-  return static_cast<int>(it - col.rows.begin());
+int IncrementalCholesky::RowIndex(const std::vector<int>& rows, std::int64_t pos) const {
+  auto it = std::lower_bound(rows.begin(), rows.end(), pos, [&](int r, std::int64_t p) { return pos_[r] < p; });
+  return static_cast<int>(it - rows.begin());
+}
+
+int IncrementalCholesky::Height(const Var& c) const {
+  return c.rows.empty() ? c.dim : c.offsets.back() + vars_[c.rows.back()].dim;
 }
 
 // Puts the rows of column k back in position order (its rows among the affected columns got
@@ -205,10 +210,19 @@ void IncrementalCholesky::Affected(std::vector<int>* affected) {
       }
     }
   } else {
-    for (int t : touched_) {
+    auto walk = [&](int t) {
       for (int v = t; v >= 0 && stamp_[v] != mark; v = Parent(v)) {
         stamp_[v] = mark;
         affected->push_back(v);
+      }
+    };
+    for (int t : touched_) {
+      walk(t);
+      // A variable leaving the system leaves the rows of every column: also those that hold
+      // it only as a stored zero (taken from a supernode's last column) and so are not above
+      // a touched variable.
+      if (!InSystem(vars_[t])) {
+        for (int k : vars_[t].dependents) walk(k);
       }
     }
   }
@@ -220,6 +234,10 @@ void IncrementalCholesky::Affected(std::vector<int>* affected) {
     c.L.resize(0, 0);
     c.rows.clear();
     c.offsets.clear();
+    c.update.resize(0, 0);
+    c.update_rhs.resize(0);
+    c.update_rows.clear();
+    c.has_update = false;
     pos_[a] = -1;
   }
 }
@@ -301,12 +319,11 @@ void IncrementalCholesky::Order(std::vector<int>* columns) {
   columns->swap(ordered);
 }
 
-bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
+// The rows of column j: the later variables j shares a factor with, and the rows after j of
+// each child of j (a column whose parent j is). j becomes a dependent of each of its rows.
+void IncrementalCholesky::Symbolic(int j) {
   Var& c = vars_[j];
-  const int dj = c.dim;
   const std::int64_t pj = pos_[j];
-  // The rows: the later variables j shares a factor with, and the later rows of every column
-  // j is a row of (in each, the rows after j: a contiguous tail, rows being in position order).
   ++stamp_now_;
   const std::uint32_t mark = stamp_now_;
   stamp_[j] = mark;
@@ -323,22 +340,246 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
       if (u != j && InSystem(vars_[u]) && pos_[u] > pj) add_row(u);
     }
   }
-  std::vector<int>& at_j = index_scratch_;  // where row j is in each column j depends on
-  at_j.resize(c.dependents.size());
-  for (std::size_t d = 0; d < c.dependents.size(); ++d) {
-    const Var& ck = vars_[c.dependents[d]];
-    at_j[d] = RowIndex(ck, pj);
-    for (std::size_t i = static_cast<std::size_t>(at_j[d]) + 1; i < ck.rows.size(); ++i) add_row(ck.rows[i]);
+  for (int k : c.dependents) {
+    const Var& ck = vars_[k];
+    if (ck.rows.front() != j) continue;
+    for (std::size_t i = 1; i < ck.rows.size(); ++i) add_row(ck.rows[i]);
   }
   std::sort(rows.begin(), rows.end());
   c.rows.resize(rows.size());
   c.offsets.resize(rows.size());
-  int total = dj;
+  int total = c.dim;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     c.rows[i] = rows[i].second;
     c.offsets[i] = total;
-    scratch_[rows[i].second] = total;
     total += vars_[rows[i].second].dim;
+  }
+  for (int r : c.rows) vars_[r].dependents.push_back(j);
+}
+
+// Adds the update of column k (its subtree's contribution to its rows, update_rows order) to
+// the lower triangle of F (leading dimension ld) and to b, each row variable r at scratch_[r]
+// (none where scratch_[r] < 0). Variables consecutive in both form runs, added block by block.
+void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b) {
+  const Var& ck = vars_[k];
+  const std::vector<int>& rows = ck.update_rows;
+  // Runs: offset in the update, destination, length.
+  std::vector<Run>& runs = run_scratch_;
+  runs.clear();
+  int src = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const int r = rows[i];
+    const int d = vars_[r].dim;
+    const int dst = scratch_[r];
+    if (dst >= 0) {
+      if (!runs.empty() && runs.back().src + runs.back().len == src && runs.back().dst + runs.back().len == dst) {
+        runs.back().len += d;
+      } else {
+        runs.push_back(Run{src, dst, d});
+      }
+    }
+    src += d;
+  }
+  using Stride = Eigen::OuterStride<>;
+  for (std::size_t q = 0; q < runs.size(); ++q) {
+    const Run& Q = runs[q];
+    Eigen::Map<Eigen::VectorXd>(b + Q.dst, Q.len) += ck.update_rhs.segment(Q.src, Q.len);
+    for (std::size_t p = q; p < runs.size(); ++p) {
+      const Run& P = runs[p];
+      const auto block = ck.update.block(P.src, Q.src, P.len, Q.len);
+      if (P.dst >= Q.dst) {
+        Eigen::Map<Eigen::MatrixXd, 0, Stride>(F + static_cast<std::ptrdiff_t>(Q.dst) * ld + P.dst, P.len, Q.len,
+                                               Stride(ld)) += block;
+      } else {
+        Eigen::Map<Eigen::MatrixXd, 0, Stride>(F + static_cast<std::ptrdiff_t>(P.dst) * ld + Q.dst, Q.len, P.len,
+                                               Stride(ld)) += block.transpose();
+      }
+    }
+  }
+}
+
+// The update of an unchanged column k that was factorised inside a supernode and so holds
+// none: its children's updates extended to its rows, minus its own column's outer product.
+void IncrementalCholesky::ComputeUpdate(int k) {
+  std::vector<int> children;
+  for (int d : vars_[k].dependents) {
+    if (vars_[d].rows.front() == k) {
+      children.push_back(d);
+      if (!vars_[d].has_update) ComputeUpdate(d);
+    }
+  }
+  Var& c = vars_[k];
+  const int B = Height(c) - c.dim;
+  for (std::size_t i = 0; i < c.rows.size(); ++i) scratch_[c.rows[i]] = c.offsets[i] - c.dim;
+  scratch_[k] = -1;
+  c.update.setZero(B, B);
+  c.update_rhs.setZero(B);
+  for (int d : children) ExtendAdd(d, c.update.data(), B, c.update_rhs.data());
+  const auto below = c.L.bottomRows(B);
+  c.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+  c.update_rhs.noalias() -= below * c.y;
+  c.update_rows = c.rows;
+  c.has_update = true;
+}
+
+// Whether the parent j of the supernode's last column joins it. Its columns then take every
+// row of j (those they lack are stored as zeros). Always where none is lacking (a fundamental
+// supernode); otherwise while the front is narrow and mostly not zeros. Measured on the
+// replays (benchmarks/RESULTS.md): wider relaxed fronts cost more in zeros than they save.
+bool IncrementalCholesky::Merge(Supernode& s, int j) const {
+  constexpr int kMaxWidth = 1024;        // scalar columns of a front
+  constexpr int kRelaxedWidth = 12;      // fronts up to this wide may store zeros...
+  constexpr double kRelaxedZeros = 0.8;  // ...up to this fraction of their entries
+  const Var& last = vars_[s.last];
+  const Var& c = vars_[j];
+  const int W = s.width + c.dim;
+  if (W > kMaxWidth) return false;
+  const int extra = Height(c) - (Height(last) - last.dim);  // rows each column of s gains
+  if (extra == 0) return true;
+  const std::int64_t zeros = s.zeros + static_cast<std::int64_t>(s.width) * extra;
+  const double entries = 0.5 * W * (W + 1.0) + static_cast<double>(W) * (Height(c) - c.dim);
+  if (W > kRelaxedWidth || static_cast<double>(zeros) >= kRelaxedZeros * entries) return false;
+  s.zeros = zeros;
+  return true;
+}
+
+// Refactors the supernode s (multifrontal): its frontal matrix holds its columns' rows of H
+// (from their factors) and the updates of its children outside it; a dense Cholesky of its
+// columns gives their part of L and, in the rows below, the supernode's own update for its
+// parent. The right-hand side rides along as one more column: the forward solution.
+bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) {
+  const Var& last = vars_[s.last];
+  const int W = s.width;
+  const int B = Height(last) - last.dim;
+  const int R = W + B;
+  const std::int64_t first_pos = pos_[s.first];
+  if (s.zeros > 0) {
+    // Columns short of rows of the front take them (as zeros, and as their dependents).
+    for (int j = s.first; j != s.last; j = vars_[j].rows.front()) {
+      Var& c = vars_[j];
+      ++seen_now_;
+      for (int r : c.rows) seen_[r] = seen_now_;
+      const int parent = c.rows.front();
+      c.rows.clear();
+      c.offsets.clear();
+      int at = c.dim;
+      auto add = [&](int r) {
+        c.rows.push_back(r);
+        c.offsets.push_back(at);
+        at += vars_[r].dim;
+        if (seen_[r] != seen_now_) vars_[r].dependents.push_back(j);
+      };
+      for (int k = parent;; k = vars_[k].rows.front()) {
+        add(k);
+        if (k == s.last) break;
+      }
+      for (int r : last.rows) add(r);
+    }
+  }
+  std::vector<int>& children = children_scratch_;
+  children.clear();
+  for (int j = s.first;; j = vars_[j].rows.front()) {
+    for (int k : vars_[j].dependents) {
+      if (pos_[k] < first_pos && vars_[k].rows.front() == j) children.push_back(k);
+    }
+    if (j == s.last) break;
+  }
+  for (int k : children) {
+    if (!vars_[k].has_update) ComputeUpdate(k);
+  }
+  ++stamp_now_;
+  const std::uint32_t mark = stamp_now_;
+  int at = 0;
+  for (int k = s.first;; k = vars_[k].rows.front()) {
+    stamp_[k] = mark;
+    scratch_[k] = at;
+    at += vars_[k].dim;
+    if (k == s.last) break;
+  }
+  for (std::size_t i = 0; i < last.rows.size(); ++i) {
+    stamp_[last.rows[i]] = mark;
+    scratch_[last.rows[i]] = W - last.dim + last.offsets[i];
+  }
+  // The front: lower triangle only (what is above the diagonal is never read).
+  const std::size_t size = static_cast<std::size_t>(R) * static_cast<std::size_t>(R);
+  if (front_scratch_.size() < size) front_scratch_.resize(size);
+  Eigen::Map<Eigen::MatrixXd> P(front_scratch_.data(), R, R);
+  for (int col = 0; col < R; ++col) P.col(col).tail(R - col).setZero();
+  Eigen::VectorXd& b = front_rhs_scratch_;
+  b.setZero(R);
+  double* F = P.data();
+  // H's columns, and the gradient.
+  for (int j = s.first;; j = vars_[j].rows.front()) {
+    Var& c = vars_[j];
+    const int dj = c.dim;
+    const int oj = scratch_[j];
+    double* Fj = F + static_cast<std::ptrdiff_t>(oj) * R;
+    for (int fi : c.factors) {
+      const FactorSlot& f = factors_[fi];
+      const int kj = static_cast<int>(std::find(f.vars.begin(), f.vars.end(), j) - f.vars.begin());
+      const double* Jj = f.J.data() + f.offsets[kj];
+      AddJtJ(Fj + oj, R, Jj, Jj, f.rows, dj, dj);
+      b.segment(oj, dj).noalias() -= Eigen::Map<const RowMajor>(Jj, f.rows, dj).transpose() * f.r;
+      for (std::size_t k = 0; k < f.vars.size(); ++k) {
+        const int u = f.vars[k];
+        if (u == j || stamp_[u] != mark || scratch_[u] < oj) continue;
+        AddJtJ(Fj + scratch_[u], R, f.J.data() + f.offsets[k], Jj, f.rows, vars_[u].dim, dj);
+      }
+    }
+    c.scale = P.block(oj, oj, dj, dj).diagonal().cwiseSqrt();
+    if (j == s.last) break;
+  }
+  for (int k : children) ExtendAdd(k, F, R, b.data());
+  Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>> top = P.topLeftCorner(W, W);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>>> llt(top);
+  if (llt.info() != Eigen::Success) {
+    if (why) *why = "not positive definite";
+    return false;
+  }
+  P.topLeftCorner(W, W).triangularView<Eigen::StrictlyUpper>().setZero();
+  const auto Ltop = P.topLeftCorner(W, W).triangularView<Eigen::Lower>();
+  Ltop.solveInPlace(b.head(W));
+  if (B > 0) {
+    auto below = P.block(W, 0, B, W);
+    Ltop.transpose().solveInPlace<Eigen::OnTheRight>(below);
+    Var& l = vars_[s.last];
+    l.update = P.bottomRightCorner(B, B);
+    l.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+    l.update_rhs = b.tail(B);
+    l.update_rhs.noalias() -= below * b.head(W);
+    l.update_rows = l.rows;
+    l.has_update = true;
+  }
+  for (int j = s.first;; j = vars_[j].rows.front()) {
+    Var& c = vars_[j];
+    const int oj = scratch_[j];
+    c.L = P.block(oj, oj, R - oj, c.dim);
+    c.y = b.segment(oj, c.dim);
+    if (j == s.last) break;
+  }
+  return true;
+}
+
+// Refactors column j left-looking: H's column, minus the contribution of every column before
+// it that reaches it (its dependents), then the dense Cholesky of the diagonal block.
+bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
+  Var& c = vars_[j];
+  const int dj = c.dim;
+  const std::int64_t pj = pos_[j];
+  // The rows (from Symbolic) at their offsets, and j itself.
+  ++stamp_now_;
+  const std::uint32_t mark = stamp_now_;
+  stamp_[j] = mark;
+  for (std::size_t i = 0; i < c.rows.size(); ++i) {
+    stamp_[c.rows[i]] = mark;
+    scratch_[c.rows[i]] = c.offsets[i];
+  }
+  const int total = Height(c);
+  std::vector<int>& at_j = index_scratch_;  // where row j is in each column j depends on
+  at_j.resize(c.dependents.size());
+  for (std::size_t d = 0; d < c.dependents.size(); ++d) {
+    const Var& ck = vars_[c.dependents[d]];
+    at_j[d] = RowIndex(ck.rows, pj);
   }
   scratch_[j] = 0;
   c.L.setZero(total, dj);
@@ -396,7 +637,6 @@ bool IncrementalCholesky::FactorColumn(int j, std::string* why) {
     Ljj.transpose().solveInPlace<Eigen::OnTheRight>(below);
   }
   Ljj.solveInPlace(b);
-  for (int r : c.rows) vars_[r].dependents.push_back(j);
   return true;
 }
 
@@ -448,6 +688,29 @@ void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double
   }
 }
 
+// Groups the columns (in position order) into supernodes, runs of columns each the parent of
+// the one before whose rows Merge accepts, and refactors them in that order.
+bool IncrementalCholesky::FactorSupernodes(const std::vector<int>& columns, std::string* why) {
+  Supernode s;
+  for (std::size_t i = 0; i < columns.size(); ++i) {
+    const int j = columns[i];
+    if (i > 0) {
+      const Var& prev = vars_[s.last];
+      if (!prev.rows.empty() && prev.rows.front() == j && Merge(s, j)) {
+        s.last = j;
+        s.width += vars_[j].dim;
+        continue;
+      }
+      ++stats_.supernodes;
+      if (!FactorSupernode(s, why)) return false;
+    }
+    s = Supernode{j, j, vars_[j].dim, 0};
+  }
+  if (columns.empty()) return true;
+  ++stats_.supernodes;
+  return FactorSupernode(s, why);
+}
+
 bool IncrementalCholesky::Solve(double wildfire, std::vector<int>* changed, std::string* why) {
   const auto t0 = std::chrono::steady_clock::now();
   stats_ = Stats{};
@@ -487,11 +750,26 @@ bool IncrementalCholesky::Solve(double wildfire, std::vector<int>* changed, std:
     }
   }
   stats_.affected = static_cast<int>(columns.size());
-  for (int j : columns) {
-    if (!FactorColumn(j, why)) {
-      full_ = true;
-      return false;
+  for (int j : columns) Symbolic(j);
+  if (stats_.full) {
+    if (method_ == Method::kAuto) {
+      std::int64_t width = 0;
+      for (int j : columns) width += vars_[j].dim;
+      multifrontal_ = 2 * width >= 9 * static_cast<std::int64_t>(columns.size());  // mean width >= 4.5
+    } else {
+      multifrontal_ = method_ == Method::kMultifrontal;
     }
+  }
+  if (!multifrontal_) {
+    for (int j : columns) {
+      if (!FactorColumn(j, why)) {
+        full_ = true;
+        return false;
+      }
+    }
+  } else if (!FactorSupernodes(columns, why)) {
+    full_ = true;
+    return false;
   }
   full_ = false;
   const auto t1 = std::chrono::steady_clock::now();

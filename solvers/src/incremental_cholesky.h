@@ -9,11 +9,18 @@
 // "affected" set. Every other column is unchanged, and so is its contribution to the affected
 // columns, which are all eliminated after it. So only the affected columns are reordered (by
 // CAMD, constrained minimum degree, on the graph of their Schur complement; the variables the
-// caller marks as recent go last, where the next update will touch them again), given fresh
-// positions after every other column, and refactored left-looking from the columns they
-// depend on. The forward solution changes only in the affected columns; the back substitution
-// starts at them and goes down the tree while a variable's solution changes by more than a
-// threshold (0: exactly every column that depends on a change).
+// caller marks as recent go last, where the next update will touch them again) and given
+// fresh positions after every other column.
+//
+// The affected columns are refactored multifrontally: runs of them that form a chain in the
+// tree with (nearly) equal rows are grouped into supernodes, each factorised as one dense
+// front (its columns' rows of H, plus the update matrix of each child subtree, dense Cholesky
+// of its columns, and the Schur complement on the rows below: its own update matrix). A
+// column keeps its update matrix while it is unchanged, so the subtrees the update leaves
+// alone cost one extend-add each, not a sum over their columns. The forward solution rides
+// along as one more column of each front. The back substitution starts at the affected
+// columns and goes down the tree while a variable's solution changes by more than a threshold
+// (0: exactly every column that depends on a change).
 //
 // Variables are dense indices handed out by AddVariable; factors are slots from AddFactor,
 // whose whitened Jacobian blocks and residual the caller writes (SetLinearization).
@@ -28,8 +35,23 @@ namespace internal {
 
 class IncrementalCholesky {
  public:
+  /// How the affected columns are refactored: column by column, left-looking (every earlier
+  /// column that reaches a column is subtracted from it), or multifrontal (supernodes as dense
+  /// fronts, with the update matrices of unchanged subtrees kept between updates). kAuto
+  /// chooses at every full refactor: multifrontal where the variables are mostly 6 wide (3D),
+  /// where it is faster; left-looking where they are narrower (2D), where the fronts' dense
+  /// update matrices cost more than the sums they save (benchmarks/RESULTS.md).
+  enum class Method { kAuto, kLeftLooking, kMultifrontal };
+  void SetMethod(Method m) {
+    if (m != method_) full_ = true;
+    method_ = m;
+  }
+  /// The method the last Solve used (kLeftLooking or kMultifrontal).
+  bool multifrontal() const { return multifrontal_; }
+
   struct Stats {
     int affected = 0;           ///< columns refactored
+    int supernodes = 0;         ///< supernodes (dense fronts) the affected columns formed
     int back_substituted = 0;   ///< columns whose solution was recomputed
     bool full = false;          ///< every column was refactored
     double factor_seconds = 0;  ///< finding, ordering and refactoring the affected columns
@@ -100,6 +122,14 @@ class IncrementalCholesky {
     Eigen::VectorXd y;            // forward solution
     Eigen::VectorXd delta;        // back substitution: the step
     Eigen::VectorXd scale;        // sqrt(diag(H_vv))
+    // The update of the column's subtree to its rows (minus the sum of L_rk L_rk^T over the
+    // columns k of the subtree, lower triangle, rows in update_rows order) and to the forward
+    // solution; kept while the column is unchanged. Held by the last column of each refactored
+    // supernode, computed on demand for the others.
+    bool has_update = false;
+    std::vector<int> update_rows;
+    Eigen::MatrixXd update;
+    Eigen::VectorXd update_rhs;
   };
   struct FactorSlot {
     bool alive = false;
@@ -114,10 +144,24 @@ class IncrementalCholesky {
   int Parent(int v) const;
   void Affected(std::vector<int>* affected);
   void Order(std::vector<int>* columns);
+  // Refactored columns first, ..., last, each the parent of the one before, factorised as
+  // one dense front.
+  struct Supernode {
+    int first = 0, last = 0;
+    int width = 0;
+    std::int64_t zeros = 0;  // entries stored as zeros (rows its columns take from the last)
+  };
+  bool Merge(Supernode& s, int j) const;
+  void Symbolic(int j);
+  bool FactorSupernodes(const std::vector<int>& columns, std::string* why);
+  bool FactorSupernode(const Supernode& s, std::string* why);
   bool FactorColumn(int j, std::string* why);
+  /// The index of the first of `rows` at or after position `pos`.
+  int RowIndex(const std::vector<int>& rows, std::int64_t pos) const;
+  void ComputeUpdate(int k);
+  void ExtendAdd(int k, double* F, int ld, double* b);
+  int Height(const Var& c) const;
   void BackSubstitute(const std::vector<int>& columns, double wildfire, std::vector<int>* changed);
-  /// The index of the first row of `col` at or after position `pos`.
-  int RowIndex(const Var& col, std::int64_t pos) const;
   void SortRows(int k);
 
   std::vector<Var> vars_;
@@ -137,8 +181,17 @@ class IncrementalCholesky {
   std::uint32_t seen_now_ = 0;
   std::vector<int> scratch_;
   std::vector<std::pair<std::int64_t, int>> row_scratch_;
-  std::vector<int> index_scratch_;
   Eigen::VectorXd x_scratch_, above_scratch_;
+  struct Run {
+    int src, dst, len;
+  };
+  std::vector<Run> run_scratch_;
+  std::vector<int> children_scratch_;
+  std::vector<int> index_scratch_;
+  Method method_ = Method::kAuto;
+  bool multifrontal_ = false;
+  std::vector<double> front_scratch_;
+  Eigen::VectorXd front_rhs_scratch_;
 };
 
 }  // namespace internal

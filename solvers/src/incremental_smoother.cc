@@ -374,6 +374,11 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
         break;
       }
       std::vector<int> changed;
+      st.engine.SetMethod(options_.factorization == SmootherFactorization::kLeftLooking
+                              ? internal::IncrementalCholesky::Method::kLeftLooking
+                          : options_.factorization == SmootherFactorization::kMultifrontal
+                              ? internal::IncrementalCholesky::Method::kMultifrontal
+                              : internal::IncrementalCholesky::Method::kAuto);
       if (!st.engine.Solve(options_.wildfire_threshold, &changed, &why)) {
         ok = false;
         break;

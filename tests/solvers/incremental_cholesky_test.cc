@@ -26,7 +26,10 @@ using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 // The engine beside a plain copy of every live factor, from which the dense system is built.
 class Harness {
  public:
-  explicit Harness(unsigned seed) : rng_(seed) {}
+  explicit Harness(unsigned seed, IncrementalCholesky::Method method = IncrementalCholesky::Method::kMultifrontal)
+      : rng_(seed) {
+    engine_.SetMethod(method);
+  }
 
   int AddVariable(int dim) {
     const int v = engine_.AddVariable(dim);
@@ -176,9 +179,37 @@ class Harness {
 
 constexpr int kWidths[] = {1, 2, 3, 4, 6};
 
+void RandomChanges(unsigned seed, IncrementalCholesky::Method method);
+
+constexpr IncrementalCholesky::Method kMethods[] = {IncrementalCholesky::Method::kLeftLooking,
+                                                    IncrementalCholesky::Method::kMultifrontal};
+
 TEST(IncrementalCholesky, EqualsTheDenseSolveThroughRandomChanges) {
-  for (unsigned seed = 1; seed <= 6; ++seed) {
-    Harness h(seed);
+  for (const auto method : kMethods) {
+    for (unsigned seed = 1; seed <= 6; ++seed) {
+      RandomChanges(seed, method);
+    }
+  }
+}
+
+TEST(IncrementalCholesky, AutoChoosesByTheVariablesWidth) {
+  for (const int width : {3, 6}) {
+    Harness h(3, IncrementalCholesky::Method::kAuto);
+    int previous = -1;
+    for (int i = 0; i < 10; ++i) {
+      const int v = h.AddVariable(width);
+      h.AddFactor({v});
+      if (previous >= 0) h.AddFactor({previous, v});
+      previous = v;
+    }
+    h.SolveAndCompare("width " + std::to_string(width));
+    EXPECT_EQ(h.engine().multifrontal(), width == 6) << "width " << width;
+  }
+}
+
+void RandomChanges(unsigned seed, IncrementalCholesky::Method method) {
+  {
+    Harness h(seed, method);
     std::uniform_int_distribution<int> width(0, 4), coin(0, 99);
     // Even seeds: pose graphs of one width (3: SE2, 6: SE3) with between factors of that many
     // rows, the shapes of the fixed-size kernels; odd seeds: every width mixed.
@@ -196,10 +227,12 @@ TEST(IncrementalCholesky, EqualsTheDenseSolveThroughRandomChanges) {
     };
     // A chain, each variable with a prior of full rank (so H stays positive definite).
     for (int i = 0; i < 12; ++i) add_pose();
-    h.SolveAndCompare("seed " + std::to_string(seed) + ", the first solve");
+    const std::string method_name =
+        method == IncrementalCholesky::Method::kLeftLooking ? "left-looking" : "multifrontal";
+    h.SolveAndCompare(method_name + ", seed " + std::to_string(seed) + ", the first solve");
     int constant = -1;
     for (int step = 0; step < 80; ++step) {
-      const std::string where = "seed " + std::to_string(seed) + ", step " + std::to_string(step);
+      const std::string where = method_name + ", seed " + std::to_string(seed) + ", step " + std::to_string(step);
       const int what = coin(h.rng());
       std::uniform_int_distribution<std::size_t> pick(0, vars.size() - 1);
       const int a = vars[pick(h.rng())], b = vars[pick(h.rng())], c = vars[pick(h.rng())];
@@ -255,47 +288,97 @@ TEST(IncrementalCholesky, ANewVariableAtTheEndRefactorsOnlyItsPath) {
   // to the last touches the last column and the new one, and nothing deep in the chain is
   // refactored. Also where the batch's last factor is a prior on the first variable (so the
   // first variable is the one marked recent last): the variable added last still goes last.
-  for (const bool prior_last : {false, true}) {
-    Harness h(7);
-    std::vector<int> vars;
-    for (int i = 0; i < 200; ++i) {
+  for (const auto method : kMethods) {
+    for (const bool prior_last : {false, true}) {
+      Harness h(7, method);
+      std::vector<int> vars;
+      for (int i = 0; i < 200; ++i) {
+        const int v = h.AddVariable(3);
+        h.AddFactor({v});
+        if (!vars.empty()) h.AddFactor({vars.back(), v});
+        h.engine().MarkRecent(v);
+        vars.push_back(v);
+      }
+      if (prior_last) {
+        h.AddFactor({vars.front()});
+        h.engine().MarkRecent(vars.front());
+      }
+      h.SolveAndCompare("the chain");
       const int v = h.AddVariable(3);
+      h.AddFactor({vars.back(), v});
+      h.engine().MarkRecent(v);
+      h.SolveAndCompare("one more variable");
+      EXPECT_FALSE(h.engine().stats().full);
+      EXPECT_LE(h.engine().stats().affected, 3)
+          << "a new variable at the end of a chain refactors its own column and the columns above it in the tree, "
+             "not the chain (prior_last "
+          << prior_last << ")";
+    }
+  }
+}
+
+TEST(IncrementalCholesky, SupernodesSplitByTouchesInTheirMiddleStayExact) {
+  // A ladder of SE3-wide variables with rungs to the variable two back: its factor has dense
+  // runs of columns (supernodes, some of them relaxed with stored zeros). Touching a variable
+  // in the middle of the ladder refactors only the top of the tree; the unchanged subtrees
+  // below give their update matrices, including columns that were inside a supernode and so
+  // compute theirs on demand. Every step is compared with the dense solve.
+  for (unsigned seed = 21; seed <= 23; ++seed) {
+    Harness h(seed);
+    std::vector<int> vars;
+    std::vector<int> odometry;
+    for (int i = 0; i < 40; ++i) {
+      const int v = h.AddVariable(6);
       h.AddFactor({v});
-      if (!vars.empty()) h.AddFactor({vars.back(), v});
+      if (!vars.empty()) odometry.push_back(h.AddFactor({vars.back(), v}));
+      if (vars.size() >= 3) h.AddFactor({vars[vars.size() - 3], v});
       h.engine().MarkRecent(v);
       vars.push_back(v);
     }
-    if (prior_last) {
-      h.AddFactor({vars.front()});
-      h.engine().MarkRecent(vars.front());
+    h.SolveAndCompare("seed " + std::to_string(seed) + ", the ladder");
+    EXPECT_LT(h.engine().stats().supernodes, h.engine().stats().affected) << "no columns were grouped";
+    std::mt19937 rng(seed);
+    for (int step = 0; step < 25; ++step) {
+      const std::string where = "seed " + std::to_string(seed) + ", step " + std::to_string(step);
+      const int i = std::uniform_int_distribution<int>(5, 34)(rng);
+      switch (step % 3) {
+        case 0:  // re-linearise the odometry into a middle variable
+          h.Relinearize(odometry[i - 1]);
+          break;
+        case 1:  // a loop closure from the middle to the newest variable
+          h.AddFactor({vars[i], vars.back()});
+          break;
+        default: {  // a new variable at the end
+          const int v = h.AddVariable(6);
+          h.AddFactor({vars.back(), v});
+          h.AddFactor({vars[vars.size() - 3], v});
+          h.engine().MarkRecent(v);
+          vars.push_back(v);
+        }
+      }
+      h.SolveAndCompare(where);
+      EXPECT_FALSE(h.engine().stats().full) << where;
+      EXPECT_LT(h.engine().stats().affected, static_cast<int>(vars.size())) << where;
     }
-    h.SolveAndCompare("the chain");
-    const int v = h.AddVariable(3);
-    h.AddFactor({vars.back(), v});
-    h.engine().MarkRecent(v);
-    h.SolveAndCompare("one more variable");
-    EXPECT_FALSE(h.engine().stats().full);
-    EXPECT_LE(h.engine().stats().affected, 3)
-        << "a new variable at the end of a chain refactors its own column and the columns above it in the tree, "
-           "not the chain (prior_last "
-        << prior_last << ")";
   }
 }
 
 TEST(IncrementalCholesky, AnUndeterminedVariableIsRefusedAndAPriorRecovers) {
-  Harness h(11);
-  const int a = h.AddVariable(3);
-  h.AddFactor({a});
-  h.SolveAndCompare("one variable");
-  // A second variable that only a one-row factor sees: its 3 x 3 block of H has rank 1.
-  const int b = h.AddVariable(3);
-  h.AddFactor({a, b}, 1);
-  std::vector<int> changed;
-  std::string why;
-  EXPECT_FALSE(h.engine().Solve(0.0, &changed, &why));
-  EXPECT_NE(why.find("not positive definite"), std::string::npos) << why;
-  h.AddFactor({b});
-  h.SolveAndCompare("after a prior on the second variable");
+  for (const auto method : kMethods) {
+    Harness h(11, method);
+    const int a = h.AddVariable(3);
+    h.AddFactor({a});
+    h.SolveAndCompare("one variable");
+    // A second variable that only a one-row factor sees: its 3 x 3 block of H has rank 1.
+    const int b = h.AddVariable(3);
+    h.AddFactor({a, b}, 1);
+    std::vector<int> changed;
+    std::string why;
+    EXPECT_FALSE(h.engine().Solve(0.0, &changed, &why));
+    EXPECT_NE(why.find("not positive definite"), std::string::npos) << why;
+    h.AddFactor({b});
+    h.SolveAndCompare("after a prior on the second variable");
+  }
 }
 
 }  // namespace

@@ -264,7 +264,11 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
       << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
       << o.smoother.iterate_ratio << ", at most " << o.smoother.rounds_per_update << " round(s) per update, wildfire "
-      << o.smoother.wildfire_threshold << "\n"
+      << o.smoother.wildfire_threshold << ", factorization "
+      << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
+          : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
+                                                                             : "auto")
+      << "\n"
       << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;

@@ -52,6 +52,13 @@
 
 namespace tether {
 
+/// How the smoother refactors the columns an update changes (docs/smoother.md, step 4).
+enum class SmootherFactorization {
+  kAuto,          ///< multifrontal where the variables are mostly 6 wide (3D), else left-looking
+  kLeftLooking,   ///< column by column, subtracting every earlier column that reaches one
+  kMultifrontal,  ///< supernodes as dense fronts; unchanged subtrees keep their update matrices
+};
+
 struct SmootherOptions {
   SmootherOptions();
 
@@ -77,6 +84,8 @@ struct SmootherOptions {
   /// variable's step changed by more than this (infinity norm). 0: wherever it changed at all
   /// (the exact solution of the linear system). Default 1e-9.
   double wildfire_threshold = 1e-9;
+  /// Default kAuto (chosen at every full refactor; benchmarks/RESULTS.md, "Multifrontal").
+  SmootherFactorization factorization = SmootherFactorization::kAuto;
   /// Evaluate chi2 of the whole graph before and after every update (SmootherUpdate's
   /// chi2_before and chi2_after): a pass over every factor, so off by default.
   bool compute_chi2 = false;
