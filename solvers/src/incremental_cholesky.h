@@ -12,7 +12,8 @@
 // caller marks as recent go last, where the next update will touch them again) and given
 // fresh positions after every other column.
 //
-// The affected columns are refactored multifrontally: runs of them that form a chain in the
+// The affected columns are refactored left-looking (column by column) or, by Method,
+// multifrontally: runs of them that form a chain in the
 // tree with (nearly) equal rows are grouped into supernodes, each factorised as one dense
 // front (its columns' rows of H, plus the update matrix of each child subtree, dense Cholesky
 // of its columns, and the Schur complement on the rows below: its own update matrix). A
