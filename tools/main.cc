@@ -106,6 +106,11 @@ int main(int argc, char** argv) {
           "Solve again within an update while a step is this many times too large (SmootherOptions::iterate_ratio)")
       ->capture_default_str();
   replay
+      ->add_option("--iterate-fraction", rc.options.smoother.iterate_fraction,
+                   "When solving again, also re-linearise steps beyond this fraction of the thresholds "
+                   "(SmootherOptions::iterate_fraction)")
+      ->capture_default_str();
+  replay
       ->add_option("--rounds", rc.options.smoother.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();

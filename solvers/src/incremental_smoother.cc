@@ -40,6 +40,7 @@ bool SmootherOptions::IsValid(std::string* why) const {
   if (!(relinearize_threshold >= 0)) return fail("relinearize_threshold must be 0 or more");
   if (!(relinearize_sigmas >= 0)) return fail("relinearize_sigmas must be 0 or more");
   if (!(iterate_ratio >= 1)) return fail("iterate_ratio must be at least 1");
+  if (!(iterate_fraction >= 0 && iterate_fraction <= 1)) return fail("iterate_fraction must be in [0, 1]");
   if (!update.IsValid(&reason)) return fail("update: " + reason);
   if (!finish.IsValid(&reason)) return fail("finish: " + reason);
   if (!covariance.IsValid(&reason)) return fail("covariance: " + reason);
@@ -64,6 +65,7 @@ struct IncrementalSmoother::State {
   std::set<Key> constants;
   std::vector<int> pending;  // variables to re-linearise
   std::vector<char> is_pending;
+  std::vector<int> near;              // variables whose step is beyond iterate_fraction of the thresholds
   std::vector<const double*> params;  // scratch for Linearize
   std::vector<double*> jacobians;
 
@@ -143,6 +145,17 @@ struct IncrementalSmoother::State {
     return step;
   }
 
+  // The variables near the thresholds become pending, before another round of an update.
+  void PendNear() {
+    for (int v : near) {
+      if (!is_pending[v]) {
+        is_pending[v] = 1;
+        pending.push_back(v);
+      }
+    }
+    near.clear();
+  }
+
   // The pending variables get their linearisation point moved and their factors re-evaluated.
   bool Relinearize(const Values& estimate) {
     std::vector<int> slots;
@@ -178,8 +191,8 @@ struct IncrementalSmoother::State {
   }
 
   // The estimate of every variable whose step changed; the ones beyond the threshold become
-  // pending, and *largest is the largest Step among them (0 where none). Nothing changes where
-  // a step is not finite.
+  // pending, and *largest is the largest Step among them (0 where none); the ones beyond
+  // iterate_fraction of it are listed in near. Nothing changes where a step is not finite.
   bool Apply(const std::vector<int>& changed, const SmootherOptions& o, Values* estimate, double* largest,
              std::string* why) {
     *largest = 0;
@@ -198,6 +211,8 @@ struct IncrementalSmoother::State {
         is_pending[v] = 1;
         pending.push_back(v);
         *largest = std::max(*largest, step);
+      } else if (step > o.iterate_fraction && !is_pending[v]) {
+        near.push_back(v);
       }
     }
     return true;
@@ -396,8 +411,14 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
         break;
       }
       // Another round where a step is still large: the linearisation is far off there.
-      if (!(largest > options_.iterate_ratio)) break;
+      if (!(largest > options_.iterate_ratio)) {
+        st.near.clear();
+        break;
+      }
+      // Solving again: the steps just below the thresholds go too (iterate_fraction).
+      st.PendNear();
     }
+    st.near.clear();
     if (ok) {
       u.status = SolverStatus::kConverged;
       u.chi2_after = options_.compute_chi2 ? graph_.Chi2(estimate_) : std::nan("");

@@ -431,6 +431,7 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   } fields[] = {{"relinearize_threshold", &SmootherOptions::relinearize_threshold, -0.1},
                 {"relinearize_sigmas", &SmootherOptions::relinearize_sigmas, std::nan("")},
                 {"iterate_ratio", &SmootherOptions::iterate_ratio, 0.5},
+                {"iterate_fraction", &SmootherOptions::iterate_fraction, 1.5},
                 {"wildfire_threshold", &SmootherOptions::wildfire_threshold, -1}};
   for (const auto& f : fields) {
     SmootherOptions bad;
@@ -442,6 +443,52 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   rounds.rounds_per_update = 0;
   EXPECT_FALSE(rounds.IsValid(&why));
   EXPECT_NE(why.find("rounds_per_update"), std::string::npos) << why;
+}
+
+// A ring of 120 poses whose odometry turns 2 mrad too far at every step, closed by one loop
+// closure: the closure spreads 0.24 rad over the ring, so most poses move by a little less
+// than the re-linearisation threshold. Returns the relative chi2 gap of the estimate after
+// the closing update to the optimum of the ring, and that update's re-linearised count.
+double RingClosureGap(const SmootherOptions& o, int* relinearized) {
+  const int n = 120;
+  const double turn = 2 * M_PI / n;
+  IncrementalSmoother smoother(o);
+  for (int i = 0; i < n; ++i) {
+    FactorGraph f;
+    Values v;
+    const Key k = static_cast<Key>(i);
+    if (i == 0) {
+      v.Insert(k, SE2d(0, 0, 0));
+    } else {
+      const SE2d odometry(1, 0, turn + 0.002);
+      v.Insert(k, smoother.Estimate().At<SE2d>(k - 1) * odometry);
+      f.Add<BetweenSE2>(k - 1, k, odometry, SqrtInformation::Identity(3));
+    }
+    if (i == n - 1) f.Add<BetweenSE2>(k, Key(0), SE2d(1, 0, turn), SqrtInformation::Identity(3));
+    const SmootherUpdate u = smoother.Update(std::move(f), std::move(v), {});
+    EXPECT_TRUE(u.solved || i == 0) << u.message;
+    *relinearized = u.relinearized;
+  }
+  Values optimum = smoother.Estimate();
+  const SolverSummary s = Optimize(smoother.graph(), &optimum, o.finish);
+  EXPECT_TRUE(s.IsSolutionUsable()) << s.FullReport();
+  EXPECT_GT(s.final_chi2, 0);
+  return (smoother.graph().Chi2(smoother.Estimate()) - s.final_chi2) / s.final_chi2;
+}
+
+TEST(IncrementalSmoother, AfterALoopClosureStepsNearTheThresholdsAreReLinearisedToo) {
+  // Measured: a relative gap of 5.9e-6 with the default iterate_fraction (0.5), 1.2e-4 when
+  // only the steps beyond the thresholds are re-linearised (1).
+  SmootherOptions near;
+  ASSERT_EQ(near.iterate_fraction, 0.5);
+  SmootherOptions beyond;
+  beyond.iterate_fraction = 1;
+  int relinearized_near = 0, relinearized_beyond = 0;
+  const double gap_near = RingClosureGap(near, &relinearized_near);
+  const double gap_beyond = RingClosureGap(beyond, &relinearized_beyond);
+  EXPECT_LT(gap_near, 2e-5);
+  EXPECT_GT(gap_beyond, 5e-5);
+  EXPECT_GT(relinearized_near, relinearized_beyond);
 }
 
 TEST(IncrementalSmoother, ZeroThresholdsReLineariseEveryStep) {

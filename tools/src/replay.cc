@@ -263,8 +263,9 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
       << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
-      << o.smoother.iterate_ratio << ", at most " << o.smoother.rounds_per_update << " round(s) per update, wildfire "
-      << o.smoother.wildfire_threshold << ", factorization "
+      << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them), at most "
+      << o.smoother.rounds_per_update << " round(s) per update, wildfire " << o.smoother.wildfire_threshold
+      << ", factorization "
       << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
           : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
                                                                              : "auto")

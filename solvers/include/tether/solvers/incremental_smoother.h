@@ -21,7 +21,8 @@
 // moves the linearisation point of the variables whose step is too large (beyond
 // relinearize_threshold, or relinearize_sigmas standard deviations of their own information),
 // re-linearising their factors; within the update again where a step is far too large
-// (iterate_ratio), else at the start of the next. Every estimate is then within a small
+// (iterate_ratio; the steps near the thresholds, iterate_fraction, go then too), else at the
+// start of the next. Every estimate is then within a small
 // fraction of the optimum of the graph so far (5.1e-4 relative chi2 at most on the public
 // files); Finish() solves in batch to convergence.
 //
@@ -78,6 +79,12 @@ struct SmootherOptions {
   /// linearisation was far off. Smaller steps that are too large are re-linearised at the start
   /// of the next update. Default 5.
   double iterate_ratio = 5;
+  /// When an update solves again, the variables whose step is beyond this fraction of the
+  /// thresholds (but not beyond them) are re-linearised too: after a loop closure, the many
+  /// steps just below the thresholds are what leaves the estimate short of the optimum of the
+  /// graph so far. 1: only steps beyond the thresholds. Default 0.5 (benchmarks/RESULTS.md,
+  /// "At every step").
+  double iterate_fraction = 0.5;
   /// At most this many factorise-solve rounds per update. Default 8.
   int rounds_per_update = 8;
   /// The back substitution goes down the elimination tree below a variable only where the
