@@ -15,25 +15,13 @@
 #include <algorithm>
 #include <cstring>
 
+#include "blas.h"
 #include "builtin_linear_solvers.h"
 #include "cholmod_views.h"
 #include "covariance_factor.h"
 #include "minimizer.h"
 #include "serial_openmp.h"
 #include "tether/solvers/covariance.h"
-
-// The BLAS and LAPACK CHOLMOD itself runs on (OpenBLAS where installed), for the large
-// supernodes.
-extern "C" {
-void dsymm_(const char* side, const char* uplo, const int* m, const int* n, const double* alpha, const double* a,
-            const int* lda, const double* b, const int* ldb, const double* beta, double* c, const int* ldc);
-void dgemm_(const char* ta, const char* tb, const int* m, const int* n, const int* k, const double* alpha,
-            const double* a, const int* lda, const double* b, const int* ldb, const double* beta, double* c,
-            const int* ldc);
-void dtrsm_(const char* side, const char* uplo, const char* ta, const char* diag, const int* m, const int* n,
-            const double* alpha, const double* a, const int* lda, double* b, const int* ldb);
-void dpotri_(const char* uplo, const int* n, double* a, const int* lda, int* info);
-}
 
 namespace tether {
 namespace internal {

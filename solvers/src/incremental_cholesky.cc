@@ -9,12 +9,25 @@
 #include <queue>
 #include <utility>
 
+#include "blas.h"
+
 namespace tether {
 namespace internal {
 
 namespace {
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// A front whose Cholesky and update (W columns, B rows below them) take at least this many
+// flops runs on the BLAS's kernels, smaller ones on Eigen's: a BLAS call costs about a
+// microsecond, and below this Eigen's kernels (compiled for the baseline x86-64, without
+// AVX) are as quick. Measured on sphere2500 and parking-garage (benchmarks/RESULTS.md,
+// "BLAS fronts"): 1e4 beat 3e3, 1e5 and 1e6.
+constexpr double kBlasFlops = 1e4;
+bool UseBlas(int W, int B) {
+  const double w = W, b = B;
+  return w * w * w / 3 + w * w * b + w * b * b >= kBlasFlops;
+}
 
 void EraseValue(std::vector<int>* v, int x) {
   auto it = std::find(v->begin(), v->end(), x);
@@ -416,7 +429,13 @@ void IncrementalCholesky::ComputeUpdate(int k) {
   c.update_rhs.setZero(B);
   for (int d : children) ExtendAdd(d, c.update.data(), B, c.update_rhs.data());
   const auto below = c.L.bottomRows(B);
-  c.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+  if (UseBlas(c.dim, B)) {
+    const double one = 1, minus_one = -1;
+    const int ld = static_cast<int>(c.L.rows());
+    dsyrk_("L", "N", &B, &c.dim, &minus_one, c.L.data() + c.dim, &ld, &one, c.update.data(), &B);
+  } else {
+    c.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+  }
   c.update_rhs.noalias() -= below * c.y;
   c.update_rows = c.rows;
   c.has_update = true;
@@ -530,21 +549,40 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
     if (j == s.last) break;
   }
   for (int k : children) ExtendAdd(k, F, R, b.data());
-  Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>> top = P.topLeftCorner(W, W);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>>> llt(top);
-  if (llt.info() != Eigen::Success) {
-    if (why) *why = "not positive definite";
-    return false;
+  // The dense kernels: Eigen's on small fronts, the BLAS's (vectorised for the CPU at run
+  // time) on large ones (benchmarks/RESULTS.md, "BLAS fronts").
+  const bool blas = UseBlas(W, B);
+  if (blas) {
+    int info = 0;
+    dpotrf_("L", &W, F, &R, &info);
+    if (info != 0) {
+      if (why) *why = "not positive definite";
+      return false;
+    }
+  } else {
+    Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>> top = P.topLeftCorner(W, W);
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd, 0, Eigen::OuterStride<>>> llt(top);
+    if (llt.info() != Eigen::Success) {
+      if (why) *why = "not positive definite";
+      return false;
+    }
   }
   P.topLeftCorner(W, W).triangularView<Eigen::StrictlyUpper>().setZero();
   const auto Ltop = P.topLeftCorner(W, W).triangularView<Eigen::Lower>();
   Ltop.solveInPlace(b.head(W));
   if (B > 0) {
     auto below = P.block(W, 0, B, W);
-    Ltop.transpose().solveInPlace<Eigen::OnTheRight>(below);
     Var& l = vars_[s.last];
-    l.update = P.bottomRightCorner(B, B);
-    l.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+    if (blas) {
+      const double one = 1, minus_one = -1;
+      dtrsm_("R", "L", "T", "N", &B, &W, &one, F, &R, F + W, &R);  // below = below Ltop^-T
+      l.update = P.bottomRightCorner(B, B);
+      dsyrk_("L", "N", &B, &W, &minus_one, F + W, &R, &one, l.update.data(), &B);  // -= below below^T
+    } else {
+      Ltop.transpose().solveInPlace<Eigen::OnTheRight>(below);
+      l.update = P.bottomRightCorner(B, B);
+      l.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
+    }
     l.update_rhs = b.tail(B);
     l.update_rhs.noalias() -= below * b.head(W);
     l.update_rows = l.rows;
