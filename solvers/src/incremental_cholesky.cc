@@ -430,6 +430,7 @@ void IncrementalCholesky::ComputeUpdate(int k) {
   for (int d : children) ExtendAdd(d, c.update.data(), B, c.update_rhs.data());
   const auto below = c.L.bottomRows(B);
   if (UseBlas(c.dim, B)) {
+    ++stats_.blas_fronts;
     const double one = 1, minus_one = -1;
     const int ld = static_cast<int>(c.L.rows());
     dsyrk_("L", "N", &B, &c.dim, &minus_one, c.L.data() + c.dim, &ld, &one, c.update.data(), &B);
@@ -553,6 +554,7 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
   // time) on large ones (benchmarks/RESULTS.md, "BLAS fronts").
   const bool blas = UseBlas(W, B);
   if (blas) {
+    ++stats_.blas_fronts;
     int info = 0;
     dpotrf_("L", &W, F, &R, &info);
     if (info != 0) {

@@ -53,6 +53,7 @@ class IncrementalCholesky {
   struct Stats {
     int affected = 0;           ///< columns refactored
     int supernodes = 0;         ///< supernodes (dense fronts) the affected columns formed
+    int blas_fronts = 0;        ///< fronts and on-demand updates large enough for the BLAS
     int back_substituted = 0;   ///< columns whose solution was recomputed
     bool full = false;          ///< every column was refactored
     double factor_seconds = 0;  ///< finding, ordering and refactoring the affected columns

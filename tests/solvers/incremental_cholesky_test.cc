@@ -363,6 +363,43 @@ TEST(IncrementalCholesky, SupernodesSplitByTouchesInTheirMiddleStayExact) {
   }
 }
 
+TEST(IncrementalCholesky, LargeFrontsRunOnTheBlasAndStayExact) {
+  // SE3-wide variables, each tied to the eight before it: fronts 6 to 48 scalars wide with up
+  // to 48 rows below, most of them past the flops from which the BLAS takes over (the small
+  // ones at the ends stay on Eigen's kernels). Loop closures and re-linearisations into the
+  // middle then refactor the top and compute on-demand updates of unchanged columns.
+  for (unsigned seed = 31; seed <= 32; ++seed) {
+    Harness h(seed);
+    std::vector<int> vars;
+    std::vector<int> factors;
+    for (int i = 0; i < 40; ++i) {
+      const int v = h.AddVariable(6);
+      h.AddFactor({v});
+      for (int back = 1; back <= 8 && back <= static_cast<int>(vars.size()); ++back) {
+        factors.push_back(h.AddFactor({vars[vars.size() - back], v}));
+      }
+      h.engine().MarkRecent(v);
+      vars.push_back(v);
+    }
+    h.SolveAndCompare("seed " + std::to_string(seed) + ", the band");
+    EXPECT_GT(h.engine().stats().blas_fronts, 0) << "no front was large enough for the BLAS";
+    std::mt19937 rng(seed);
+    int blas = 0;
+    for (int step = 0; step < 12; ++step) {
+      const std::string where = "seed " + std::to_string(seed) + ", step " + std::to_string(step);
+      const int i = std::uniform_int_distribution<int>(2, 30)(rng);
+      if (step % 2 == 0) {
+        h.AddFactor({vars[i], vars.back()});
+      } else {
+        h.Relinearize(factors[static_cast<std::size_t>(8 * i)]);
+      }
+      h.SolveAndCompare(where);
+      blas += h.engine().stats().blas_fronts;
+    }
+    EXPECT_GT(blas, 0) << "seed " << seed << ": no update refactored a large front";
+  }
+}
+
 TEST(IncrementalCholesky, AnUndeterminedVariableIsRefusedAndAPriorRecovers) {
   for (const auto method : kMethods) {
     Harness h(11, method);
