@@ -1,5 +1,6 @@
 #include "tether/core/factor.h"
 
+#include <cmath>
 #include <limits>
 
 #include "tether/core/error.h"
@@ -64,6 +65,14 @@ double Factor::Chi2(const Values& values) const {
   double s = 0;
   for (int i = 0; i < dim(); ++i) s += r[i] * r[i];
   return s;
+}
+
+double Factor::Cost(const Values& values) const {
+  const double s = Chi2(values);
+  if (loss_ == nullptr || !std::isfinite(s)) return s;
+  double rho[3];
+  loss_->Evaluate(s, rho);
+  return rho[0];
 }
 
 }  // namespace tether

@@ -40,4 +40,17 @@ double FactorGraph::Chi2(const Values& values) const {
   return s;
 }
 
+double FactorGraph::Cost(const Values& values) const {
+  double s = 0;
+  for (const auto& f : factors_) s += f->Cost(values);
+  return s;
+}
+
+bool FactorGraph::HasLoss() const {
+  for (const auto& f : factors_) {
+    if (f->loss() != nullptr) return true;
+  }
+  return false;
+}
+
 }  // namespace tether

@@ -195,7 +195,7 @@ void WriteResult(const FactorGraph& graph, Values* values, CeresProblem* problem
     usable = false;
   }
   if (usable) {
-    s.final_chi2 = graph.Chi2(*values);
+    s.final_chi2 = graph.Cost(*values);  // the objective; Optimize reports chi2 and cost apart
     if (!std::isfinite(s.final_chi2)) {
       problem->ResetBlocks();
       problem->WriteBack(values);
@@ -239,7 +239,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     s.initial_chi2 = s.final_chi2 = std::numeric_limits<double>::infinity();
     return s;
   }
-  s.initial_chi2 = s.final_chi2 = graph.Chi2(*values);
+  s.initial_chi2 = s.final_chi2 = graph.Cost(*values);
 
   // LM damping as a trust region: lambda = 1 / radius (see ceres_adapter.h).
   const double initial_radius = 1.0 / std::max(options.lm.initial_lambda, options.lm.min_lambda);

@@ -1,10 +1,13 @@
 #include "tether/solvers/ceres_problem.h"
 
+#include <ceres/loss_function.h>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <memory>
 #include <unordered_set>
 
 #include "tether/core/error.h"
@@ -30,6 +33,17 @@ Eigen::Matrix<double, 4, 3> QuaternionRetractJacobian(const Eigen::Quaterniond& 
   m.row(3) = -v.transpose();
   return 0.5 * m;
 }
+
+// A factor's robust loss for Ceres: the same rho(s), rho'(s), rho''(s) (Ceres's convention for
+// the squared norm of the residual is tether's).
+class CeresLoss : public ceres::LossFunction {
+ public:
+  explicit CeresLoss(std::shared_ptr<const tether::LossFunction> loss) : loss_(std::move(loss)) {}
+  void Evaluate(double s, double rho[3]) const override { loss_->Evaluate(s, rho); }
+
+ private:
+  std::shared_ptr<const tether::LossFunction> loss_;
+};
 
 }  // namespace
 
@@ -220,12 +234,6 @@ CeresProblem::CeresProblem(const FactorGraph& graph, const Values& values, const
     } catch (const InvalidArgument& e) {
       throw InvalidArgument("factor " + std::to_string(fi) + ": " + e.what());
     }
-    if (f.loss() != nullptr) {
-      throw InvalidArgument("factor " + std::to_string(fi) + " (" + f.Describe() + ") carries the robust loss '" +
-                            f.loss()->name() +
-                            "', which the Ceres adapter does not map yet; remove it (set_loss(nullptr)) to solve "
-                            "the plain least-squares problem");
-    }
     used.insert(f.keys().begin(), f.keys().end());
   }
   std::size_t size = 0;
@@ -264,15 +272,16 @@ CeresProblem::CeresProblem(const FactorGraph& graph, const Values& values, const
   for (const auto& f : graph.factors()) {
     num_residuals_ += f->dim();
     if (f->keys().empty()) {
-      keyless_chi2_ += f->Chi2(values);
+      keyless_chi2_ += f->Cost(values);
       continue;
     }
     auto cost = std::make_unique<FactorCostFunction>(f.get(), &errors_);
     std::vector<double*> blocks;
     for (Key k : cost->block_keys()) blocks.push_back(Block(k));
-    // Robust kernels, once factors have them, map to a ceres::LossFunction here (nullptr:
-    // plain squared error).
-    problem_.AddResidualBlock(cost.release(), nullptr, blocks);
+    // A robust loss maps to a ceres::LossFunction that evaluates it (nullptr: plain squared
+    // error). Ceres minimises half the sum of rho, so its optimum is the native solver's.
+    ceres::LossFunction* loss = f->loss() ? new CeresLoss(f->shared_loss()) : nullptr;
+    problem_.AddResidualBlock(cost.release(), loss, blocks);
   }
 }
 

@@ -276,6 +276,12 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   for (std::size_t i = 0; i < new_factors.size(); ++i) {
     const Factor& f = new_factors.at(i);
     f.CheckShape();
+    if (f.loss() != nullptr) {
+      throw InvalidArgument("new factor " + std::to_string(i) + " (" + f.Describe() + ") carries the robust loss '" +
+                            f.loss()->name() +
+                            "', which the incremental smoother does not apply yet (Optimize does); add it without "
+                            "the loss (set_loss(nullptr))");
+    }
     const std::vector<VarType> types = f.variable_types();
     for (std::size_t j = 0; j < f.keys().size(); ++j) {
       VarType type{};

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "builtin_linear_solvers.h"
 #include "gauge.h"
@@ -135,10 +136,32 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   return s;
 }
 
-}  // namespace
+// Where some factor carries a robust loss, the solvers' chi2 is the robust cost: it moves to
+// initial_cost and final_cost, and chi2 proper is evaluated at the start and the end.
+SolverSummary WithCosts(SolverSummary s, const FactorGraph& graph, const Values& values, double start_chi2) {
+  s.initial_cost = s.initial_chi2;
+  s.final_cost = s.final_chi2;
+  if (!graph.HasLoss()) return s;
+  s.initial_chi2 = start_chi2;
+  try {
+    s.final_chi2 = graph.Chi2(values);
+  } catch (const Error&) {
+    s.final_chi2 = std::numeric_limits<double>::quiet_NaN();  // an invalid graph: the message says why
+  }
+  return s;
+}
 
-SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
-  if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
+// chi2 of the start where some factor carries a loss (NaN where it cannot be evaluated).
+double StartChi2(const FactorGraph& graph, const Values& values) {
+  if (!graph.HasLoss()) return 0;
+  try {
+    return graph.Chi2(values);
+  } catch (const Error&) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+SolverSummary RunEither(const FactorGraph& graph, Values* values, const SolverOptions& options) {
   if (options.algorithm == Algorithm::kCeres) return OptimizeWithCeres(graph, values, options);
   std::unique_ptr<internal::Problem> problem;
   try {
@@ -156,6 +179,14 @@ SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOpt
                 (problem ? "; the last good values were kept" : "; values untouched");
     return s;
   }
+}
+
+}  // namespace
+
+SolverSummary Optimize(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+  if (values == nullptr) throw InvalidArgument("Optimize: values must not be null");
+  const double start_chi2 = StartChi2(graph, *values);
+  return WithCosts(RunEither(graph, values, options), graph, *values, start_chi2);
 }
 
 }  // namespace tether

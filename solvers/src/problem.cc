@@ -163,12 +163,6 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
     } catch (const InvalidArgument& e) {
       throw InvalidArgument("factor " + std::to_string(fi) + ": " + e.what());
     }
-    if (f.loss() != nullptr) {
-      throw InvalidArgument("factor " + std::to_string(fi) + " (" + f.Describe() + ") carries the robust loss '" +
-                            f.loss()->name() +
-                            "', which this solver does not apply yet; remove it (set_loss(nullptr)) to solve the "
-                            "plain least-squares problem");
-    }
     const std::vector<const double*> p = f.GatherParams(*values);  // throws for missing/mistyped keys
     const int first = static_cast<int>(entries_.size());
     factor_jac_.push_back(jac_size);
@@ -237,7 +231,7 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
   for (int v = 0; v < nv; ++v) column_cost[v] += vars_[v].dim * vars_[v].dim;  // zeroing
   factor_parts_ = Partition(factor_cost, parts);
   var_parts_ = Partition(column_cost, parts);
-  factor_chi2_.assign(factors_.size(), 0.0);
+  factor_cost_.assign(factors_.size(), 0.0);
   part_status_.assign(parts, 0);
   for (const FactorRef& f : factors_) max_m_ = std::max(max_m_, f.m);
   scratch_.assign(static_cast<std::size_t>(parts) * max_m_, 0.0);
@@ -274,10 +268,29 @@ int Problem::LinearizeRange(int part, double* res) const {
     noise.WhitenVector(r);
     double s = 0;
     for (int i = 0; i < f.m; ++i) s += r[i] * r[i];
-    factor_chi2_[fi] = s;
+    // A robust loss: the cost is rho(s), and the residual and Jacobians are weighted by
+    // sqrt(rho'(s)) (iteratively reweighted least squares, docs/solvers.md "Robust losses").
+    double weight = 1;
+    const LossFunction* loss = f.factor->loss();
+    if (loss != nullptr && std::isfinite(s)) {
+      double rho[3];
+      loss->Evaluate(s, rho);
+      factor_cost_[fi] = rho[0];
+      weight = std::sqrt(std::max(rho[1], 0.0));
+    } else {
+      factor_cost_[fi] = s;
+    }
     if (jacobians) {
       for (int a = 0; a < f.count; ++a) {
-        if (jp[a] != nullptr) noise.WhitenRowMajor(jp[a], entries_[f.first + a].dim);
+        if (jp[a] == nullptr) continue;
+        const int d = entries_[f.first + a].dim;
+        noise.WhitenRowMajor(jp[a], d);
+        if (weight != 1) {
+          for (int i = 0; i < f.m * d; ++i) jp[a][i] *= weight;
+        }
+      }
+      if (weight != 1) {
+        for (int i = 0; i < f.m; ++i) r[i] *= weight;
       }
     }
   }
@@ -292,7 +305,7 @@ int Problem::LinearizeRange(int part, double* res) const {
 
 double Problem::SumChi2() const {
   double chi2 = 0;
-  for (double c : factor_chi2_) chi2 += c;
+  for (double c : factor_cost_) chi2 += c;
   return std::isfinite(chi2) ? chi2 : std::numeric_limits<double>::infinity();
 }
 

@@ -113,15 +113,17 @@ class Problem : public TrialPoint {
     GradientKernel kernel;
   };
 
-  // Factors of one part: whitened residuals and each factor's chi2 into factor_chi2_; with res
-  // (= res_), the residuals go there and the Jacobians into jac_, else only chi2 is computed.
+  // Factors of one part: whitened residuals and each factor's cost (chi2, or rho(chi2) where
+  // it carries a robust loss) into factor_cost_; with res (= res_), the residuals go there and
+  // the Jacobians into jac_ (weighted by sqrt(rho') under a loss), else only the cost.
   // Returns 0, 1 when a factor failed, 2 when some Jacobian entry is not finite.
   // `part` is the index of the thread's part of the factors (factor_parts_).
   int LinearizeRange(int part, double* res) const;
   // Block columns of variables [v0, v1) of H (zeroed first) and their g (and diag) entries.
   void AssembleColumns(int v0, int v1, double* hx, double* g) const;
   void GradientRange(int v0, int v1, double* g, double* diag) const;
-  // Sums factor_chi2_ in factor order; +inf when not finite.
+  // Sums factor_cost_ in factor order (the objective, "chi2" in the minimiser's log); +inf
+  // when not finite.
   double SumChi2() const;
 
   template <typename F>
@@ -139,7 +141,7 @@ class Problem : public TrialPoint {
   std::vector<int> var_entry_start_;
   std::vector<int> factor_jac_;                // jac_ of factor f: [factor_jac_[f], factor_jac_[f + 1])
   std::vector<int> factor_parts_, var_parts_;  // num_threads + 1 boundaries each
-  mutable std::vector<double> factor_chi2_;
+  mutable std::vector<double> factor_cost_;
   mutable std::vector<double> scratch_;  // one residual per part, for chi2 alone
   int max_m_ = 0;                        // the largest residual dimension
   mutable std::vector<int> part_status_;

@@ -103,7 +103,12 @@ std::string SolverSummary::BriefReport() const {
   char buf[256];
   std::snprintf(buf, sizeof(buf), "%s: chi2 %.6g -> %.6g in %d iterations, %.3f s", ToString(status), initial_chi2,
                 final_chi2, iterations, total_seconds);
-  return buf;
+  std::string line = buf;
+  if (initial_cost != initial_chi2 || final_cost != final_chi2) {  // robust losses: the objective too
+    std::snprintf(buf, sizeof(buf), " (robust cost %.6g -> %.6g)", initial_cost, final_cost);
+    line += buf;
+  }
+  return line;
 }
 
 std::string SolverSummary::FullReport() const {

@@ -14,6 +14,7 @@
 
 #include "testing/simulated.h"
 #include "tether/core/error.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/factors/between_se2.h"
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
@@ -237,6 +238,20 @@ TEST(IncrementalSmoother, InvalidUpdatesChangeNothing) {
     EXPECT_THROW(smoother.Update({}, v, {last + 1000}), InvalidArgument);
     unchanged();
     EXPECT_THROW(smoother.Update({}, v, {last, last}), InvalidArgument);
+    unchanged();
+  }
+  {  // a factor with a robust loss (not applied by the smoother yet: refused, not ignored)
+    FactorGraph f;
+    f.Add(odometry_19_20.Clone());
+    f.at(0).set_loss(MakeLoss("huber:1"));
+    Values v;
+    v.InsertParams(20, sim.initial.TypeOf(20), sim.initial.Params(20));
+    try {
+      smoother.Update(std::move(f), std::move(v));
+      ADD_FAILURE() << "a factor with a loss was accepted";
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find("robust loss 'huber:1'"), std::string::npos) << e.what();
+    }
     unchanged();
   }
   {  // fixing a variable that has no value

@@ -64,6 +64,8 @@ class Factor {
   bool Linearize(const double* const* params, double* residual, double* const* jacobians) const;
   /// chi2 = e^T Omega e at the given values; throws InvalidArgument for missing/mistyped keys.
   double Chi2(const Values& values) const;
+  /// What the solver minimises for this factor: rho(chi2) with a loss, else chi2.
+  double Cost(const Values& values) const;
   /// Throws InvalidArgument unless the keys match variable_types() and the noise model's
   /// dimension is the error's.
   void CheckShape() const;

@@ -61,8 +61,13 @@ class FactorGraph {
   bool IsFixed(Key k) const { return fixed_.count(k) != 0; }
   const std::set<Key>& fixed() const { return fixed_; }
 
-  /// Sum of chi2 over all factors.
+  /// Sum of chi2 over all factors (without their robust losses).
   double Chi2(const Values& values) const;
+  /// Sum of each factor's Cost: the objective the solvers minimise (Chi2 where no factor
+  /// carries a robust loss).
+  double Cost(const Values& values) const;
+  /// Whether some factor carries a robust loss.
+  bool HasLoss() const;
 
  private:
   std::vector<std::unique_ptr<Factor>> factors_;

@@ -2,8 +2,9 @@
 // LossFunction: a robust loss rho(s) on a factor's squared whitened error s = |R e|^2.
 //
 // A factor carries an optional loss beside its noise model (Factor::set_loss); its cost is
-// then rho(s) instead of s. This header fixes the interface; the solvers refuse a factor
-// that carries a loss until they apply it (see docs/solvers.md), rather than ignore it.
+// then rho(s) instead of s. The built-in losses are in robust_kernels.h; how the solvers
+// apply them (reweighted least squares) is in docs/solvers.md, "Robust losses". The
+// incremental smoother refuses a factor with a loss for now rather than ignore it.
 #include <string>
 
 namespace tether {

@@ -15,9 +15,9 @@
 // - Factors: one FactorCostFunction per factor; its residual is the factor's whitened error,
 //   so Ceres' cost is chi2 / 2. A factor that uses one variable twice gets one parameter
 //   block for it (Ceres forbids repeating a block) and the sum of the two Jacobians.
-// - Robust losses (Factor::loss): not mapped yet; a factor that carries one is refused. Its
-//   place is the ceres::LossFunction argument of AddResidualBlock in CeresProblem's
-//   constructor (ceres_problem.cc), with the residuals still the plain whitened errors.
+// - Robust losses (Factor::loss): a ceres::LossFunction that evaluates the factor's own loss
+//   (Ceres's rho of the squared residual norm is tether's), so Ceres' cost is half the sum of
+//   rho: the native solvers' objective (FactorGraph::Cost) over 2.
 //
 // How Jacobians reach Ceres
 // Ceres asks a cost function for dr/dx in ambient coordinates (m x a) and right-multiplies it

@@ -189,8 +189,15 @@ struct SolverSummary {
   std::string message;  ///< why it stopped, in words
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   LinearSolverType linear_solver = LinearSolverType::kCholmod;
+  /// chi2 (sum of |R e|^2 over the factors, their robust losses left out) at the start and
+  /// at the end.
   double initial_chi2 = 0;
   double final_chi2 = 0;
+  /// The objective the solver minimised: each factor's rho(chi2) where it carries a robust
+  /// loss, its chi2 otherwise (FactorGraph::Cost). Equal to the chi2 where no factor carries
+  /// a loss; the iteration log's chi2 column is this cost.
+  double initial_cost = 0;
+  double final_cost = 0;
   int iterations = 0;  ///< iterations tried (accepted or not)
   int accepted_iterations = 0;
   int factorizations = 0;  ///< numeric factorisations (iterations less those that reused one)

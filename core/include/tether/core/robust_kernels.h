@@ -1,0 +1,80 @@
+#pragma once
+// The built-in robust losses (LossFunction, loss_function.h): rho of a factor's squared
+// whitened error s = |R e|^2. Every one has rho(0) = 0 and rho'(0) = 1, so that a factor
+// whose error is small costs what it costs without a loss, and each grows slower than s
+// beyond its scale (docs/solvers.md, "Robust losses"):
+//
+//   huber:d     rho = s                          for s <= d^2, 2 d sqrt(s) - d^2 beyond
+//   cauchy:c    rho = c^2 log(1 + s / c^2)
+//   tukey:c     rho = c^2 / 3 (1 - (1 - s / c^2)^3) for s <= c^2, c^2 / 3 beyond
+//   gm:c        rho = c^2 s / (c^2 + s)                        (Geman-McClure)
+//   dcs:phi     rho = s for s <= phi, phi (3 s - phi) / (phi + s) beyond
+//               (dynamic covariance scaling: the factor's information scaled by
+//               min(1, 2 phi / (phi + s))^2, which is rho'(s))
+//
+// The scale (d, c, phi) is in whitened units: huber:1 treats an error beyond one standard
+// deviation linearly.
+#include <memory>
+#include <string>
+
+#include "tether/core/loss_function.h"
+
+namespace tether {
+
+class HuberLoss : public LossFunction {
+ public:
+  explicit HuberLoss(double delta);
+  std::string name() const override;
+  void Evaluate(double s, double rho[3]) const override;
+  double delta() const { return delta_; }
+
+ private:
+  double delta_;
+};
+
+class CauchyLoss : public LossFunction {
+ public:
+  explicit CauchyLoss(double c);
+  std::string name() const override;
+  void Evaluate(double s, double rho[3]) const override;
+
+ private:
+  double c_;
+};
+
+class TukeyLoss : public LossFunction {
+ public:
+  explicit TukeyLoss(double c);
+  std::string name() const override;
+  void Evaluate(double s, double rho[3]) const override;
+
+ private:
+  double c_;
+};
+
+class GemanMcClureLoss : public LossFunction {
+ public:
+  explicit GemanMcClureLoss(double c);
+  std::string name() const override;
+  void Evaluate(double s, double rho[3]) const override;
+
+ private:
+  double c_;
+};
+
+class DcsLoss : public LossFunction {
+ public:
+  explicit DcsLoss(double phi);
+  std::string name() const override;
+  void Evaluate(double s, double rho[3]) const override;
+
+ private:
+  double phi_;
+};
+
+/// A loss from its text form "NAME:SCALE" (huber:1.0, cauchy:2, tukey:4.685, gm:1, dcs:1;
+/// "NAME" alone takes the scale 1). Throws InvalidArgument naming the text and what is
+/// accepted for an unknown name or a scale that is not a finite number above 0.
+std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec);
+
+}  // namespace tether

@@ -1,0 +1,122 @@
+#include "tether/core/robust_kernels.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "tether/core/error.h"
+
+namespace tether {
+namespace {
+
+double CheckScale(const char* kernel, double scale) {
+  if (!(std::isfinite(scale) && scale > 0)) {
+    throw InvalidArgument(std::string("the scale of the ") + kernel + " loss must be a finite number above 0, not " +
+                          std::to_string(scale));
+  }
+  return scale;
+}
+
+std::string Named(const char* kernel, double scale) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%s:%.17g", kernel, scale);
+  return buf;
+}
+
+}  // namespace
+
+HuberLoss::HuberLoss(double delta) : delta_(CheckScale("huber", delta)) {}
+std::string HuberLoss::name() const { return Named("huber", delta_); }
+void HuberLoss::Evaluate(double s, double rho[3]) const {
+  const double d2 = delta_ * delta_;
+  if (s <= d2) {
+    rho[0] = s;
+    rho[1] = 1;
+    rho[2] = 0;
+  } else {
+    const double r = std::sqrt(s);  // the whitened error's norm
+    rho[0] = 2 * delta_ * r - d2;
+    rho[1] = delta_ / r;
+    rho[2] = -0.5 * rho[1] / s;
+  }
+}
+
+CauchyLoss::CauchyLoss(double c) : c_(CheckScale("cauchy", c)) {}
+std::string CauchyLoss::name() const { return Named("cauchy", c_); }
+void CauchyLoss::Evaluate(double s, double rho[3]) const {
+  const double c2 = c_ * c_;
+  const double inv = 1 / (1 + s / c2);
+  rho[0] = c2 * std::log1p(s / c2);
+  rho[1] = inv;
+  rho[2] = -inv * inv / c2;
+}
+
+TukeyLoss::TukeyLoss(double c) : c_(CheckScale("tukey", c)) {}
+std::string TukeyLoss::name() const { return Named("tukey", c_); }
+void TukeyLoss::Evaluate(double s, double rho[3]) const {
+  const double c2 = c_ * c_;
+  if (s <= c2) {
+    const double u = 1 - s / c2;
+    rho[0] = c2 / 3 * (1 - u * u * u);
+    rho[1] = u * u;
+    rho[2] = -2 * u / c2;
+  } else {
+    rho[0] = c2 / 3;
+    rho[1] = 0;
+    rho[2] = 0;
+  }
+}
+
+GemanMcClureLoss::GemanMcClureLoss(double c) : c_(CheckScale("gm", c)) {}
+std::string GemanMcClureLoss::name() const { return Named("gm", c_); }
+void GemanMcClureLoss::Evaluate(double s, double rho[3]) const {
+  const double c2 = c_ * c_;
+  const double inv = 1 / (c2 + s);
+  rho[0] = c2 * s * inv;
+  rho[1] = c2 * c2 * inv * inv;
+  rho[2] = -2 * rho[1] * inv;
+}
+
+DcsLoss::DcsLoss(double phi) : phi_(CheckScale("dcs", phi)) {}
+std::string DcsLoss::name() const { return Named("dcs", phi_); }
+void DcsLoss::Evaluate(double s, double rho[3]) const {
+  if (s <= phi_) {
+    rho[0] = s;
+    rho[1] = 1;
+    rho[2] = 0;
+  } else {
+    const double inv = 1 / (phi_ + s);
+    const double w = 2 * phi_ * inv;  // the scaling of the whitened error
+    rho[0] = phi_ * (3 * s - phi_) * inv;
+    rho[1] = w * w;
+    rho[2] = -2 * rho[1] * inv;
+  }
+}
+
+std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec) {
+  const std::size_t colon = spec.find(':');
+  const std::string kernel = spec.substr(0, colon);
+  double scale = 1;
+  if (colon != std::string::npos) {
+    const std::string text = spec.substr(colon + 1);
+    char* end = nullptr;
+    scale = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size()) {
+      throw InvalidArgument("robust loss '" + spec + "': the scale '" + text +
+                            "' is not a number (write NAME:SCALE, e.g. huber:1.0)");
+    }
+  }
+  try {
+    if (kernel == "huber") return std::make_shared<HuberLoss>(scale);
+    if (kernel == "cauchy") return std::make_shared<CauchyLoss>(scale);
+    if (kernel == "tukey") return std::make_shared<TukeyLoss>(scale);
+    if (kernel == "gm") return std::make_shared<GemanMcClureLoss>(scale);
+    if (kernel == "dcs") return std::make_shared<DcsLoss>(scale);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument("robust loss '" + spec + "': " + e.what());
+  }
+  throw InvalidArgument("robust loss '" + spec + "': unknown kernel '" + kernel +
+                        "' (known: huber, cauchy, tukey, gm, dcs; write NAME:SCALE, e.g. huber:1.0)");
+}
+
+}  // namespace tether
