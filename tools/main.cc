@@ -47,6 +47,11 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   optimize->add_flag("--allow-partial-vertices", opt.allow_partial_vertices,
                      "Give vertices without a VERTEX line initial values composed from edges");
+  optimize
+      ->add_option("--robust", opt.robust,
+                   "Robust loss rule SELECTOR=KERNEL:SCALE: loop=huber:1.0 (edges between non-consecutive poses), "
+                   "all=cauchy:2, or a g2o tag (EDGE_SE2=dcs:1); kernels huber, cauchy, tukey, gm, dcs; repeatable")
+      ->allow_extra_args(false);
 
   tether::SimulateCommand sim;
   CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");

@@ -133,12 +133,29 @@ class Reader {
                              std::to_string(ctx_.first_repaired_line) + ") with '" + ToString(ctx_.repair) + "'");
     }
     out.repaired_informations = ctx_.repaired_informations;
+    if (options_.loop_closures == LoopClosureRule::kNonConsecutive) out.loop_closures = MarkLoopClosures();
     out.values = std::move(out_values_);
     out.graph = std::move(graph_);
     return out;
   }
 
  private:
+  // Marks the factors between two poses whose ids are not consecutive as loop closures.
+  int MarkLoopClosures() {
+    int marked = 0;
+    for (std::size_t i = 0; i < graph_.size(); ++i) {
+      Factor& f = graph_.at(i);
+      if (f.keys().size() != 2) continue;
+      const Key a = f.keys()[0], b = f.keys()[1];
+      if (!out_values_.Has(a) || !out_values_.Has(b)) continue;
+      if (!IsPose(out_values_.TypeOf(a)) || !IsPose(out_values_.TypeOf(b))) continue;
+      if ((a > b ? a - b : b - a) == 1) continue;
+      f.set_loop_closure(true);
+      ++marked;
+    }
+    return marked;
+  }
+
   // A vertex tag of the registry, with what reading its lines needs.
   struct VertexTag {
     std::string tag;

@@ -81,10 +81,17 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   if (!options.IsValid(&why)) return stop(PipelineStatus::kInvalidOptions, why);
 
   try {
+    FactorGraph none;
+    ApplyRobustRules(options.robust, registry, &none);  // a tag no type has: refused before reading
+  } catch (const InvalidArgument& e) {
+    return stop(PipelineStatus::kInvalidOptions, e.what());
+  }
+  try {
     r.file = ReadProblem(options, registry);
   } catch (const Error& e) {
     return stop(PipelineStatus::kBadInput, e.what());
   }
+  ApplyRobustRules(options.robust, registry, &r.file.graph);
   if (hooks.on_read) hooks.on_read(r.file);
 
   // With keep_intermediate_values the file's own start stays in r.file.values and the

@@ -131,6 +131,10 @@ std::string SolverSummary::FullReport() const {
   o << "  initial chi2       " << buf << "\n";
   std::snprintf(buf, sizeof(buf), "%.9g", final_chi2);
   o << "  final chi2         " << buf << "\n";
+  if (initial_cost != initial_chi2 || final_cost != final_chi2) {
+    std::snprintf(buf, sizeof(buf), "%.9g -> %.9g", initial_cost, final_cost);
+    o << "  robust cost        " << buf << " (the objective: sum of rho over the factors)\n";
+  }
   o << "  iterations         " << iterations << " (" << accepted_iterations << " accepted";
   if (algorithm != Algorithm::kCeres) {
     o << ", " << factorizations << (factorizations == 1 ? " factorisation" : " factorisations");

@@ -166,6 +166,31 @@ TEST(GraphIoTest, ReadsA2DGraphWithCommentsBlankLinesFixAndCarriageReturns) {
   EXPECT_EQ(g.initialised_by_spanning_tree, 0);
 }
 
+TEST(GraphIoTest, LoopClosuresAreEdgesBetweenPosesWhoseIdsAreNotConsecutive) {
+  const std::string text =
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\nVERTEX_SE2 3 3 0 0\n"
+      "VERTEX_XY 7 1 1\n"
+      "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
+      "EDGE_SE2 2 1 -1 0 0 1 0 0 1 0 1\n"  // consecutive, written backwards
+      "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
+      "EDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n"
+      "EDGE_SE2 0 2 2 0 0 1 0 0 1 0 1\n"   // loop closure
+      "EDGE_SE2 3 0 -3 0 0 1 0 0 1 0 1\n"  // loop closure
+      "EDGE_SE2_XY 3 7 -2 1 1 0 1\n";      // a landmark: never a loop closure
+  const GraphFile g = Read(text);
+  EXPECT_EQ(g.loop_closures, 2);
+  std::vector<bool> marked;
+  for (std::size_t i = 0; i < g.graph.size(); ++i) marked.push_back(g.graph.at(i).loop_closure());
+  EXPECT_EQ(marked, (std::vector<bool>{false, false, false, false, true, true, false}));
+  // A copy of the graph keeps the marks; the rule kNone marks nothing.
+  EXPECT_TRUE(g.graph.at(4).Clone()->loop_closure());
+  ReadOptions none;
+  none.loop_closures = LoopClosureRule::kNone;
+  const GraphFile n = Read(text, "t.g2o", none);
+  EXPECT_EQ(n.loop_closures, 0);
+  for (std::size_t i = 0; i < n.graph.size(); ++i) EXPECT_FALSE(n.graph.at(i).loop_closure()) << i;
+}
+
 TEST(GraphIoTest, IgnoresAByteOrderMark) {
   const GraphFile g = Read("\xEF\xBB\xBFVERTEX_SE2 0 0 0 0\n");
   EXPECT_EQ(g.values.size(), 1u);

@@ -126,6 +126,14 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
     return false;
   }
   po->read.allow_partial_vertices = cmd.allow_partial_vertices;
+  for (const std::string& rule : cmd.robust) {
+    try {
+      po->robust.push_back(ParseRobustRule(rule));
+    } catch (const InvalidArgument& e) {
+      err << "tether optimize: --robust: " << e.what() << "\n";
+      return false;
+    }
+  }
   return true;
 }
 
@@ -216,6 +224,12 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
         << file.graph.size() << " factors";
     if (!file.graph.fixed().empty()) out << ", " << file.graph.fixed().size() << " fixed";
     out << "\n";
+    if (!po.robust.empty()) {
+      std::size_t robust = 0;
+      for (const auto& f : file.graph.factors()) robust += f->loss() != nullptr;
+      out << "robust losses: " << robust << " of " << file.graph.size() << " factors (" << file.loop_closures
+          << " loop closures: edges between non-consecutive poses)\n";
+    }
     if (file.initialised_by_spanning_tree > 0) {
       out << "initial values: " << file.initialised_by_spanning_tree
           << " variables composed along a spanning tree from the lowest id\n";

@@ -18,6 +18,7 @@
 #include "tether/core/key.h"
 #include "tether/core/loss_function.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/robust_rules.h"
 #include "tether/core/registry.h"
 #include "tether/core/se2.h"
 #include "tether/core/se3.h"

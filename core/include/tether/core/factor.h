@@ -59,6 +59,12 @@ class Factor {
   const LossFunction* loss() const { return loss_.get(); }
   const std::shared_ptr<const LossFunction>& shared_loss() const { return loss_; }
   void set_loss(std::shared_ptr<const LossFunction> loss) { loss_ = std::move(loss); }
+  /// Marked as a loop closure (a pose-pose measurement a front-end matched, which may be
+  /// wrong), as opposed to odometry. Robust rules and graduated non-convexity select by it;
+  /// the mark alone changes nothing in a solve. Reading g2o marks edges between poses whose
+  /// ids are not consecutive (ReadOptions::loop_closures).
+  bool loop_closure() const { return loop_closure_; }
+  void set_loop_closure(bool loop_closure) { loop_closure_ = loop_closure; }
 
   /// Whitened residual and Jacobians.
   bool Linearize(const double* const* params, double* residual, double* const* jacobians) const;
@@ -78,6 +84,7 @@ class Factor {
   std::vector<Key> keys_;
   SqrtInformation noise_;
   std::shared_ptr<const LossFunction> loss_;
+  bool loop_closure_ = false;
 };
 
 /// A factor that states its name, residual size and variable types once, at compile time:

@@ -17,6 +17,12 @@ namespace tether {
 
 enum class FileFormat { kAuto, kG2o, kToro };
 
+/// Which edges of a file are marked as loop closures (Factor::loop_closure).
+enum class LoopClosureRule {
+  kNone,            ///< none
+  kNonConsecutive,  ///< an edge between two poses whose ids are not consecutive (|i - j| != 1)
+};
+
 struct ReadOptions {
   FileFormat format = FileFormat::kAuto;  ///< kAuto: ".graph" (or VERTEX2/EDGE2 lines) is TORO
   InformationRepair repair = InformationRepair::kNone;
@@ -24,6 +30,9 @@ struct ReadOptions {
   /// spanning tree from the lowest id (only allowed where the file has no vertex lines at all
   /// or allow_partial_vertices is set).
   bool allow_partial_vertices = false;
+  /// Default: edges between poses with non-consecutive ids are loop closures. The mark alone
+  /// changes nothing in a solve; robust rules ("loop=huber:1") select by it.
+  LoopClosureRule loop_closures = LoopClosureRule::kNonConsecutive;
 };
 
 struct GraphFile {
@@ -32,6 +41,7 @@ struct GraphFile {
   std::vector<std::string> warnings;
   int repaired_informations = 0;         ///< information matrices changed by the repair option
   int initialised_by_spanning_tree = 0;  ///< vertices that got their initial value from edges
+  int loop_closures = 0;                 ///< factors marked as loop closures
 };
 
 /// Reads a file; throws ParseError ("file:line: problem; what to do") or IoError.

@@ -18,6 +18,7 @@
 
 #include "tether/core/graph_io.h"
 #include "tether/core/registry.h"
+#include "tether/core/robust_rules.h"
 #include "tether/core/values.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/solver_options.h"
@@ -44,6 +45,10 @@ struct PipelineOptions {
   /// and comparisons. Off (the default): the values are moved from stage to stage, the
   /// result's `values` is the only copy, and `file.values` and `initial` are left empty.
   bool keep_intermediate_values = false;
+  /// Robust loss rules applied to the graph after reading (tether/core/robust_rules.h; empty:
+  /// none, every factor plain least squares). A tag no registered type has is
+  /// kInvalidOptions, before the file is read.
+  std::vector<RobustRule> robust;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;

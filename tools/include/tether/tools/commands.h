@@ -24,7 +24,10 @@ struct OptimizeCommand {
   std::string repair_information = "none";                                 ///< none | nearest-pd | isotropic
   bool quiet = false;                                                      ///< no iteration table
   bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
-  std::vector<std::string> plugins;     ///< factor plugins to load first (paths or names)
+  /// Robust loss rules, SELECTOR=KERNEL:SCALE (loop=huber:1.0, all=cauchy:2, EDGE_SE2=dcs:1;
+  /// tether/core/robust_rules.h), applied in order after reading.
+  std::vector<std::string> robust;
+  std::vector<std::string> plugins;  ///< factor plugins to load first (paths or names)
   /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
   /// free variable); empty: none. Written to covariance_output (default: output + ".cov").
   std::string covariance;
