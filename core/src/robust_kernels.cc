@@ -1,5 +1,6 @@
 #include "tether/core/robust_kernels.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -91,6 +92,17 @@ void DcsLoss::Evaluate(double s, double rho[3]) const {
     rho[1] = w * w;
     rho[2] = -2 * rho[1] * inv;
   }
+}
+
+double RobustWeight(const LossFunction* loss, double s, double* cost) {
+  if (loss == nullptr || !std::isfinite(s)) {
+    if (cost) *cost = s;
+    return 1;
+  }
+  double rho[3];
+  loss->Evaluate(s, rho);
+  if (cost) *cost = rho[0];
+  return std::sqrt(std::max(rho[1], 0.0));
 }
 
 std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec) {

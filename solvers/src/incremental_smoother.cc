@@ -9,6 +9,7 @@
 
 #include "incremental_cholesky.h"
 #include "tether/core/error.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -108,8 +109,21 @@ struct IncrementalSmoother::State {
     double* r = engine.Residual(slot);
     engine.Touch(slot);
     if (!f->Linearize(params.data(), r, jacobians.data())) return false;
+    double s = 0;
     for (int i = 0; i < f->dim(); ++i) {
       if (!std::isfinite(r[i])) return false;
+      s += r[i] * r[i];
+    }
+    // A robust loss: residual and Jacobians weighted by sqrt(rho'(s)) at theta, as Optimize
+    // does; the weight is fixed until the factor is re-linearised.
+    const double w = RobustWeight(f->loss(), s);
+    if (w != 1) {
+      for (int i = 0; i < f->dim(); ++i) r[i] *= w;
+      for (std::size_t k = 0; k < vars.size(); ++k) {
+        if (jacobians[k] == nullptr) continue;
+        const int n = f->dim() * engine.dim(vars[k]);
+        for (int i = 0; i < n; ++i) jacobians[k][i] *= w;
+      }
     }
     return true;
   }
@@ -276,12 +290,6 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   for (std::size_t i = 0; i < new_factors.size(); ++i) {
     const Factor& f = new_factors.at(i);
     f.CheckShape();
-    if (f.loss() != nullptr) {
-      throw InvalidArgument("new factor " + std::to_string(i) + " (" + f.Describe() + ") carries the robust loss '" +
-                            f.loss()->name() +
-                            "', which the incremental smoother does not apply yet (Optimize does); add it without "
-                            "the loss (set_loss(nullptr))");
-    }
     const std::vector<VarType> types = f.variable_types();
     for (std::size_t j = 0; j < f.keys().size(); ++j) {
       VarType type{};

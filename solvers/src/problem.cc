@@ -7,6 +7,7 @@
 #include <unordered_set>
 
 #include "tether/core/error.h"
+#include "tether/core/robust_kernels.h"
 #include "thread_pool.h"
 
 namespace tether {
@@ -270,16 +271,7 @@ int Problem::LinearizeRange(int part, double* res) const {
     for (int i = 0; i < f.m; ++i) s += r[i] * r[i];
     // A robust loss: the cost is rho(s), and the residual and Jacobians are weighted by
     // sqrt(rho'(s)) (iteratively reweighted least squares, docs/solvers.md "Robust losses").
-    double weight = 1;
-    const LossFunction* loss = f.factor->loss();
-    if (loss != nullptr && std::isfinite(s)) {
-      double rho[3];
-      loss->Evaluate(s, rho);
-      factor_cost_[fi] = rho[0];
-      weight = std::sqrt(std::max(rho[1], 0.0));
-    } else {
-      factor_cost_[fi] = s;
-    }
+    const double weight = RobustWeight(f.factor->loss(), s, &factor_cost_[fi]);
     if (jacobians) {
       for (int a = 0; a < f.count; ++a) {
         if (jp[a] == nullptr) continue;

@@ -150,6 +150,44 @@ TEST(IncrementalSmoother, EveryUpdateIsCloseToTheOptimumSoFar) {
   EXPECT_NEAR(smoother.graph().Chi2(smoother.Estimate()), s.final_chi2, 1e-3 * s.final_chi2);
 }
 
+TEST(IncrementalSmoother, RobustLoopClosuresFinishAtTheBatchRobustOptimum) {
+  // Huber on every loop closure, and two wrong closures among them: the smoother weights each
+  // factor by sqrt(rho') at its linearisation point (as Optimize does at every iteration), so
+  // its estimate is near the optimum of the robust cost, and Finish() reaches the optimum that
+  // batch Optimize reaches.
+  const int poses = 120;
+  SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 11);
+  const SqrtInformation& precise = sim.graph.at(0).noise();
+  sim.graph.Add<BetweenSE2>(Key(10), Key(90), SE2d(3, -2, 1), precise);
+  sim.graph.Add<BetweenSE2>(Key(30), Key(110), SE2d(-4, 1, 2), precise);
+  int robust = 0;
+  for (std::size_t i = 0; i < sim.graph.size(); ++i) {
+    if (IsOdometry(sim.graph.at(i))) continue;
+    sim.graph.at(i).set_loss(MakeLoss("huber:1"));
+    ++robust;
+  }
+  ASSERT_GT(robust, 10);
+  IncrementalSmoother smoother;
+  FactorGraph final;
+  Replay(sim, poses, 0.0, 11, &smoother, &final);
+  const double before_finish = final.Cost(smoother.Estimate());
+  smoother.Finish();
+  const SolverSummary& f = smoother.finish_summary();
+  ASSERT_TRUE(f.IsSolutionUsable()) << f.FullReport();
+  Values batch = sim.initial;
+  Initialize(final, &batch, InitMethod::kChordal);
+  SolverOptions o = SmootherOptions().finish;
+  const SolverSummary s = Optimize(final, &batch, o);
+  ASSERT_TRUE(s.IsSolutionUsable()) << s.FullReport();
+  const double online = final.Cost(smoother.Estimate());
+  EXPECT_NEAR(online, s.final_cost, 1e-9 * s.final_cost);
+  EXPECT_LT(s.final_cost, 0.5 * s.final_chi2) << "the wrong closures should cost far less than their chi2";
+  EXPECT_DOUBLE_EQ(online, f.final_cost);
+  // Before Finish the estimate is already at the robust optimum to the 1e-3 the issue asks of
+  // every update (measured 9.4e-5; an estimate that ignored the losses costs 11.5 times more).
+  EXPECT_LT(before_finish, (1 + 1e-3) * s.final_cost) << "before Finish " << before_finish;
+}
+
 TEST(IncrementalSmoother, RemovingALoopClosureRestoresThePreviousOptimum) {
   const int poses = 100;
   const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 4);
@@ -238,20 +276,6 @@ TEST(IncrementalSmoother, InvalidUpdatesChangeNothing) {
     EXPECT_THROW(smoother.Update({}, v, {last + 1000}), InvalidArgument);
     unchanged();
     EXPECT_THROW(smoother.Update({}, v, {last, last}), InvalidArgument);
-    unchanged();
-  }
-  {  // a factor with a robust loss (not applied by the smoother yet: refused, not ignored)
-    FactorGraph f;
-    f.Add(odometry_19_20.Clone());
-    f.at(0).set_loss(MakeLoss("huber:1"));
-    Values v;
-    v.InsertParams(20, sim.initial.TypeOf(20), sim.initial.Params(20));
-    try {
-      smoother.Update(std::move(f), std::move(v));
-      ADD_FAILURE() << "a factor with a loss was accepted";
-    } catch (const InvalidArgument& e) {
-      EXPECT_NE(std::string(e.what()).find("robust loss 'huber:1'"), std::string::npos) << e.what();
-    }
     unchanged();
   }
   {  // fixing a variable that has no value

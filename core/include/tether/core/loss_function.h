@@ -3,8 +3,7 @@
 //
 // A factor carries an optional loss beside its noise model (Factor::set_loss); its cost is
 // then rho(s) instead of s. The built-in losses are in robust_kernels.h; how the solvers
-// apply them (reweighted least squares) is in docs/solvers.md, "Robust losses". The
-// incremental smoother refuses a factor with a loss for now rather than ignore it.
+// apply them (reweighted least squares, RobustWeight) is in docs/solvers.md, "Robust losses".
 #include <string>
 
 namespace tether {

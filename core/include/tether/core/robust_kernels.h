@@ -72,6 +72,12 @@ class DcsLoss : public LossFunction {
   double phi_;
 };
 
+/// How the solvers apply a loss (reweighted least squares, docs/solvers.md "Robust losses"):
+/// the weight sqrt(rho'(s)) by which a factor's whitened residual and Jacobians are
+/// multiplied, for a factor whose squared whitened error is s (1 without a loss, and where s
+/// is not finite); the factor's cost, rho(s) or s, into *cost where not null.
+double RobustWeight(const LossFunction* loss, double s, double* cost = nullptr);
+
 /// A loss from its text form "NAME:SCALE" (huber:1.0, cauchy:2, tukey:4.685, gm:1, dcs:1;
 /// "NAME" alone takes the scale 1). Throws InvalidArgument naming the text and what is
 /// accepted for an unknown name or a scale that is not a finite number above 0.
