@@ -1,0 +1,167 @@
+#include "tether/solvers/gnc.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "tether/core/error.h"
+#include "tether/core/loss_function.h"
+#include "tether/solvers/optimizer.h"
+
+namespace tether {
+namespace {
+
+// The surrogate loss at the current mu (changed between stages, never during a solve).
+class GncLoss : public LossFunction {
+ public:
+  GncLoss(GncKernel kernel, double c2) : kernel_(kernel), c2_(c2) {}
+  double c2() const { return c2_; }
+  void set_mu(double mu) { mu_ = mu; }
+  std::string name() const override {
+    return std::string(kernel_ == GncKernel::kGemanMcClure ? "gnc-gm" : "gnc-tls") + " mu " + std::to_string(mu_);
+  }
+  void Evaluate(double s, double rho[3]) const override {
+    if (kernel_ == GncKernel::kGemanMcClure) {
+      const double k = mu_ * c2_;
+      const double inv = 1 / (k + s);
+      rho[0] = k * s * inv;
+      rho[1] = k * k * inv * inv;
+      rho[2] = -2 * rho[1] * inv;
+      return;
+    }
+    const double lo = mu_ / (mu_ + 1) * c2_, hi = (mu_ + 1) / mu_ * c2_;
+    if (s <= lo) {
+      rho[0] = s, rho[1] = 1, rho[2] = 0;
+    } else if (s >= hi) {
+      rho[0] = c2_, rho[1] = 0, rho[2] = 0;
+    } else {
+      const double a = std::sqrt(c2_ * mu_ * (mu_ + 1));  // c sqrt(mu (mu + 1))
+      const double r = std::sqrt(s);
+      rho[0] = 2 * a * r - mu_ * (c2_ + s);
+      rho[1] = a / r - mu_;
+      rho[2] = -0.5 * a / (r * s);
+    }
+  }
+  // Whether a squared error lies where the TLS surrogate is not yet 0/1 (always false for GM).
+  bool Undecided(double s) const {
+    return kernel_ == GncKernel::kTruncatedLeastSquares && s > mu_ / (mu_ + 1) * c2_ && s < (mu_ + 1) / mu_ * c2_;
+  }
+
+ private:
+  GncKernel kernel_;
+  double c2_;
+  double mu_ = 1;
+};
+
+// The p quantile of the chi2 distribution with k degrees of freedom, by Wilson and
+// Hilferty's cube-root normal approximation (within 1% from k = 1 at p = 0.99).
+double Chi2Quantile(int k, double p) {
+  // The standard normal quantile by bisection on erfc (p in (0.5, 1)).
+  double lo = 0, hi = 10;
+  for (int i = 0; i < 100; ++i) {
+    const double z = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-z / std::sqrt(2.0)) < p ? lo : hi) = z;
+  }
+  const double z = 0.5 * (lo + hi), a = 2.0 / (9.0 * k);
+  const double t = 1 - a + z * std::sqrt(a);
+  return k * t * t * t;
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+GncOptions::GncOptions() { inner.max_iterations = 30; }
+
+bool GncOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& w) {
+    if (why) *why = w;
+    return false;
+  };
+  if (!(std::isfinite(c) && c >= 0)) return fail("c must be 0 (from inlier_probability) or a finite number above 0");
+  if (c == 0 && !(inlier_probability > 0.5 && inlier_probability < 1)) {
+    return fail("inlier_probability must be in (0.5, 1)");
+  }
+  if (!(std::isfinite(mu_factor) && mu_factor > 1)) return fail("mu_factor must be a finite number above 1");
+  if (max_stages < 1) return fail("max_stages must be at least 1");
+  if (!(reject_below >= 0 && reject_below <= 1)) return fail("reject_below must be in [0, 1]");
+  std::string reason;
+  if (!inner.IsValid(&reason)) return fail("inner: " + reason);
+  return true;
+}
+
+GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOptions& options) {
+  if (values == nullptr) throw InvalidArgument("OptimizeGnc: values must not be null");
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("invalid GNC options: " + why);
+  const auto t0 = std::chrono::steady_clock::now();
+  GncSummary g;
+  g.weights.assign(graph.size(), 1.0);
+  // The least-squares start (the loop closures without a loss).
+  FactorGraph work = graph;
+  std::vector<std::size_t> closures;
+  for (std::size_t i = 0; i < work.size(); ++i) {
+    if (!work.at(i).loop_closure()) continue;
+    closures.push_back(i);
+    work.at(i).set_loss(nullptr);
+  }
+  g.loop_closures = static_cast<int>(closures.size());
+  g.start = Optimize(work, values, options.inner);
+  g.last = g.start;
+  if (!g.start.IsSolutionUsable()) {
+    g.message = "the least-squares start failed: " + g.start.message;
+    g.seconds = SecondsSince(t0);
+    return g;
+  }
+  // One surrogate per residual dimension (c^2 from the chi2 quantile), or one for all.
+  std::vector<std::shared_ptr<GncLoss>> losses;
+  std::vector<GncLoss*> loss_of(work.size(), nullptr);
+  double ratio_max = 0;  // max s / c^2 over the closures
+  for (std::size_t i : closures) {
+    const double c2 =
+        options.c > 0 ? options.c * options.c : Chi2Quantile(work.at(i).dim(), options.inlier_probability);
+    auto it = std::find_if(losses.begin(), losses.end(), [c2](const auto& l) { return l->c2() == c2; });
+    if (it == losses.end()) it = losses.insert(losses.end(), std::make_shared<GncLoss>(options.kernel, c2));
+    loss_of[i] = it->get();
+    ratio_max = std::max(ratio_max, work.at(i).Chi2(*values) / c2);
+    work.at(i).set_loss(*it);
+  }
+  const bool gm = options.kernel == GncKernel::kGemanMcClure;
+  double mu = gm ? std::max(1.0, 2 * ratio_max) : (2 * ratio_max > 1 ? 1 / (2 * ratio_max - 1) : 1e6);
+  for (int stage = 0; stage < options.max_stages && !closures.empty(); ++stage) {
+    for (const auto& l : losses) l->set_mu(mu);
+    g.last = Optimize(work, values, options.inner);
+    ++g.stages;
+    if (!g.last.IsSolutionUsable()) {
+      g.message =
+          "GNC stage " + std::to_string(g.stages) + " (mu " + std::to_string(mu) + ") failed: " + g.last.message;
+      g.mu = mu;
+      g.seconds = SecondsSince(t0);
+      return g;
+    }
+    if (gm) {
+      if (mu <= 1) break;
+      mu = std::max(1.0, mu / options.mu_factor);
+    } else {
+      bool undecided = false;
+      for (std::size_t i : closures) undecided = undecided || loss_of[i]->Undecided(work.at(i).Chi2(*values));
+      if (!undecided) break;
+      mu *= options.mu_factor;
+    }
+  }
+  g.mu = mu;
+  for (std::size_t i : closures) {
+    double rho[3];
+    loss_of[i]->Evaluate(work.at(i).Chi2(*values), rho);
+    g.weights[i] = rho[1];
+    if (rho[1] < options.reject_below) g.rejected.push_back(i);
+  }
+  g.usable = true;
+  g.seconds = SecondsSince(t0);
+  return g;
+}
+
+}  // namespace tether
