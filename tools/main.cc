@@ -52,6 +52,14 @@ int main(int argc, char** argv) {
                    "Robust loss rule SELECTOR=KERNEL:SCALE: loop=huber:1.0 (edges between non-consecutive poses), "
                    "all=cauchy:2, or a g2o tag (EDGE_SE2=dcs:1); kernels huber, cauchy, tukey, gm, dcs; repeatable")
       ->allow_extra_args(false);
+  optimize->add_flag("--gnc", opt.gnc,
+                     "Graduated non-convexity on the loop closures (edges between non-consecutive poses); reports "
+                     "the closures it rejects");
+  optimize
+      ->add_option("--gnc-kernel", opt.gnc_kernel, "With --gnc: gm (Geman-McClure) or tls (truncated least squares)")
+      ->capture_default_str();
+  optimize->add_option("--rejected-out", opt.rejected_output,
+                       "With --gnc: write the rejected loop closures here (default: OUTPUT.rejected.g2o)");
 
   tether::SimulateCommand sim;
   CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");

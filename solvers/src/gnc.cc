@@ -153,11 +153,42 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     }
   }
   g.mu = mu;
+  std::vector<char> rejected(work.size(), 0);
   for (std::size_t i : closures) {
     double rho[3];
     loss_of[i]->Evaluate(work.at(i).Chi2(*values), rho);
     g.weights[i] = rho[1];
-    if (rho[1] < options.reject_below) g.rejected.push_back(i);
+    rejected[i] = rho[1] < options.reject_below;
+  }
+  // The estimate: least squares over the closures kept. A rejected closure that this map
+  // explains within its bound (chi2 <= c^2) is taken back and the map solved again: the
+  // robust cost can prefer to give up a true closure that the map without it then fits.
+  for (int round = 0; round < 10 && !closures.empty(); ++round) {
+    FactorGraph kept;
+    for (std::size_t i = 0; i < work.size(); ++i) {
+      if (rejected[i]) continue;
+      kept.Add(graph.at(i).Clone());
+      if (work.at(i).loop_closure()) kept.at(kept.size() - 1).set_loss(nullptr);
+    }
+    for (Key k : graph.fixed()) kept.Fix(k);
+    Values trial = *values;
+    const SolverSummary s = Optimize(kept, &trial, options.inner);
+    if (!s.IsSolutionUsable()) break;  // keep the last stage's values
+    *values = std::move(trial);
+    g.last = s;
+    bool readmitted = false;
+    for (std::size_t i : closures) {
+      if (rejected[i] && work.at(i).Chi2(*values) <= loss_of[i]->c2()) {
+        rejected[i] = 0;
+        g.weights[i] = 1;
+        ++g.readmitted;
+        readmitted = true;
+      }
+    }
+    if (!readmitted) break;
+  }
+  for (std::size_t i : closures) {
+    if (rejected[i]) g.rejected.push_back(i);
   }
   g.usable = true;
   g.seconds = SecondsSince(t0);

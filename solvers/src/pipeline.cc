@@ -30,6 +30,8 @@ bool PipelineOptions::IsValid(std::string* why) const {
     reason =
         "PipelineOptions.solver: the ceres algorithm solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; "
         "use linear_solver cholmod (ldlt and qr are for gn and lm)";
+  } else if (gnc && !gnc_options.IsValid(&reason)) {
+    reason = "PipelineOptions.gnc_options: " + reason;
   }
   if (why != nullptr) *why = reason;
   return reason.empty();
@@ -107,7 +109,16 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   if (options.keep_intermediate_values) r.initial = values;
   if (hooks.on_initialized) hooks.on_initialized(r.init);
 
-  r.summary = OptimizeProblem(r.file.graph, &values, options.solver);
+  if (options.gnc) {
+    r.gnc = OptimizeGnc(r.file.graph, &values, options.gnc_options);
+    r.summary = r.gnc.last;
+    if (!r.gnc.usable && r.summary.IsSolutionUsable()) {
+      r.summary.status = SolverStatus::kDiverged;
+      r.summary.message = r.gnc.message;
+    }
+  } else {
+    r.summary = OptimizeProblem(r.file.graph, &values, options.solver);
+  }
   r.optimized = true;
   r.values = std::move(values);
   if (hooks.on_optimized) hooks.on_optimized(r.summary);

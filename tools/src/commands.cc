@@ -5,6 +5,7 @@
 #include <ostream>
 #include <sstream>
 
+#include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
@@ -126,6 +127,22 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
     return false;
   }
   po->read.allow_partial_vertices = cmd.allow_partial_vertices;
+  if (cmd.gnc) {
+    po->gnc = true;
+    po->gnc_options.inner = po->solver;
+    if (po->gnc_options.inner.max_iterations > 30) po->gnc_options.inner.max_iterations = 30;
+    if (cmd.gnc_kernel == "tls") {
+      po->gnc_options.kernel = GncKernel::kTruncatedLeastSquares;
+    } else if (cmd.gnc_kernel == "gm") {
+      po->gnc_options.kernel = GncKernel::kGemanMcClure;
+    } else {
+      err << "tether optimize: unknown --gnc-kernel '" << cmd.gnc_kernel << "'; use tls or gm\n";
+      return false;
+    }
+  } else if (!cmd.rejected_output.empty()) {
+    err << "tether optimize: --rejected-out needs --gnc\n";
+    return false;
+  }
   for (const std::string& rule : cmd.robust) {
     try {
       po->robust.push_back(ParseRobustRule(rule));
@@ -135,6 +152,38 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
     }
   }
   return true;
+}
+
+// --gnc: the rejected loop closures, printed (a few) and written as g2o lines.
+int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, const Registry& registry,
+                   std::ostream& out, std::ostream& err) {
+  const GncSummary& g = result.gnc;
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%.3f s", g.seconds);
+  out << "gnc (" << cmd.gnc_kernel << "): " << g.stages << " stages, " << g.rejected.size() << " of " << g.loop_closures
+      << " loop closures rejected (weight below " << GncOptions().reject_below << "), " << seconds << "\n";
+  std::string path = cmd.rejected_output;
+  if (path.empty() && !cmd.output.empty()) path = cmd.output + ".rejected.g2o";
+  if (path.empty()) return 0;
+  std::string text;
+  for (std::size_t i : g.rejected) {
+    char weight[64];
+    std::snprintf(weight, sizeof weight, "# factor %zu, weight %.3g\n", i, g.weights[i]);
+    text += weight;
+    try {
+      text += registry.Write(result.file.graph.at(i)) + "\n";
+    } catch (const Error& e) {
+      text += "# (no g2o form: " + std::string(e.what()) + ")\n";
+    }
+  }
+  try {
+    svg::WriteTextFile(path, text, "rejected loop closures");
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 1;
+  }
+  out << "wrote the rejected loop closures to " << path << "\n";
+  return 0;
 }
 
 // --covariance: "all", or comma-separated ids into `keys`; false after saying why.
@@ -250,6 +299,10 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     return result.ExitCode();
   }
   if (result.written) out << "wrote " << cmd.output << "\n";
+  if (cmd.gnc) {
+    const int rc = ReportRejected(cmd, result, registry, out, err);
+    if (rc != 0) return rc;
+  }
   if (!cmd.covariance.empty()) {
     const int rc = WriteCovariances(cmd, result, covariance_keys, out, err);
     if (rc != 0) return rc;

@@ -20,6 +20,7 @@
 #include "tether/core/registry.h"
 #include "tether/core/robust_rules.h"
 #include "tether/core/values.h"
+#include "tether/solvers/gnc.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/solver_options.h"
 
@@ -49,6 +50,10 @@ struct PipelineOptions {
   /// none, every factor plain least squares). A tag no registered type has is
   /// kInvalidOptions, before the file is read.
   std::vector<RobustRule> robust;
+  /// Graduated non-convexity on the loop closures (gnc.h) instead of one solve; `solver`
+  /// is then not used (gnc_options.inner is each stage's solve).
+  bool gnc = false;
+  GncOptions gnc_options;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -85,6 +90,8 @@ struct PipelineResult {
   /// Reached the solve, and its summary.
   bool optimized = false;
   SolverSummary summary;
+  /// With PipelineOptions::gnc: what GNC did (summary is its last stage's).
+  GncSummary gnc;
   /// The solver's values (the result where the solve succeeded; the last good values
   /// otherwise).
   Values values;

@@ -27,6 +27,12 @@ struct OptimizeCommand {
   /// Robust loss rules, SELECTOR=KERNEL:SCALE (loop=huber:1.0, all=cauchy:2, EDGE_SE2=dcs:1;
   /// tether/core/robust_rules.h), applied in order after reading.
   std::vector<std::string> robust;
+  /// Graduated non-convexity on the loop closures, with the kernel gnc_kernel (tls | gm).
+  bool gnc = false;
+  std::string gnc_kernel = "gm";
+  /// With gnc: the rejected loop closures as g2o lines (default: OUTPUT.rejected.g2o where
+  /// -o is given).
+  std::string rejected_output;
   std::vector<std::string> plugins;  ///< factor plugins to load first (paths or names)
   /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
   /// free variable); empty: none. Written to covariance_output (default: output + ".cov").
