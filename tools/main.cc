@@ -89,6 +89,11 @@ int main(int argc, char** argv) {
   bench->add_flag("--replay", bc.replay,
                   "Replay each file through the incremental smoother (as tether replay) and tabulate update "
                   "latencies, chi2 and peak memory");
+  bench->add_option("--outliers", bc.outliers,
+                    "Outlier benchmark: comma-separated rates of false loop closures (0.1,0.3,0.5)");
+  bench->add_option("--seeds", bc.seeds, "With --outliers: comma-separated seeds")->capture_default_str();
+  bench->add_option("--methods", bc.methods, "With --outliers: none, huber, dcs, gnc")->capture_default_str();
+  bench->add_flag("--grouped", bc.grouped, "With --outliers: false closures in consistent clusters of 5");
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);
 

@@ -22,6 +22,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/outlier_bench.h"
 #include "tether/tools/replay_bench.h"
 
 namespace tether {
@@ -395,8 +396,59 @@ std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string&
   return o.str();
 }
 
+namespace {
+
+// tether bench --outliers (outlier_bench.h).
+int RunOutliers(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
+  OutlierBenchOptions o;
+  o.files = cmd.files;
+  o.grouped = cmd.grouped;
+  std::vector<std::string> items;
+  auto numbers = [&](const std::string& text, const char* what, auto* into) {
+    if (!SplitList(text, &items)) return false;
+    into->clear();
+    for (const std::string& s : items) {
+      char* end = nullptr;
+      const double x = std::strtod(s.c_str(), &end);
+      if (end != s.c_str() + s.size() || !std::isfinite(x) || x < 0) {
+        err << "tether bench: " << what << " '" << s << "' is not a number of 0 or more\n";
+        return false;
+      }
+      into->push_back(static_cast<typename std::decay_t<decltype(*into)>::value_type>(x));
+    }
+    return !into->empty();
+  };
+  if (cmd.files.empty()) {
+    err << "tether bench: no FILES given\n";
+    return 2;
+  }
+  if (const std::string why = bench::CheckFilesAndOutput(cmd.files, cmd.output); !why.empty()) {
+    err << "tether bench: " << why << "\n";
+    return 2;
+  }
+  if (!numbers(cmd.outliers, "--outliers", &o.rates) || !numbers(cmd.seeds, "--seeds", &o.seeds) ||
+      !SplitList(cmd.methods, &o.methods)) {
+    err << "tether bench: --outliers, --seeds and --methods take comma-separated lists\n";
+    return 2;
+  }
+  std::vector<OutlierBenchRow> rows;
+  try {
+    rows = RunOutlierBench(o, err);
+  } catch (const InvalidArgument& e) {
+    err << "tether bench: " << e.what() << "\n";
+    return 2;
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return bench::WriteTable(FormatOutlierBenchMarkdown(rows), cmd.output, out, err) != 0 ? 1 : 0;
+}
+
+}  // namespace
+
 int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   if (cmd.replay) return RunReplayBench(cmd, out, err);
+  if (!cmd.outliers.empty()) return RunOutliers(cmd, out, err);
   const auto usage = [&err](const std::string& what) {
     err << "tether bench: " << what << "\n";
     return 2;

@@ -33,6 +33,12 @@ struct BenchCommand {
   /// Replay each file through the incremental smoother instead (`tether bench --replay`,
   /// replay_bench.h): the solver lists and plugins do not apply.
   bool replay = false;
+  /// The outlier benchmark instead (outlier_bench.h): comma-separated rates of false loop
+  /// closures (e.g. "0.1,0.3,0.5"); empty: not run.
+  std::string outliers;
+  std::string seeds = "1,2,3,4,5";             ///< with outliers: the seeds
+  std::string methods = "none,huber,dcs,gnc";  ///< with outliers: the methods
+  bool grouped = false;                        ///< with outliers: clusters of 5 consistent false closures
 };
 
 /// One configuration: the cross product of the command's lists gives them.
