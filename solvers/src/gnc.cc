@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "tether/core/error.h"
 #include "tether/core/loss_function.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -100,6 +102,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   const auto t0 = std::chrono::steady_clock::now();
   GncSummary g;
   g.weights.assign(graph.size(), 1.0);
+  const Values given = *values;
   // The least-squares start (the loop closures without a loss).
   FactorGraph work = graph;
   std::vector<std::size_t> closures;
@@ -153,6 +156,25 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     }
   }
   g.mu = mu;
+  // A second candidate: DCS on the loop closures from the given values. Where least squares
+  // has been bent far by the false closures, the stages above stay in its basin, while DCS,
+  // which judges each closure against the start, may not; the candidate with the lower final
+  // surrogate cost (the robust objective both are measured by) is kept.
+  if (options.dcs_candidate && !closures.empty()) {
+    FactorGraph dcs = graph;
+    const std::shared_ptr<const LossFunction> dcs_loss = MakeLoss("dcs:1");
+    for (std::size_t i : closures) dcs.at(i).set_loss(dcs_loss);
+    Values alt = given;
+    SolverOptions o = options.inner;
+    o.max_iterations = std::max(o.max_iterations, 100);
+    const SolverSummary s = Optimize(dcs, &alt, o);
+    g.gnc_cost = work.Cost(*values);
+    g.dcs_cost = s.IsSolutionUsable() ? work.Cost(alt) : std::numeric_limits<double>::infinity();
+    if (g.dcs_cost < g.gnc_cost) {
+      *values = std::move(alt);
+      g.from_dcs = true;
+    }
+  }
   std::vector<char> rejected(work.size(), 0);
   for (std::size_t i : closures) {
     double rho[3];

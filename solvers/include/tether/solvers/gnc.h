@@ -20,7 +20,8 @@
 // starts from. At the end each loop closure's weight is rho'(s) in [0, 1], and one whose
 // weight is below `reject_below` is rejected (after Yang, Antonante, Tzoumas and Carlone,
 // "Graduated Non-Convexity for Robust Spatial Perception", 2020). The estimate is then the
-// least-squares solution over the closures kept; a rejected closure that this map explains
+// least-squares solution over the closures kept (from the stages' solution, or from DCS's
+// where that costs less: dcs_candidate); a rejected closure that this map explains
 // within its bound (chi2 <= c^2) is taken back and the map solved again (the robust cost can
 // prefer to give up a true closure: measured on simulated worlds, GM gave up 2 of 39).
 #include <string>
@@ -51,6 +52,11 @@ struct GncOptions {
   int max_stages = 1000;
   /// A loop closure whose final weight is below this is rejected. Default 0.1.
   double reject_below = 0.1;
+  /// Also solve with DCS (dcs:1) on the loop closures from the given values, and keep that
+  /// solution where its cost under the final surrogate is lower (GncSummary::from_dcs).
+  /// Default on: the stages start from least squares, which enough false closures bend into
+  /// a basin they do not leave (benchmarks/RESULTS.md, "Outlier benchmark").
+  bool dcs_candidate = true;
   /// Each stage's solve (and the least-squares start): Levenberg-Marquardt, at most 30
   /// iterations by default.
   SolverOptions inner;
@@ -69,6 +75,10 @@ struct GncSummary {
   std::vector<double> weights;
   std::vector<std::size_t> rejected;  ///< indices (in the graph) of the rejected loop closures
   int readmitted = 0;                 ///< closures below reject_below that the final map explains
+  /// With dcs_candidate: the final surrogate cost of the stages' solution and of DCS's, and
+  /// whether DCS's was kept.
+  double gnc_cost = 0, dcs_cost = 0;
+  bool from_dcs = false;
   int loop_closures = 0;
   double seconds = 0;
   std::string message;  ///< empty when usable; else why not
