@@ -140,15 +140,21 @@ class Reader {
   }
 
  private:
-  // Marks the factors between two poses whose ids are not consecutive as loop closures.
+  // Marks the factors between two poses whose ids are not consecutive as loop closures (a
+  // factor with other keys besides, such as a switchable one's switch, counts by its poses).
   int MarkLoopClosures() {
     int marked = 0;
     for (std::size_t i = 0; i < graph_.size(); ++i) {
       Factor& f = graph_.at(i);
-      if (f.keys().size() != 2) continue;
-      const Key a = f.keys()[0], b = f.keys()[1];
-      if (!out_values_.Has(a) || !out_values_.Has(b)) continue;
-      if (!IsPose(out_values_.TypeOf(a)) || !IsPose(out_values_.TypeOf(b))) continue;
+      Key pose[2] = {0, 0};
+      int poses = 0;
+      for (Key k : f.keys()) {
+        if (!out_values_.Has(k) || !IsPose(out_values_.TypeOf(k))) continue;
+        if (poses < 2) pose[poses] = k;
+        ++poses;
+      }
+      if (poses != 2) continue;
+      const Key a = pose[0], b = pose[1];
       if ((a > b ? a - b : b - a) == 1) continue;
       f.set_loop_closure(true);
       ++marked;

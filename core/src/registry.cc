@@ -225,8 +225,9 @@ void Registry::CheckAgainstProbe(const FactorType& type) const {
   const auto refuse = [&](const std::string& field, const std::string& what) {
     throw InvalidArgument("cannot register factor type " + Owned(type) + ": " + field + " mismatch: " + what);
   };
-  // A probe factor: keys 0..k-1, the identity of the last variable type as measurement where
-  // the sizes agree (zeros otherwise), unit noise.
+  // A probe factor: keys 0..k-1, as measurement the identity of the last variable type whose
+  // size is the measurement's (zeros where none is: a switchable pose-pose factor, keys pose,
+  // pose, switch, gets the pose's identity), unit noise.
   const std::size_t n = type.variable_types.size();
   std::vector<Key> keys(n);
   for (std::size_t i = 0; i < n; ++i) keys[i] = i;
@@ -234,16 +235,19 @@ void Registry::CheckAgainstProbe(const FactorType& type) const {
   // plugin bug that reading a file would also hit) must not read past the probe's buffer.
   constexpr std::size_t kProbePadding = 64;
   std::vector<double> m(static_cast<std::size_t>(type.measurement_size) + kProbePadding, 0.0);
-  const VarType last = type.variable_types.back();
-  if (AmbientDim(last) == type.measurement_size) IdentityParams(last, m.data());
+  for (std::size_t i = n; i-- > 0;) {
+    if (AmbientDim(type.variable_types[i]) != type.measurement_size) continue;
+    IdentityParams(type.variable_types[i], m.data());
+    break;
+  }
   std::unique_ptr<Factor> probe;
   try {
     probe = type.make(keys, m.data(), SqrtInformation::Identity(type.dim));
   } catch (const std::exception& e) {
     throw InvalidArgument(
         "cannot register factor type " + Owned(type) +
-        ": its factory `make` threw on a probe factor (keys 0..k-1, the identity of the last variable type as "
-        "measurement where the sizes agree and zeros otherwise, unit noise): " +
+        ": its factory `make` threw on a probe factor (keys 0..k-1, the identity of the last variable type of "
+        "the measurement's size as measurement, zeros where none is, unit noise): " +
         e.what() + "; `make` must accept the type's standard arguments");
   }
   if (!probe) {

@@ -131,4 +131,16 @@ std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec) {
                         "' (known: huber, cauchy, tukey, gm, dcs; write NAME:SCALE, e.g. huber:1.0)");
 }
 
+double Chi2Quantile(int k, double p) {
+  // The standard normal quantile by bisection on erfc (p in (0.5, 1)).
+  double lo = 0, hi = 10;
+  for (int i = 0; i < 100; ++i) {
+    const double z = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-z / std::sqrt(2.0)) < p ? lo : hi) = z;
+  }
+  const double z = 0.5 * (lo + hi), a = 2.0 / (9.0 * k);
+  const double t = 1 - a + z * std::sqrt(a);
+  return k * t * t * t;
+}
+
 }  // namespace tether

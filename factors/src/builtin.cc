@@ -7,6 +7,7 @@
 #include "tether/factors/between_se3.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
+#include "tether/factors/switchable.h"
 
 namespace tether {
 
@@ -39,6 +40,7 @@ void RegisterBuiltinFactors(Registry& r) {
   r.Register(DescribeFactor<PriorSE3>("", 7, [](std::vector<Key> k, const double* m, SqrtInformation n) {
     return std::make_unique<PriorSE3>(k[0], SE3FromMeasurement(m), std::move(n));
   }));
+  RegisterSwitchableFactors(r);
 }
 
 Registry& DefaultRegistry() {

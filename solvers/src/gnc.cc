@@ -56,20 +56,6 @@ class GncLoss : public LossFunction {
   double mu_ = 1;
 };
 
-// The p quantile of the chi2 distribution with k degrees of freedom, by Wilson and
-// Hilferty's cube-root normal approximation (within 1% from k = 1 at p = 0.99).
-double Chi2Quantile(int k, double p) {
-  // The standard normal quantile by bisection on erfc (p in (0.5, 1)).
-  double lo = 0, hi = 10;
-  for (int i = 0; i < 100; ++i) {
-    const double z = 0.5 * (lo + hi);
-    (0.5 * std::erfc(-z / std::sqrt(2.0)) < p ? lo : hi) = z;
-  }
-  const double z = 0.5 * (lo + hi), a = 2.0 / (9.0 * k);
-  const double t = 1 - a + z * std::sqrt(a);
-  return k * t * t * t;
-}
-
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }

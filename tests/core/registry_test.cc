@@ -116,7 +116,14 @@ TEST(RegistryTest, BuiltinsAreFoundByTagAndName) {
   EXPECT_EQ(r.FindByTag(""), nullptr);  // tagless types have no file form
   EXPECT_EQ(r.FindByTag("EDGE_NOPE"), nullptr);
   EXPECT_EQ(r.FindByName("Nope"), nullptr);
-  EXPECT_EQ(r.types().size(), 6u);
+  // The switchable constraints (tether/factors/switchable.h) and their variable type.
+  EXPECT_EQ(r.FindByTag("EDGE_SE2_SWITCHABLE")->name, "SwitchableBetweenSE2");
+  EXPECT_EQ(r.FindByTag("EDGE_SE3_SWITCHABLE")->name, "SwitchableBetweenSE3");
+  EXPECT_EQ(r.FindByTag("EDGE_SWITCH_PRIOR")->name, "SwitchPrior");
+  VarType sw;
+  ASSERT_TRUE(r.FindVariableByTag("VERTEX_SWITCH", &sw));
+  EXPECT_EQ(ToString(sw), "Switch");
+  EXPECT_EQ(r.types().size(), 9u);
 }
 
 TEST(RegistryTest, DuplicateNameNamesBothOwners) {

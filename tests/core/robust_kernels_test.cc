@@ -119,5 +119,16 @@ TEST(RobustKernels, MakeLossReadsTheTextFormAndNamesWhatIsWrong) {
   EXPECT_THROW(HuberLoss(-2), InvalidArgument);
 }
 
+TEST(RobustKernels, Chi2QuantileWithinOnePercentOfTheTables) {
+  // 0.99 and 0.95 quantiles of the chi2 distribution (standard tables).
+  const struct {
+    int k;
+    double p, q;
+  } table[] = {{1, 0.99, 6.635}, {2, 0.99, 9.210},  {3, 0.99, 11.345}, {6, 0.99, 16.812},
+               {3, 0.95, 7.815}, {6, 0.95, 12.592}, {10, 0.9, 15.987}};
+  for (const auto& t : table) EXPECT_NEAR(Chi2Quantile(t.k, t.p), t.q, 0.01 * t.q) << t.k << " " << t.p;
+  EXPECT_LT(Chi2Quantile(3, 0.9), Chi2Quantile(3, 0.99));
+}
+
 }  // namespace
 }  // namespace tether

@@ -8,70 +8,19 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <set>
 
-#include "testing/simulated.h"
+#include "testing/corrupted.h"
 #include "tether/core/error.h"
-#include "tether/factors/between_se2.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {
 
-using testing::SimulateWorld;
-
-struct Corrupted {
-  FactorGraph clean;            // the simulated world, loop closures marked
-  FactorGraph graph;            // with the wrong closures appended
-  std::set<std::size_t> wrong;  // their indices in graph
-  Values initial;
-};
-
-Corrupted Corrupt(int poses, double fraction, std::uint64_t seed) {
-  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, seed);
-  Corrupted c;
-  c.initial = sim.initial;
-  c.clean = sim.graph;
-  const SqrtInformation* closure_noise = nullptr;
-  int true_closures = 0;
-  for (std::size_t i = 0; i < c.clean.size(); ++i) {
-    Factor& f = c.clean.at(i);
-    const Key a = f.keys()[0], b = f.keys().back();
-    if (f.keys().size() == 2 && (a > b ? a - b : b - a) != 1) {
-      f.set_loop_closure(true);
-      closure_noise = &f.noise();
-      ++true_closures;
-    }
-  }
-  EXPECT_GT(true_closures, 5);
-  c.graph = c.clean;
-  std::mt19937_64 rng(seed * 7 + 1);
-  std::uniform_int_distribution<int> pose(0, poses - 1);
-  std::uniform_real_distribution<double> xy(-10, 10), angle(-M_PI, M_PI);
-  const int wrong = static_cast<int>(std::lround(fraction * true_closures));
-  for (int k = 0; k < wrong; ++k) {
-    int a = pose(rng), b = pose(rng);
-    while (std::abs(a - b) <= 1) b = pose(rng);
-    c.graph.Add<BetweenSE2>(Key(a), Key(b), SE2d(xy(rng), xy(rng), angle(rng)), *closure_noise);
-    c.graph.at(c.graph.size() - 1).set_loop_closure(true);
-    c.wrong.insert(c.graph.size() - 1);
-  }
-  return c;
-}
-
-double MaxPositionDifference(const Values& a, const Values& b) {
-  double d = 0;
-  for (Key k : a.keys()) d = std::max(d, (a.At<SE2d>(k).translation() - b.At<SE2d>(k).translation()).norm());
-  return d;
-}
-
-// Root mean square of the position differences (the same gauge: no alignment needed).
-double RmsPositionDifference(const Values& a, const Values& b) {
-  double d = 0;
-  for (Key k : a.keys()) d += (a.At<SE2d>(k).translation() - b.At<SE2d>(k).translation()).squaredNorm();
-  return std::sqrt(d / static_cast<double>(a.size()));
-}
+using testing::Corrupt;
+using testing::Corrupted;
+using testing::MaxPositionDifference;
+using testing::RmsPositionDifference;
 
 TEST(Gnc, RejectsEveryWrongLoopClosureAndKeepsTheTrueOnes) {
   const Corrupted c = Corrupt(300, 0.3, 4);

@@ -16,6 +16,7 @@
 #include "tether/solvers/gnc.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/solvers/switchable.h"
 #include "tether/tools/trajectory_error.h"
 
 namespace tether {
@@ -100,12 +101,21 @@ void AddFalseClosures(const Truth& t, int count, bool grouped, std::uint64_t see
   }
 }
 
+// The sigma of "sc:SIGMA" (0 where the method is not of that form or SIGMA is not above 0).
+double SwitchPriorSigma(const std::string& method) {
+  if (method.compare(0, 3, "sc:") != 0) return 0;
+  char* end = nullptr;
+  const double sigma = std::strtod(method.c_str() + 3, &end);
+  return (end != method.c_str() + 3 && *end == '\0' && std::isfinite(sigma) && sigma > 0) ? sigma : 0;
+}
+
 }  // namespace
 
 std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options, std::ostream& progress) {
   for (const std::string& m : options.methods) {
-    if (m != "none" && m != "huber" && m != "dcs" && m != "gnc") {
-      throw InvalidArgument("unknown outlier-bench method '" + m + "' (use none, huber, dcs, gnc)");
+    if (m != "none" && m != "huber" && m != "dcs" && m != "gnc" && m != "sc" && SwitchPriorSigma(m) <= 0) {
+      throw InvalidArgument("unknown outlier-bench method '" + m +
+                            "' (use none, huber, dcs, gnc, sc, or sc:SIGMA with the switch prior's sigma above 0)");
     }
   }
   std::vector<OutlierBenchRow> rows;
@@ -158,6 +168,12 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
               const GncSummary gs = OptimizeGnc(graph, &v);
               ok = gs.usable;
               rejected = gs.rejected;
+            } else if (method.compare(0, 2, "sc") == 0) {
+              SwitchableOptions so;
+              so.prior_sigma = method == "sc" ? 0.0 : SwitchPriorSigma(method);
+              SwitchableSummary ss = OptimizeSwitchable(graph, &v, so);
+              ok = ss.usable;
+              rejected = std::move(ss.rejected);
             } else {
               if (method != "none") {
                 ApplyRobustRules({ParseRobustRule(method == "huber" ? "loop=huber:1" : "loop=dcs:1")},

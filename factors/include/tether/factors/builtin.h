@@ -9,6 +9,9 @@
 // | PriorSE2    | EDGE_PRIOR_SE2   | SE2            | x y theta               |
 // | PosePoint3  | (none)           | SE3, Point3    | x y z                   |
 // | PriorSE3    | (none)           | SE3            | x y z qx qy qz qw       |
+//
+// and the switchable constraints of tether/factors/switchable.h (the Switch variable type,
+// VERTEX_SWITCH; EDGE_SWITCH_PRIOR, EDGE_SE2_SWITCHABLE, EDGE_SE3_SWITCHABLE).
 #include "tether/core/registry.h"
 
 namespace tether {

@@ -9,11 +9,14 @@
 // (translation uniform in +-10 m per axis, rotation uniform), or "grouped", in mutually
 // consistent clusters of 5 (pairs (i + k, j + k), k = 0..4, all agreeing on one wrong
 // relative pose of i and j: a front-end's perceptual aliasing). Then each method solves from
-// the chordal start: none (least squares), huber (loop=huber:1), dcs (loop=dcs:1), gnc (GNC,
-// Geman-McClure). Reported per method: the absolute trajectory error (positions, after a
+// the file's own start (its vertices: odometry in the public files): none (least squares),
+// huber (loop=huber:1), dcs (loop=dcs:1), gnc (GNC, Geman-McClure), sc (switchable
+// constraints, the switch prior from the chi2 quantile) or sc:SIGMA (switch prior sigma
+// SIGMA; Sünderhauf's is sc:1). Reported per method: the absolute trajectory error (positions, after a
 // rigid alignment) against the optimum without false closures, chi2 of the true factors
 // at the result over their chi2 at that optimum, precision and recall of the rejected set
-// (GNC's; for the others the closures whose final weight rho' is below 0.1), and time over
+// (GNC's and switchable constraints'; for the others the closures whose final weight rho' is
+// below 0.1), and time over
 // the time of the solve without false closures.
 #include <ostream>
 #include <string>
