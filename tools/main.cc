@@ -58,8 +58,17 @@ int main(int argc, char** argv) {
   optimize
       ->add_option("--gnc-kernel", opt.gnc_kernel, "With --gnc: gm (Geman-McClure) or tls (truncated least squares)")
       ->capture_default_str();
+  optimize->add_flag("--switchable", opt.switchable,
+                     "Switchable constraints on the loop closures (a switch variable per closure with a prior); "
+                     "reports the closures it switches off");
+  optimize
+      ->add_option("--switch-prior-sigma", opt.switch_prior_sigma,
+                   "With --switchable: the switch prior's sigma (0: from the chi2 0.99 quantile of the closure's "
+                   "dimension; 1 is Sünderhauf's)")
+      ->capture_default_str();
   optimize->add_option("--rejected-out", opt.rejected_output,
-                       "With --gnc: write the rejected loop closures here (default: OUTPUT.rejected.g2o)");
+                       "With --gnc or --switchable: write the rejected loop closures here (default: "
+                       "OUTPUT.rejected.g2o)");
 
   tether::SimulateCommand sim;
   CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");
@@ -92,7 +101,7 @@ int main(int argc, char** argv) {
   bench->add_option("--outliers", bc.outliers,
                     "Outlier benchmark: comma-separated rates of false loop closures (0.1,0.3,0.5)");
   bench->add_option("--seeds", bc.seeds, "With --outliers: comma-separated seeds")->capture_default_str();
-  bench->add_option("--methods", bc.methods, "With --outliers: none, huber, dcs, gnc")->capture_default_str();
+  bench->add_option("--methods", bc.methods, "With --outliers: none, huber, dcs, gnc, sc (switchable constraints), sc:SIGMA (switch prior sigma)")->capture_default_str();
   bench->add_flag("--grouped", bc.grouped, "With --outliers: false closures in consistent clusters of 5");
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);

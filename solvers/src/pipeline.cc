@@ -32,6 +32,10 @@ bool PipelineOptions::IsValid(std::string* why) const {
         "use linear_solver cholmod (ldlt and qr are for gn and lm)";
   } else if (gnc && !gnc_options.IsValid(&reason)) {
     reason = "PipelineOptions.gnc_options: " + reason;
+  } else if (gnc && switchable) {
+    reason = "PipelineOptions: gnc and switchable are two ways to solve; choose one";
+  } else if (switchable && !switchable_options.IsValid(&reason)) {
+    reason = "PipelineOptions.switchable_options: " + reason;
   }
   if (why != nullptr) *why = reason;
   return reason.empty();
@@ -115,6 +119,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
     if (!r.gnc.usable && r.summary.IsSolutionUsable()) {
       r.summary.status = SolverStatus::kDiverged;
       r.summary.message = r.gnc.message;
+    }
+  } else if (options.switchable) {
+    r.switchable = OptimizeSwitchable(r.file.graph, &values, options.switchable_options);
+    r.summary = r.switchable.refit.IsSolutionUsable() ? r.switchable.refit : r.switchable.solve;
+    if (!r.switchable.usable && r.summary.IsSolutionUsable()) {
+      r.summary.status = SolverStatus::kDiverged;
+      r.summary.message = r.switchable.message;
     }
   } else {
     r.summary = OptimizeProblem(r.file.graph, &values, options.solver);

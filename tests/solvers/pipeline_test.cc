@@ -310,6 +310,22 @@ TEST(PipelineOptionsTest, InvalidSolverOptionsAreRefusedBeforeReading) {
   EXPECT_NE(why.find("cholmod"), std::string::npos) << why;
 }
 
+TEST(PipelineOptionsTest, GncAndSwitchableAreRefusedTogetherAndCheckedAlone) {
+  PipelineOptions o;
+  o.input = "/nonexistent/graph.g2o";
+  o.gnc = true;
+  o.switchable = true;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("choose one"), std::string::npos) << why;
+  o.gnc = false;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.switchable_options.prior_sigma = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("switchable_options: prior_sigma"), std::string::npos) << why;
+  EXPECT_EQ(RunPipeline(o, DefaultRegistry()).status, PipelineStatus::kInvalidOptions);
+}
+
 TEST(PipelineOptionsTest, StatusNamesRoundTrip) {
   for (PipelineStatus s : {PipelineStatus::kOk, PipelineStatus::kInvalidOptions, PipelineStatus::kBadInput,
                            PipelineStatus::kSolveFailed, PipelineStatus::kWriteFailed}) {

@@ -265,6 +265,19 @@ TEST_F(CliTest, RobustLoopClosuresKeepTheMapWhenSomeAreWrong) {
   }
   EXPECT_EQ(Tether(common + " --gnc --gnc-kernel nope").code, 2);
   EXPECT_EQ(Tether(common + " --rejected-out " + P("r.g2o")).code, 2);
+  // Switchable constraints switch off the same three and write them where asked.
+  CliRun sc = Tether(common + " --switchable --rejected-out " + P("sc.g2o"));
+  ASSERT_EQ(sc.code, 0) << sc.output;
+  EXPECT_NE(sc.output.find("switchable constraints: 3 of 135 loop closures rejected"), std::string::npos)
+      << sc.output;
+  EXPECT_LT(ResultAte(sc.output), 0.1) << sc.output;  // the same inlier set as GNC's: 0.092 m
+  const std::string switched = ReadAll(P("sc.g2o"));
+  for (const char* line : {"EDGE_SE2 20 150 4 3 1.5 ", "EDGE_SE2 60 180 -5 2 -2 ", "EDGE_SE2 5 120 3 -4 0.5 "}) {
+    EXPECT_NE(switched.find(line), std::string::npos) << line << " not in\n" << switched;
+  }
+  EXPECT_EQ(Tether(common + " --switchable --gnc").code, 2);
+  EXPECT_EQ(Tether(common + " --switchable --switch-prior-sigma -1").code, 2);
+  EXPECT_EQ(Tether(common + " --switch-prior-sigma 1").code, 2);
   // A rule that cannot be used: exit 2 and what is wrong, before anything is read or written.
   CliRun bad = Tether(common + " --robust loop=welsch:1");
   EXPECT_EQ(bad.code, 2);
@@ -272,6 +285,33 @@ TEST_F(CliTest, RobustLoopClosuresKeepTheMapWhenSomeAreWrong) {
   CliRun tag = Tether(common + " --robust EDGE_NOPE=huber:1");
   EXPECT_EQ(tag.code, 2);
   EXPECT_NE(tag.output.find("'EDGE_NOPE'"), std::string::npos) << tag.output;
+}
+
+TEST_F(CliTest, VertigoSwitchableFilesAreSolvedAndWrittenBack) {
+  {  // three poses in a line and a fourth; a switchable closure that agrees, one that does not
+    std::ofstream f(P("v.g2o"));
+    f << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0.1 0.05\nVERTEX_SE2 3 2.9 0.1 0.05\n"
+         "VERTEX_SWITCH 10 1\nVERTEX_SWITCH 11 1\n"
+         "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 0 100 0 0 100 0 400\n"
+         "EDGE_SE2 2 3 1 0 0 100 0 0 100 0 400\n"
+         "EDGE_SE2_SWITCHABLE 0 2 10 2 0 0 100 0 0 100 0 400\n"
+         "EDGE_SE2_SWITCHABLE 0 3 11 1 5 2 100 0 0 100 0 400\n"
+         "EDGE_SWITCH_PRIOR 10 1 1\nEDGE_SWITCH_PRIOR 11 1 1\n";
+  }
+  CliRun run = Tether("optimize " + P("v.g2o") + " -o " + P("vo.g2o") + " -q");
+  ASSERT_EQ(run.code, 0) << run.output;
+  std::istringstream out(ReadAll(P("vo.g2o")));
+  std::string line;
+  double s10 = -1, s11 = -1;
+  int switchable = 0;
+  while (std::getline(out, line)) {
+    if (line.rfind("VERTEX_SWITCH 10 ", 0) == 0) s10 = std::stod(line.substr(17));
+    if (line.rfind("VERTEX_SWITCH 11 ", 0) == 0) s11 = std::stod(line.substr(17));
+    switchable += line.rfind("EDGE_SE2_SWITCHABLE ", 0) == 0;
+  }
+  EXPECT_EQ(switchable, 2);
+  EXPECT_GT(s10, 0.99);  // the closure that agrees stays on (measured 1 - 3e-11)
+  EXPECT_LT(s11, 0.01);  // the one 5 m off is switched off (measured 2e-4)
 }
 
 }  // namespace

@@ -139,8 +139,27 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
       err << "tether optimize: unknown --gnc-kernel '" << cmd.gnc_kernel << "'; use tls or gm\n";
       return false;
     }
-  } else if (!cmd.rejected_output.empty()) {
-    err << "tether optimize: --rejected-out needs --gnc\n";
+  }
+  if (cmd.switchable) {
+    if (cmd.gnc) {
+      err << "tether optimize: --gnc and --switchable are two ways to solve; choose one\n";
+      return false;
+    }
+    po->switchable = true;
+    po->switchable_options.solver = po->solver;
+    if (po->switchable_options.solver.max_iterations < 100) po->switchable_options.solver.max_iterations = 100;
+    po->switchable_options.prior_sigma = cmd.switch_prior_sigma;
+    std::string why;
+    if (!po->switchable_options.IsValid(&why)) {
+      err << "tether optimize: --switch-prior-sigma: " << why << "\n";
+      return false;
+    }
+  } else if (cmd.switch_prior_sigma != 0) {
+    err << "tether optimize: --switch-prior-sigma needs --switchable\n";
+    return false;
+  }
+  if (!cmd.gnc && !cmd.switchable && !cmd.rejected_output.empty()) {
+    err << "tether optimize: --rejected-out needs --gnc or --switchable\n";
     return false;
   }
   for (const std::string& rule : cmd.robust) {
@@ -154,21 +173,29 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
   return true;
 }
 
-// --gnc: the rejected loop closures, printed (a few) and written as g2o lines.
+// --gnc, --switchable: the rejected loop closures, counted and written as g2o lines.
 int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, const Registry& registry,
                    std::ostream& out, std::ostream& err) {
-  const GncSummary& g = result.gnc;
+  const bool gnc = cmd.gnc;
+  const std::vector<std::size_t>& rejected = gnc ? result.gnc.rejected : result.switchable.rejected;
+  const std::vector<double>& weights = gnc ? result.gnc.weights : result.switchable.weights;
   char seconds[32];
-  std::snprintf(seconds, sizeof seconds, "%.3f s", g.seconds);
-  out << "gnc (" << cmd.gnc_kernel << "): " << g.stages << " stages, " << g.rejected.size() << " of " << g.loop_closures
-      << " loop closures rejected (weight below " << GncOptions().reject_below << "), " << seconds << "\n";
+  std::snprintf(seconds, sizeof seconds, "%.3f s", gnc ? result.gnc.seconds : result.switchable.seconds);
+  if (gnc) {
+    out << "gnc (" << cmd.gnc_kernel << "): " << result.gnc.stages << " stages, ";
+  } else {
+    out << "switchable constraints: ";
+  }
+  out << rejected.size() << " of " << (gnc ? result.gnc.loop_closures : result.switchable.loop_closures)
+      << " loop closures rejected (weight below "
+      << (gnc ? GncOptions().reject_below : SwitchableOptions().reject_below) << "), " << seconds << "\n";
   std::string path = cmd.rejected_output;
   if (path.empty() && !cmd.output.empty()) path = cmd.output + ".rejected.g2o";
   if (path.empty()) return 0;
   std::string text;
-  for (std::size_t i : g.rejected) {
+  for (std::size_t i : rejected) {
     char weight[64];
-    std::snprintf(weight, sizeof weight, "# factor %zu, weight %.3g\n", i, g.weights[i]);
+    std::snprintf(weight, sizeof weight, "# factor %zu, weight %.3g\n", i, weights[i]);
     text += weight;
     try {
       text += registry.Write(result.file.graph.at(i)) + "\n";
@@ -299,7 +326,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     return result.ExitCode();
   }
   if (result.written) out << "wrote " << cmd.output << "\n";
-  if (cmd.gnc) {
+  if (cmd.gnc || cmd.switchable) {
     const int rc = ReportRejected(cmd, result, registry, out, err);
     if (rc != 0) return rc;
   }

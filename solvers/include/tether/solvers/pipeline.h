@@ -21,6 +21,7 @@
 #include "tether/core/robust_rules.h"
 #include "tether/core/values.h"
 #include "tether/solvers/gnc.h"
+#include "tether/solvers/switchable.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/solver_options.h"
 
@@ -54,6 +55,10 @@ struct PipelineOptions {
   /// is then not used (gnc_options.inner is each stage's solve).
   bool gnc = false;
   GncOptions gnc_options;
+  /// Switchable constraints on the loop closures (switchable.h) instead of one solve; `solver`
+  /// is then not used (switchable_options.solver is). Not together with gnc.
+  bool switchable = false;
+  SwitchableOptions switchable_options;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -92,6 +97,8 @@ struct PipelineResult {
   SolverSummary summary;
   /// With PipelineOptions::gnc: what GNC did (summary is its last stage's).
   GncSummary gnc;
+  /// With PipelineOptions::switchable: what the switches did (summary is the last solve's).
+  SwitchableSummary switchable;
   /// The solver's values (the result where the solve succeeded; the last good values
   /// otherwise).
   Values values;

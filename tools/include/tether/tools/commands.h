@@ -30,8 +30,12 @@ struct OptimizeCommand {
   /// Graduated non-convexity on the loop closures, with the kernel gnc_kernel (tls | gm).
   bool gnc = false;
   std::string gnc_kernel = "gm";
-  /// With gnc: the rejected loop closures as g2o lines (default: OUTPUT.rejected.g2o where
-  /// -o is given).
+  /// Switchable constraints on the loop closures (a switch per closure); switch_prior_sigma
+  /// above 0 sets the switch prior's sigma (0: from the chi2 quantile).
+  bool switchable = false;
+  double switch_prior_sigma = 0;
+  /// With gnc or switchable: the rejected loop closures as g2o lines (default:
+  /// OUTPUT.rejected.g2o where -o is given).
   std::string rejected_output;
   std::vector<std::string> plugins;  ///< factor plugins to load first (paths or names)
   /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
