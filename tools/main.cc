@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
   optimize
       ->add_option("--gnc-kernel", opt.gnc_kernel, "With --gnc: gm (Geman-McClure) or tls (truncated least squares)")
       ->capture_default_str();
+  optimize
+      ->add_option("--gnc-start", opt.gnc_start,
+                   "With --gnc: chunked (DCS solved chunk by chunk in id order) or least-squares (the classic start)")
+      ->capture_default_str();
   optimize->add_flag("--switchable", opt.switchable,
                      "Switchable constraints on the loop closures (a switch variable per closure with a prior); "
                      "reports the closures it switches off");
@@ -101,7 +105,11 @@ int main(int argc, char** argv) {
   bench->add_option("--outliers", bc.outliers,
                     "Outlier benchmark: comma-separated rates of false loop closures (0.1,0.3,0.5)");
   bench->add_option("--seeds", bc.seeds, "With --outliers: comma-separated seeds")->capture_default_str();
-  bench->add_option("--methods", bc.methods, "With --outliers: none, huber, dcs, gnc, sc (switchable constraints), sc:SIGMA (switch prior sigma)")->capture_default_str();
+  bench
+      ->add_option("--methods", bc.methods,
+                   "With --outliers: none, huber, dcs, cdcs (DCS in chunks), gnc, gnc-ls (GNC from least squares), sc "
+                   "(switchable constraints), sc:SIGMA (switch prior sigma)")
+      ->capture_default_str();
   bench->add_flag("--grouped", bc.grouped, "With --outliers: false closures in consistent clusters of 5");
   bench->add_option("--plugin", bc.plugins, "Load a factor plugin (.so path or name) first; repeatable")
       ->allow_extra_args(false);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 
 #include "tether/core/error.h"
@@ -75,6 +76,8 @@ bool GncOptions::IsValid(std::string* why) const {
   }
   if (!(std::isfinite(mu_factor) && mu_factor > 1)) return fail("mu_factor must be a finite number above 1");
   if (max_stages < 1) return fail("max_stages must be at least 1");
+  std::string chunk_reason;
+  if (start == GncStart::kChunkedDcs && !chunked.IsValid(&chunk_reason)) return fail("chunked: " + chunk_reason);
   if (!(reject_below >= 0 && reject_below <= 1)) return fail("reject_below must be in [0, 1]");
   std::string reason;
   if (!inner.IsValid(&reason)) return fail("inner: " + reason);
@@ -88,36 +91,85 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   const auto t0 = std::chrono::steady_clock::now();
   GncSummary g;
   g.weights.assign(graph.size(), 1.0);
-  const Values given = *values;
-  // The least-squares start (the loop closures without a loss).
   FactorGraph work = graph;
   std::vector<std::size_t> closures;
   for (std::size_t i = 0; i < work.size(); ++i) {
-    if (!work.at(i).loop_closure()) continue;
-    closures.push_back(i);
-    work.at(i).set_loss(nullptr);
+    if (work.at(i).loop_closure()) closures.push_back(i);
   }
   g.loop_closures = static_cast<int>(closures.size());
-  g.start = Optimize(work, values, options.inner);
+  // The start: least squares over every closure, or DCS on them chunk by chunk. DCS's phi is
+  // learned as the chunks go: phi = k c^2 with k the median chi2 of the closures kept so far
+  // (DCS weight rho' at least reject_below) over the median of the chi2 distribution of their
+  // dimension, and phi between 1 (the literature's, for files whose closures fit far below
+  // their stated noise) and c^2 (closures that fit as stated: a closure at its bound keeps its
+  // whole weight).
+  const bool chunked = options.start == GncStart::kChunkedDcs;
+  std::vector<double> c2_of(work.size(), 0);
+  for (std::size_t i : closures) {
+    c2_of[i] = options.c > 0 ? options.c * options.c : Chi2Quantile(work.at(i).dim(), options.inlier_probability);
+    work.at(i).set_loss(chunked ? std::make_shared<DcsLoss>(1.0) : nullptr);
+  }
+  double phi_scale = 0;  // k above (0 until learned: phi = 1)
+  if (chunked) {
+    ChunkedSolveOptions co = options.chunked;
+    co.before_solve = [&](int, std::size_t solved, FactorGraph* sub, const Values& estimate) {
+      std::vector<double> ratios;  // chi2 / median of chi2_dim, over the closures kept last time
+      for (std::size_t i = 0; i < solved; ++i) {
+        const Factor& f = sub->at(i);
+        if (!f.loop_closure() || f.loss() == nullptr) continue;
+        const double s = f.Chi2(estimate);
+        const double w = RobustWeight(f.loss(), s);
+        if (w * w >= options.reject_below) ratios.push_back(s / Chi2Quantile(f.dim(), 0.5));
+      }
+      if (ratios.size() < 10) return;  // too few to learn from: keep phi
+      std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+      phi_scale = ratios[ratios.size() / 2];
+      std::map<double, std::shared_ptr<const LossFunction>> by_c2;
+      for (std::size_t i = 0; i < sub->size(); ++i) {
+        Factor& f = sub->at(i);
+        if (!f.loop_closure()) continue;
+        const double c2 = options.c > 0 ? options.c * options.c : Chi2Quantile(f.dim(), options.inlier_probability);
+        if (by_c2.count(c2) == 0) by_c2[c2] = std::make_shared<DcsLoss>(std::clamp(phi_scale * c2, 1.0, c2));
+        f.set_loss(by_c2[c2]);
+      }
+    };
+    const ChunkedSolveSummary c = SolveInChunks(work, values, co);
+    g.start = c.last;
+    g.start_iterations = c.iterations;
+    g.phi_scale = phi_scale;
+    if (!c.usable) g.start.message = c.message;
+    // The whole graph's closures with the phi learned last (for the weights below).
+    for (std::size_t i : closures) {
+      work.at(i).set_loss(std::make_shared<DcsLoss>(std::clamp(phi_scale * c2_of[i], 1.0, c2_of[i])));
+    }
+  } else {
+    g.start = Optimize(work, values, options.inner);
+    g.start_iterations = g.start.iterations;
+  }
   g.last = g.start;
   if (!g.start.IsSolutionUsable()) {
-    g.message = "the least-squares start failed: " + g.start.message;
+    g.message = "the start (" + std::string(chunked ? "chunked DCS" : "least squares") + ") failed: " + g.start.message;
     g.seconds = SecondsSince(t0);
     return g;
   }
-  // One surrogate per residual dimension (c^2 from the chi2 quantile), or one for all.
+  // One surrogate per residual dimension (c^2 from the chi2 quantile), or one for all. mu_0
+  // from the closures the start keeps (all of them for least squares).
   std::vector<std::shared_ptr<GncLoss>> losses;
   std::vector<GncLoss*> loss_of(work.size(), nullptr);
-  double ratio_max = 0;  // max s / c^2 over the closures
+  double ratio_max = 0, ratio_max_all = 0;  // max s / c^2 over the kept closures, over all
   for (std::size_t i : closures) {
-    const double c2 =
-        options.c > 0 ? options.c * options.c : Chi2Quantile(work.at(i).dim(), options.inlier_probability);
+    const double c2 = c2_of[i];
     auto it = std::find_if(losses.begin(), losses.end(), [c2](const auto& l) { return l->c2() == c2; });
     if (it == losses.end()) it = losses.insert(losses.end(), std::make_shared<GncLoss>(options.kernel, c2));
     loss_of[i] = it->get();
-    ratio_max = std::max(ratio_max, work.at(i).Chi2(*values) / c2);
+    const double s = work.at(i).Chi2(*values);
+    ratio_max_all = std::max(ratio_max_all, s / c2);
+    const double w = chunked ? RobustWeight(work.at(i).loss(), s) : 1.0;  // sqrt(rho') at the start
+    if (w * w >= options.reject_below) ratio_max = std::max(ratio_max, s / c2);
     work.at(i).set_loss(*it);
   }
+  if (ratio_max == 0) ratio_max = ratio_max_all;
+  const Values start_values = chunked ? *values : Values();
   const bool gm = options.kernel == GncKernel::kGemanMcClure;
   double mu = gm ? std::max(1.0, 2 * ratio_max) : (2 * ratio_max > 1 ? 1 / (2 * ratio_max - 1) : 1e6);
   for (int stage = 0; stage < options.max_stages && !closures.empty(); ++stage) {
@@ -142,23 +194,14 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     }
   }
   g.mu = mu;
-  // A second candidate: DCS on the loop closures from the given values. Where least squares
-  // has been bent far by the false closures, the stages above stay in its basin, while DCS,
-  // which judges each closure against the start, may not; the candidate with the lower final
-  // surrogate cost (the robust objective both are measured by) is kept.
-  if (options.dcs_candidate && !closures.empty()) {
-    FactorGraph dcs = graph;
-    const std::shared_ptr<const LossFunction> dcs_loss = MakeLoss("dcs:1");
-    for (std::size_t i : closures) dcs.at(i).set_loss(dcs_loss);
-    Values alt = given;
-    SolverOptions o = options.inner;
-    o.max_iterations = std::max(o.max_iterations, 100);
-    const SolverSummary s = Optimize(dcs, &alt, o);
-    g.gnc_cost = work.Cost(*values);
-    g.dcs_cost = s.IsSolutionUsable() ? work.Cost(alt) : std::numeric_limits<double>::infinity();
-    if (g.dcs_cost < g.gnc_cost) {
-      *values = std::move(alt);
-      g.from_dcs = true;
+  // From a robust start the stages refine it; where they end costing more under the final
+  // surrogate (the robust objective both are measured by), the start is kept.
+  if (chunked && !closures.empty()) {
+    g.stages_cost = work.Cost(*values);
+    g.start_cost = work.Cost(start_values);
+    if (g.start_cost < g.stages_cost) {
+      *values = start_values;
+      g.kept_start = true;
     }
   }
   std::vector<char> rejected(work.size(), 0);

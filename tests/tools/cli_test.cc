@@ -256,7 +256,7 @@ TEST_F(CliTest, RobustLoopClosuresKeepTheMapWhenSomeAreWrong) {
   // GNC rejects exactly the three wrong closures and writes them beside the output.
   CliRun gnc = Tether(common + " --gnc");
   ASSERT_EQ(gnc.code, 0) << gnc.output;
-  EXPECT_NE(gnc.output.find("gnc (gm): "), std::string::npos) << gnc.output;
+  EXPECT_NE(gnc.output.find("gnc (gm, from chunked): "), std::string::npos) << gnc.output;
   EXPECT_NE(gnc.output.find("3 of 135 loop closures rejected"), std::string::npos) << gnc.output;
   EXPECT_LT(ResultAte(gnc.output), 0.1) << gnc.output;  // measured 0.092 m, as without them
   const std::string rejected = ReadAll(P("out.g2o.rejected.g2o"));
@@ -264,12 +264,16 @@ TEST_F(CliTest, RobustLoopClosuresKeepTheMapWhenSomeAreWrong) {
     EXPECT_NE(rejected.find(line), std::string::npos) << line << " not in\n" << rejected;
   }
   EXPECT_EQ(Tether(common + " --gnc --gnc-kernel nope").code, 2);
+  EXPECT_EQ(Tether(common + " --gnc --gnc-start nope").code, 2);
+  CliRun classic = Tether(common + " --gnc --gnc-start least-squares");
+  ASSERT_EQ(classic.code, 0) << classic.output;
+  EXPECT_NE(classic.output.find("gnc (gm, from least-squares): "), std::string::npos) << classic.output;
+  EXPECT_NE(classic.output.find("3 of 135 loop closures rejected"), std::string::npos) << classic.output;
   EXPECT_EQ(Tether(common + " --rejected-out " + P("r.g2o")).code, 2);
   // Switchable constraints switch off the same three and write them where asked.
   CliRun sc = Tether(common + " --switchable --rejected-out " + P("sc.g2o"));
   ASSERT_EQ(sc.code, 0) << sc.output;
-  EXPECT_NE(sc.output.find("switchable constraints: 3 of 135 loop closures rejected"), std::string::npos)
-      << sc.output;
+  EXPECT_NE(sc.output.find("switchable constraints: 3 of 135 loop closures rejected"), std::string::npos) << sc.output;
   EXPECT_LT(ResultAte(sc.output), 0.1) << sc.output;  // the same inlier set as GNC's: 0.092 m
   const std::string switched = ReadAll(P("sc.g2o"));
   for (const char* line : {"EDGE_SE2 20 150 4 3 1.5 ", "EDGE_SE2 60 180 -5 2 -2 ", "EDGE_SE2 5 120 3 -4 0.5 "}) {

@@ -139,6 +139,14 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
       err << "tether optimize: unknown --gnc-kernel '" << cmd.gnc_kernel << "'; use tls or gm\n";
       return false;
     }
+    if (cmd.gnc_start == "chunked") {
+      po->gnc_options.start = GncStart::kChunkedDcs;
+    } else if (cmd.gnc_start == "least-squares") {
+      po->gnc_options.start = GncStart::kLeastSquares;
+    } else {
+      err << "tether optimize: unknown --gnc-start '" << cmd.gnc_start << "'; use chunked or least-squares\n";
+      return false;
+    }
   }
   if (cmd.switchable) {
     if (cmd.gnc) {
@@ -182,7 +190,7 @@ int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, con
   char seconds[32];
   std::snprintf(seconds, sizeof seconds, "%.3f s", gnc ? result.gnc.seconds : result.switchable.seconds);
   if (gnc) {
-    out << "gnc (" << cmd.gnc_kernel << "): " << result.gnc.stages << " stages, ";
+    out << "gnc (" << cmd.gnc_kernel << ", from " << cmd.gnc_start << "): " << result.gnc.stages << " stages, ";
   } else {
     out << "switchable constraints: ";
   }

@@ -9,10 +9,12 @@
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/core/robust_rules.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
 #include "tether/factors/builtin.h"
+#include "tether/solvers/chunked_solve.h"
 #include "tether/solvers/gnc.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
@@ -113,9 +115,11 @@ double SwitchPriorSigma(const std::string& method) {
 
 std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options, std::ostream& progress) {
   for (const std::string& m : options.methods) {
-    if (m != "none" && m != "huber" && m != "dcs" && m != "gnc" && m != "sc" && SwitchPriorSigma(m) <= 0) {
-      throw InvalidArgument("unknown outlier-bench method '" + m +
-                            "' (use none, huber, dcs, gnc, sc, or sc:SIGMA with the switch prior's sigma above 0)");
+    if (m != "none" && m != "huber" && m != "dcs" && m != "gnc" && m != "gnc-ls" && m != "sc" && m != "cdcs" &&
+        SwitchPriorSigma(m) <= 0) {
+      throw InvalidArgument(
+          "unknown outlier-bench method '" + m +
+          "' (use none, huber, dcs, cdcs, gnc, gnc-ls, sc, or sc:SIGMA with the switch prior's sigma above 0)");
     }
   }
   std::vector<OutlierBenchRow> rows;
@@ -164,10 +168,26 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
           try {
             // From the file's start (odometry): the chordal relaxation solves every
             // closure at once, the false ones included, and starts every method ruined.
-            if (method == "gnc") {
-              const GncSummary gs = OptimizeGnc(graph, &v);
+            if (method == "gnc" || method == "gnc-ls") {
+              GncOptions go;
+              if (method == "gnc-ls") go.start = GncStart::kLeastSquares;
+              const GncSummary gs = OptimizeGnc(graph, &v, go);
               ok = gs.usable;
               rejected = gs.rejected;
+            } else if (method == "cdcs") {
+              for (std::size_t i = 0; i < graph.size(); ++i) {
+                Factor& f = graph.at(i);
+                if (f.loop_closure()) f.set_loss(std::make_shared<DcsLoss>(Chi2Quantile(f.dim(), 0.99)));
+              }
+              const ChunkedSolveSummary cs = SolveInChunks(graph, &v);
+              ok = cs.usable;
+              for (std::size_t i = 0; i < graph.size(); ++i) {
+                const Factor& f = graph.at(i);
+                if (f.loss() == nullptr) continue;
+                double rho[3];
+                f.loss()->Evaluate(f.Chi2(v), rho);
+                if (rho[1] < 0.1) rejected.push_back(i);
+              }
             } else if (method.compare(0, 2, "sc") == 0) {
               SwitchableOptions so;
               so.prior_sigma = method == "sc" ? 0.0 : SwitchPriorSigma(method);

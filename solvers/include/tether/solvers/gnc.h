@@ -16,24 +16,40 @@
 //                           between); mu from 1 / (2 max(s / c^2) - 1) up (times mu_factor
 //                           each stage) until every weight is 0 or 1.
 //
-// max(s / c^2) is taken over the loop closures at the least-squares solution the method
-// starts from. At the end each loop closure's weight is rho'(s) in [0, 1], and one whose
-// weight is below `reject_below` is rejected (after Yang, Antonante, Tzoumas and Carlone,
-// "Graduated Non-Convexity for Robust Spatial Perception", 2020). The estimate is then the
-// least-squares solution over the closures kept (from the stages' solution, or from DCS's
-// where that costs less: dcs_candidate); a rejected closure that this map explains
-// within its bound (chi2 <= c^2) is taken back and the map solved again (the robust cost can
-// prefer to give up a true closure: measured on simulated worlds, GM gave up 2 of 39).
+// Where the stages start (GncOptions::start):
+//   kChunkedDcs (default): DCS on the loop closures, solved chunk by chunk in time
+//     order (chunked_solve.h), so that each closure is judged against a map built from the
+//     closures before it. DCS's phi is learned as the chunks go: clamp(k c^2, 1, c^2), k the
+//     median chi2 of the closures kept so far over the median of the chi2 distribution of their
+//     dimension (phi 1, the literature's, where closures fit far below their stated noise, as
+//     in the public files; c^2 where they fit as stated, as in simulated worlds, where phi 1
+//     would give up true closures). max(s / c^2) is then taken over the closures that start keeps (DCS
+//     weight at least reject_below): the stages refine the start instead of undoing it (with
+//     the wrong closures' residuals, mu_0 would make the first stage least squares again).
+//     Where the stages' result costs more under the final surrogate than the start, the start
+//     is kept (GncSummary::kept_start).
+//   kLeastSquares: the classic start (Yang, Antonante, Tzoumas and Carlone, "Graduated
+//     Non-Convexity for Robust Spatial Perception", 2020): least squares over every closure,
+//     max(s / c^2) over all of them. Enough false closures bend least squares into a basin the
+//     stages do not leave (benchmarks/RESULTS.md, "Outlier benchmark").
+//
+// At the end each loop closure's weight is rho'(s) in [0, 1], and one whose weight is below
+// `reject_below` is rejected. The estimate is then the least-squares solution over the
+// closures kept; a rejected closure that this map explains within its bound (chi2 <= c^2) is
+// taken back and the map solved again (the robust cost can prefer to give up a true closure:
+// measured on simulated worlds, GM gave up 2 of 39).
 #include <string>
 #include <vector>
 
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
+#include "tether/solvers/chunked_solve.h"
 #include "tether/solvers/solver_options.h"
 
 namespace tether {
 
 enum class GncKernel { kGemanMcClure, kTruncatedLeastSquares };
+enum class GncStart { kChunkedDcs, kLeastSquares };
 
 struct GncOptions {
   /// Default Geman-McClure: on simulated Manhattan worlds it kept every true closure where TLS
@@ -52,11 +68,11 @@ struct GncOptions {
   int max_stages = 1000;
   /// A loop closure whose final weight is below this is rejected. Default 0.1.
   double reject_below = 0.1;
-  /// Also solve with DCS (dcs:1) on the loop closures from the given values, and keep that
-  /// solution where its cost under the final surrogate is lower (GncSummary::from_dcs).
-  /// Default on: the stages start from least squares, which enough false closures bend into
-  /// a basin they do not leave (benchmarks/RESULTS.md, "Outlier benchmark").
-  bool dcs_candidate = true;
+  /// Where the stages start (above). Default kChunkedDcs.
+  GncStart start = GncStart::kChunkedDcs;
+  /// The chunks of the kChunkedDcs start (20 chunks of at least 50 poses, each solve at most
+  /// 30 LM iterations by default).
+  ChunkedSolveOptions chunked;
   /// Each stage's solve (and the least-squares start): Levenberg-Marquardt, at most 30
   /// iterations by default.
   SolverOptions inner;
@@ -66,7 +82,7 @@ struct GncOptions {
 };
 
 struct GncSummary {
-  SolverSummary start;  ///< the least-squares solve GNC starts from
+  SolverSummary start;  ///< the solve GNC starts from (kChunkedDcs: the last chunk's)
   SolverSummary last;   ///< the last stage's solve
   int stages = 0;
   double mu = 0;  ///< mu at the end
@@ -75,10 +91,14 @@ struct GncSummary {
   std::vector<double> weights;
   std::vector<std::size_t> rejected;  ///< indices (in the graph) of the rejected loop closures
   int readmitted = 0;                 ///< closures below reject_below that the final map explains
-  /// With dcs_candidate: the final surrogate cost of the stages' solution and of DCS's, and
-  /// whether DCS's was kept.
-  double gnc_cost = 0, dcs_cost = 0;
-  bool from_dcs = false;
+  /// The final surrogate's cost at the start and after the stages; kept_start where the
+  /// start cost less and was kept.
+  double start_cost = 0, stages_cost = 0;
+  bool kept_start = false;
+  int start_iterations = 0;  ///< iterations of the start (over every chunk)
+  /// kChunkedDcs: the scale k learned for DCS's phi = clamp(k c^2, 1, c^2) (0: not learned,
+  /// phi 1).
+  double phi_scale = 0;
   int loop_closures = 0;
   double seconds = 0;
   std::string message;  ///< empty when usable; else why not

@@ -21,9 +21,9 @@
 #include "tether/core/robust_rules.h"
 #include "tether/core/values.h"
 #include "tether/solvers/gnc.h"
-#include "tether/solvers/switchable.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/solver_options.h"
+#include "tether/solvers/switchable.h"
 
 namespace tether {
 

@@ -30,6 +30,7 @@ struct OptimizeCommand {
   /// Graduated non-convexity on the loop closures, with the kernel gnc_kernel (tls | gm).
   bool gnc = false;
   std::string gnc_kernel = "gm";
+  std::string gnc_start = "chunked";  ///< chunked | least-squares (GncStart)
   /// Switchable constraints on the loop closures (a switch per closure); switch_prior_sigma
   /// above 0 sets the switch prior's sigma (0: from the chi2 quantile).
   bool switchable = false;

@@ -10,7 +10,9 @@
 // consistent clusters of 5 (pairs (i + k, j + k), k = 0..4, all agreeing on one wrong
 // relative pose of i and j: a front-end's perceptual aliasing). Then each method solves from
 // the file's own start (its vertices: odometry in the public files): none (least squares),
-// huber (loop=huber:1), dcs (loop=dcs:1), gnc (GNC, Geman-McClure), sc (switchable
+// huber (loop=huber:1), dcs (loop=dcs:1), cdcs (DCS with phi = the chi2 0.99 quantile,
+// solved in chunks: chunked_solve.h), gnc (GNC, Geman-McClure, from its default start: DCS in
+// chunks), gnc-ls (GNC from least squares, the classic start), sc (switchable
 // constraints, the switch prior from the chi2 quantile) or sc:SIGMA (switch prior sigma
 // SIGMA; Sünderhauf's is sc:1). Reported per method: the absolute trajectory error (positions, after a
 // rigid alignment) against the optimum without false closures, chi2 of the true factors

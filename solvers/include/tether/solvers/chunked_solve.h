@@ -1,0 +1,57 @@
+#pragma once
+// A solve that grows the graph in time order: the poses in increasing key order (the order of
+// the public files and of a front-end's ids) are cut into chunks; at each chunk the poses so
+// far, with every factor whose variables are all present, are solved from the previous
+// chunk's estimate, the new poses placed by composing their odometry (a factor that is not a
+// loop closure) onto it. Each solve thus starts near its answer, which a robust loss needs:
+// a loop closure is judged against a map made of the closures accepted before it, not
+// against an odometry start that has drifted for the whole run (benchmarks/RESULTS.md,
+// "Outlier benchmark": DCS from the odometry start of input_M3500_g2o fails at 30-50% false
+// closures, and holds from the optimum without them).
+//
+// The graph's own losses are used as they are (for example DCS on the loop closures).
+// Variables other than poses enter with the first chunk in which a factor ties them to a pose
+// present, at their given values.
+#include <functional>
+#include <string>
+
+#include "tether/core/factor_graph.h"
+#include "tether/core/values.h"
+#include "tether/solvers/solver_options.h"
+
+namespace tether {
+
+struct ChunkedSolveOptions {
+  /// How many chunks the poses are cut into (fewer where chunks would hold fewer than
+  /// min_chunk_poses). Default 20.
+  int chunks = 20;
+  int min_chunk_poses = 50;
+  /// Each chunk's solve. Default: Levenberg-Marquardt, at most 30 iterations.
+  SolverOptions solver;
+  /// Called before each chunk's solve (chunk from 0) with the graph so far (the factors of
+  /// earlier chunks first, in the order they joined: the first `solved` of them were in the
+  /// last solve) and the estimate it starts from; it may change that graph's losses (a scale
+  /// learned from the residuals so far). Its factors are copies: the caller's graph is not
+  /// touched.
+  std::function<void(int chunk, std::size_t solved, FactorGraph* sub, const Values& estimate)> before_solve;
+
+  ChunkedSolveOptions();
+  bool IsValid(std::string* why) const;
+};
+
+struct ChunkedSolveSummary {
+  int chunks = 0;      ///< solves run
+  int iterations = 0;  ///< over all solves
+  SolverSummary last;  ///< the last chunk's (the whole graph's) solve
+  double seconds = 0;
+  bool usable = false;
+  std::string message;  ///< empty when usable; else why not
+};
+
+/// Solves `graph` chunk by chunk from *values (its poses' values are replaced as the chunks
+/// go; only the first pose's and other variables' values are used as given). Throws
+/// InvalidArgument for invalid options.
+ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values,
+                                  const ChunkedSolveOptions& options = ChunkedSolveOptions());
+
+}  // namespace tether

@@ -1,0 +1,143 @@
+#include "tether/solvers/chunked_solve.h"
+
+#include <algorithm>
+#include <chrono>
+#include <unordered_map>
+#include <vector>
+
+#include "tether/core/error.h"
+#include "tether/solvers/optimizer.h"
+
+namespace tether {
+
+ChunkedSolveOptions::ChunkedSolveOptions() { solver.max_iterations = 30; }
+
+bool ChunkedSolveOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& w) {
+    if (why) *why = w;
+    return false;
+  };
+  if (chunks < 1) return fail("chunks must be at least 1");
+  if (min_chunk_poses < 1) return fail("min_chunk_poses must be at least 1");
+  std::string reason;
+  if (!solver.IsValid(&reason)) return fail("solver: " + reason);
+  return true;
+}
+
+namespace {
+
+// Grows the subgraph as variables enter: a factor joins once every key of it is present.
+class Growing {
+ public:
+  Growing(const FactorGraph& graph, const Values& given) : graph_(graph), given_(given) {
+    missing_.resize(graph.size());
+    for (std::size_t i = 0; i < graph.size(); ++i) {
+      missing_[i] = static_cast<int>(graph.at(i).keys().size());
+      for (Key k : graph.at(i).keys()) incident_[k].push_back(i);
+    }
+  }
+
+  bool Present(Key k) const { return current_.Has(k); }
+  Values& current() { return current_; }
+  FactorGraph& sub() { return sub_; }
+
+  // Places pose p from a present neighbour through an odometry factor (one that is not a
+  // loop closure), else from the given start's step from `previous`; then adds it.
+  void AddPose(Key p, Key previous) {
+    std::vector<double> out(AmbientDim(given_.TypeOf(p)));
+    bool placed = false;
+    for (std::size_t i : Incident(p)) {
+      const Factor& f = graph_.at(i);
+      if (f.loop_closure() || f.keys().size() != 2) continue;
+      const std::size_t at = f.keys()[0] == p ? 0 : 1, other = 1 - at;
+      const Key o = f.keys()[other];
+      if (o == p || !Present(o) || !IsPose(current_.TypeOf(o))) continue;
+      if (f.Predict(other, current_.Params(o), at, out.data())) {
+        placed = true;
+        break;
+      }
+    }
+    if (!placed && Present(previous) && given_.TypeOf(previous) == given_.TypeOf(p)) {
+      std::vector<double> delta(TangentDim(given_.TypeOf(p)));
+      LocalParams(given_.TypeOf(p), given_.Params(previous), given_.Params(p), delta.data());
+      RetractParams(given_.TypeOf(p), current_.Params(previous), delta.data(), out.data());
+      placed = true;
+    }
+    Enter(p, placed ? out.data() : given_.Params(p));
+    // Other variables (landmarks) tied to it enter at their given values.
+    for (std::size_t i : Incident(p)) {
+      for (Key k : graph_.at(i).keys()) {
+        if (!Present(k) && !IsPose(given_.TypeOf(k))) Enter(k, given_.Params(k));
+      }
+    }
+  }
+
+ private:
+  const std::vector<std::size_t>& Incident(Key k) const {
+    static const std::vector<std::size_t> kNone;
+    const auto it = incident_.find(k);
+    return it == incident_.end() ? kNone : it->second;
+  }
+
+  void Enter(Key k, const double* params) {
+    current_.InsertParams(k, given_.TypeOf(k), params);
+    if (graph_.IsFixed(k)) sub_.Fix(k);
+    for (std::size_t i : Incident(k)) {
+      // A factor may name a key twice; count each occurrence.
+      for (Key key : graph_.at(i).keys()) missing_[i] -= key == k ? 1 : 0;
+      if (missing_[i] == 0) sub_.Add(graph_.at(i).Clone());
+    }
+  }
+
+  const FactorGraph& graph_;
+  const Values& given_;
+  std::unordered_map<Key, std::vector<std::size_t>> incident_;
+  std::vector<int> missing_;
+  Values current_;
+  FactorGraph sub_;
+};
+
+}  // namespace
+
+ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, const ChunkedSolveOptions& options) {
+  if (values == nullptr) throw InvalidArgument("SolveInChunks: values must not be null");
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("invalid chunked-solve options: " + why);
+  const auto t0 = std::chrono::steady_clock::now();
+  ChunkedSolveSummary r;
+  std::vector<Key> poses;
+  for (Key k : values->keys()) {
+    if (IsPose(values->TypeOf(k))) poses.push_back(k);
+  }
+  std::sort(poses.begin(), poses.end());
+  const int n = static_cast<int>(poses.size());
+  const int chunks = std::max(1, std::min(options.chunks, n / options.min_chunk_poses));
+  Growing grow(graph, *values);
+  int next = 0;
+  std::size_t solved = 0;
+  for (int c = 0; c < chunks; ++c) {
+    const int end = c + 1 == chunks ? n : static_cast<int>((static_cast<long long>(n) * (c + 1)) / chunks);
+    for (; next < end; ++next) grow.AddPose(poses[next], next > 0 ? poses[next - 1] : poses[next]);
+    if (grow.sub().empty()) continue;
+    if (options.before_solve) options.before_solve(c, solved, &grow.sub(), grow.current());
+    solved = grow.sub().size();
+    r.last = Optimize(grow.sub(), &grow.current(), options.solver);
+    ++r.chunks;
+    r.iterations += r.last.iterations;
+    if (!r.last.IsSolutionUsable()) {
+      r.message = "chunk " + std::to_string(c + 1) + " of " + std::to_string(chunks) + " (" + std::to_string(end) +
+                  " poses) failed: " + r.last.message;
+      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return r;
+    }
+  }
+  for (Key k : grow.current().keys()) {
+    const double* p = grow.current().Params(k);
+    std::copy(p, p + AmbientDim(values->TypeOf(k)), values->Params(k));
+  }
+  r.usable = true;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace tether
