@@ -1,15 +1,18 @@
 #include "tether/solvers/gnc.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "tether/core/error.h"
 #include "tether/core/loss_function.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/solvers/covariance.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -56,6 +59,48 @@ class GncLoss : public LossFunction {
   double c2_;
   double mu_ = 1;
 };
+
+// e^T (I + J P J^T)^-1 e for a factor's whitened error e and Jacobian J at `values`, P the
+// joint marginal covariance of its free variables: how far the factor is from what the map
+// predicts, counting the map's own uncertainty.
+double PredictedChi2(const Factor& f, const Values& values, const Marginals& marginals) {
+  const std::vector<const double*> params = f.GatherParams(values);
+  const std::vector<VarType> types = f.variable_types();
+  const int m = f.dim();
+  Eigen::VectorXd e(m);
+  std::vector<Key> free;
+  std::vector<Eigen::MatrixXd> jac;
+  std::vector<double*> ptrs(types.size(), nullptr);
+  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> blocks(types.size());
+  for (std::size_t k = 0; k < types.size(); ++k) {
+    blocks[k].resize(m, TangentDim(types[k]));
+    ptrs[k] = blocks[k].data();
+  }
+  if (!f.Linearize(params.data(), e.data(), ptrs.data())) return std::numeric_limits<double>::infinity();
+  const std::set<Key>& fixed = marginals.fixed_keys();
+  int cols = 0;
+  for (std::size_t k = 0; k < types.size(); ++k) {
+    if (fixed.count(f.keys()[k])) continue;
+    free.push_back(f.keys()[k]);
+    jac.push_back(blocks[k]);
+    cols += static_cast<int>(blocks[k].cols());
+  }
+  Eigen::MatrixXd s = Eigen::MatrixXd::Identity(m, m);
+  if (!free.empty()) {
+    Eigen::MatrixXd j(m, cols);
+    int at = 0;
+    for (const Eigen::MatrixXd& b : jac) {
+      j.middleCols(at, b.cols()) = b;
+      at += static_cast<int>(b.cols());
+    }
+    try {
+      s += j * marginals.JointMarginal(free) * j.transpose();
+    } catch (const Error&) {
+      return f.Chi2(values);
+    }
+  }
+  return e.dot(s.ldlt().solve(e));
+}
 
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -157,6 +202,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   std::vector<std::shared_ptr<GncLoss>> losses;
   std::vector<GncLoss*> loss_of(work.size(), nullptr);
   double ratio_max = 0, ratio_max_all = 0;  // max s / c^2 over the kept closures, over all
+  std::vector<char> start_rejected(work.size(), 0);
   for (std::size_t i : closures) {
     const double c2 = c2_of[i];
     auto it = std::find_if(losses.begin(), losses.end(), [c2](const auto& l) { return l->c2() == c2; });
@@ -165,7 +211,10 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     const double s = work.at(i).Chi2(*values);
     ratio_max_all = std::max(ratio_max_all, s / c2);
     const double w = chunked ? RobustWeight(work.at(i).loss(), s) : 1.0;  // sqrt(rho') at the start
-    if (w * w >= options.reject_below) ratio_max = std::max(ratio_max, s / c2);
+    start_rejected[i] = w * w < options.reject_below;
+    // mu_0 from the closures the start keeps, and from those within 10 c^2 (a true closure
+    // the start gave up stays within the stages' reach).
+    if (!start_rejected[i] || (chunked && s <= 10 * c2)) ratio_max = std::max(ratio_max, s / c2);
     work.at(i).set_loss(*it);
   }
   if (ratio_max == 0) ratio_max = ratio_max_all;
@@ -209,11 +258,21 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     double rho[3];
     loss_of[i]->Evaluate(work.at(i).Chi2(*values), rho);
     g.weights[i] = rho[1];
-    rejected[i] = rho[1] < options.reject_below;
+    // Where the start and the stages disagree the closure is in doubt: it is set aside and
+    // judged below against the map of the closures both keep (a false closure the stages
+    // bent the map to fit does not fit that map; a true one the start gave up does).
+    rejected[i] = rho[1] < options.reject_below || start_rejected[i];
   }
   // The estimate: least squares over the closures kept. A rejected closure that this map
-  // explains within its bound (chi2 <= c^2) is taken back and the map solved again: the
-  // robust cost can prefer to give up a true closure that the map without it then fits.
+  // explains is taken back and the map solved again: the robust cost can prefer to give up a
+  // true closure that the map without it then fits. "Explains": the final surrogate would
+  // keep it there (rho' at its chi2 at least reject_below: chi2 below c^2 for TLS, below
+  // 2.16 c^2 for GM). For a closure in doubt (start and stages disagree) that chi2 counts the
+  // map's own uncertainty: against the measurement's covariance plus the predicted one
+  // (e^T (I + J P J^T)^-1 e, whitened; P the joint marginal covariance of its variables),
+  // because where the map without a true closure has drifted, its uncertainty has grown too.
+  std::vector<char> doubtful(work.size(), 0);
+  for (std::size_t i : closures) doubtful[i] = rejected[i] && !(g.weights[i] < options.reject_below);
   for (int round = 0; round < 10 && !closures.empty(); ++round) {
     FactorGraph kept;
     for (std::size_t i = 0; i < work.size(); ++i) {
@@ -227,9 +286,24 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     if (!s.IsSolutionUsable()) break;  // keep the last stage's values
     *values = std::move(trial);
     g.last = s;
+    std::unique_ptr<Marginals> marginals;
+    bool any_doubt = false;
+    for (std::size_t i : closures) any_doubt = any_doubt || (rejected[i] && doubtful[i]);
+    if (any_doubt) {
+      try {
+        marginals = std::make_unique<Marginals>(kept, *values);
+      } catch (const Error&) {
+        marginals.reset();  // singular: the plain test below
+      }
+    }
     bool readmitted = false;
     for (std::size_t i : closures) {
-      if (rejected[i] && work.at(i).Chi2(*values) <= loss_of[i]->c2()) {
+      if (!rejected[i]) continue;
+      const double chi2 =
+          doubtful[i] && marginals ? PredictedChi2(work.at(i), *values, *marginals) : work.at(i).Chi2(*values);
+      double rho[3];
+      loss_of[i]->Evaluate(chi2, rho);
+      if (rho[1] >= options.reject_below) {
         rejected[i] = 0;
         g.weights[i] = 1;
         ++g.readmitted;
