@@ -142,6 +142,28 @@ TEST(Switchable, WithoutWrongClosuresTheMapIsTheLeastSquaresOne) {
   EXPECT_LT(RmsFromFirstPose(v, clean), 1e-6);
 }
 
+TEST(Switchable, CeresReachesTheSameSwitchedOptimum) {
+  // The Switch type and SwitchableFactor go through the Ceres adapter like any open type:
+  // the switched solve (refit off) ends at the same cost with either solver.
+  const Corrupted c = Corrupt(120, 0.2, 6);
+  double chi2[2];
+  for (int k = 0; k < 2; ++k) {
+    SwitchableOptions o;
+    o.refit = false;
+    o.solver.algorithm = k == 0 ? Algorithm::kLevenbergMarquardt : Algorithm::kCeres;
+    o.solver.max_iterations = 200;
+    o.solver.function_tolerance = 1e-12;
+    Values v = c.initial;
+    const SwitchableSummary s = OptimizeSwitchable(c.graph, &v, o);
+    ASSERT_TRUE(s.usable) << k << ": " << s.message;
+    chi2[k] = s.solve.final_chi2;
+    int wrong = 0;
+    for (std::size_t i : s.rejected) wrong += c.wrong.count(i) != 0;
+    EXPECT_EQ(wrong, static_cast<int>(c.wrong.size())) << k;
+  }
+  EXPECT_NEAR(chi2[1], chi2[0], 1e-4 * chi2[0]);
+}
+
 TEST(Switchable, InvalidOptionsThrow) {
   const Corrupted c = Corrupt(50, 0.0, 1);
   Values v = c.initial;
