@@ -129,6 +129,10 @@ bool GncOptions::IsValid(std::string* why) const {
   return true;
 }
 
+// Beyond this many times its bound, a closure the chunked start rejects is settled: it leaves
+// the chunks and the stages (the final test still judges it).
+constexpr double kSettle = 100;
+
 GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOptions& options) {
   if (values == nullptr) throw InvalidArgument("OptimizeGnc: values must not be null");
   std::string why;
@@ -158,14 +162,22 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   if (chunked) {
     ChunkedSolveOptions co = options.chunked;
     co.before_solve = [&](int, std::size_t solved, FactorGraph* sub, const Values& estimate) {
-      std::vector<double> ratios;  // chi2 / median of chi2_dim, over the closures kept last time
+      std::vector<double> ratios;     // chi2 / median of chi2_dim, over the closures kept last time
+      std::vector<FactorId> settled;  // closures rejected beyond kSettle c^2 after a solve
       for (std::size_t i = 0; i < solved; ++i) {
         const Factor& f = sub->at(i);
         if (!f.loop_closure() || f.loss() == nullptr) continue;
         const double s = f.Chi2(estimate);
         const double w = RobustWeight(f.loss(), s);
         if (w * w >= options.reject_below) ratios.push_back(s / Chi2Quantile(f.dim(), 0.5));
+        const double c2 = options.c > 0 ? options.c * options.c : Chi2Quantile(f.dim(), options.inlier_probability);
+        if (w * w < options.reject_below && s > kSettle * c2) settled.push_back(sub->id(i));
       }
+      // A closure DCS rejects after a solve with a chi2 beyond kSettle c^2 leaves the chunks to
+      // come: it would count for nothing there, yet keep its fill in every
+      // factorisation (random false closures make the factor nearly dense). GNC's final test
+      // still judges it against the map.
+      for (FactorId id : settled) sub->Remove(id);
       if (ratios.size() < 10) return;  // too few to learn from: keep phi
       std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
       phi_scale = ratios[ratios.size() / 2];
@@ -192,6 +204,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     g.start_iterations = g.start.iterations;
   }
   g.last = g.start;
+  g.start_seconds = SecondsSince(t0);
   if (!g.start.IsSolutionUsable()) {
     g.message = "the start (" + std::string(chunked ? "chunked DCS" : "least squares") + ") failed: " + g.start.message;
     g.seconds = SecondsSince(t0);
@@ -203,6 +216,10 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   std::vector<GncLoss*> loss_of(work.size(), nullptr);
   double ratio_max = 0, ratio_max_all = 0;  // max s / c^2 over the kept closures, over all
   std::vector<char> start_rejected(work.size(), 0);
+  // Closures the chunked start rejected and that are beyond 10 c^2 stay out of the stages
+  // (they would weigh next to nothing there, yet keep their fill in every factorisation:
+  // random false closures make the factor nearly dense); the final test below judges them.
+  std::vector<char> held_out(work.size(), 0);
   for (std::size_t i : closures) {
     const double c2 = c2_of[i];
     auto it = std::find_if(losses.begin(), losses.end(), [c2](const auto& l) { return l->c2() == c2; });
@@ -214,16 +231,23 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     start_rejected[i] = w * w < options.reject_below;
     // mu_0 from the closures the start keeps, and from those within 10 c^2 (a true closure
     // the start gave up stays within the stages' reach).
-    if (!start_rejected[i] || (chunked && s <= 10 * c2)) ratio_max = std::max(ratio_max, s / c2);
+    held_out[i] = chunked && start_rejected[i] && s > 10 * c2;
+    if (!held_out[i]) ratio_max = std::max(ratio_max, s / c2);
     work.at(i).set_loss(*it);
   }
   if (ratio_max == 0) ratio_max = ratio_max_all;
   const Values start_values = chunked ? *values : Values();
+  FactorGraph staged;
+  for (std::size_t i = 0; i < work.size(); ++i) {
+    if (!held_out[i]) staged.Add(work.at(i).Clone());
+    g.held_out += held_out[i];
+  }
+  for (Key k : graph.fixed()) staged.Fix(k);
   const bool gm = options.kernel == GncKernel::kGemanMcClure;
   double mu = gm ? std::max(1.0, 2 * ratio_max) : (2 * ratio_max > 1 ? 1 / (2 * ratio_max - 1) : 1e6);
   for (int stage = 0; stage < options.max_stages && !closures.empty(); ++stage) {
     for (const auto& l : losses) l->set_mu(mu);
-    g.last = Optimize(work, values, options.inner);
+    g.last = Optimize(staged, values, options.inner);
     ++g.stages;
     if (!g.last.IsSolutionUsable()) {
       g.message =
@@ -237,12 +261,15 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
       mu = std::max(1.0, mu / options.mu_factor);
     } else {
       bool undecided = false;
-      for (std::size_t i : closures) undecided = undecided || loss_of[i]->Undecided(work.at(i).Chi2(*values));
+      for (std::size_t i : closures) {
+        undecided = undecided || (!held_out[i] && loss_of[i]->Undecided(work.at(i).Chi2(*values)));
+      }
       if (!undecided) break;
       mu *= options.mu_factor;
     }
   }
   g.mu = mu;
+  g.stages_seconds = SecondsSince(t0) - g.start_seconds;
   // From a robust start the stages refine it; where they end costing more under the final
   // surrogate (the robust objective both are measured by), the start is kept.
   if (chunked && !closures.empty()) {
@@ -272,7 +299,10 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   // (e^T (I + J P J^T)^-1 e, whitened; P the joint marginal covariance of its variables),
   // because where the map without a true closure has drifted, its uncertainty has grown too.
   std::vector<char> doubtful(work.size(), 0);
-  for (std::size_t i : closures) doubtful[i] = rejected[i] && !(g.weights[i] < options.reject_below);
+  for (std::size_t i : closures) {
+    doubtful[i] = rejected[i] && !(g.weights[i] < options.reject_below);
+    g.doubtful += doubtful[i];
+  }
   for (int round = 0; round < 10 && !closures.empty(); ++round) {
     FactorGraph kept;
     for (std::size_t i = 0; i < work.size(); ++i) {
@@ -317,6 +347,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   }
   g.usable = true;
   g.seconds = SecondsSince(t0);
+  g.final_seconds = g.seconds - g.start_seconds - g.stages_seconds;
   return g;
 }
 

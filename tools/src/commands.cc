@@ -190,7 +190,11 @@ int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, con
   char seconds[32];
   std::snprintf(seconds, sizeof seconds, "%.3f s", gnc ? result.gnc.seconds : result.switchable.seconds);
   if (gnc) {
-    out << "gnc (" << cmd.gnc_kernel << ", from " << cmd.gnc_start << "): " << result.gnc.stages << " stages, ";
+    char phases[160];
+    std::snprintf(phases, sizeof phases, "start %d iterations %.3f s, %d stages %.3f s, %d in doubt, final %.3f s; ",
+                  result.gnc.start_iterations, result.gnc.start_seconds, result.gnc.stages, result.gnc.stages_seconds,
+                  result.gnc.doubtful, result.gnc.final_seconds);
+    out << "gnc (" << cmd.gnc_kernel << ", from " << cmd.gnc_start << "): " << phases;
   } else {
     out << "switchable constraints: ";
   }

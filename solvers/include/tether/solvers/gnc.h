@@ -91,6 +91,10 @@ struct GncSummary {
   std::vector<double> weights;
   std::vector<std::size_t> rejected;  ///< indices (in the graph) of the rejected loop closures
   int readmitted = 0;                 ///< closures below reject_below that the final map explains
+  int doubtful = 0;  ///< closures the start and the stages disagreed on (judged with the map's covariance)
+  int held_out = 0;  ///< closures the chunked start rejected beyond 10 c^2, left out of the stages
+  /// Seconds of the start, of the stages and of the final least squares with readmission.
+  double start_seconds = 0, stages_seconds = 0, final_seconds = 0;
   /// The final surrogate's cost at the start and after the stages; kept_start where the
   /// start cost less and was kept.
   double start_cost = 0, stages_cost = 0;
