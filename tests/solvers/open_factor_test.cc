@@ -187,6 +187,39 @@ TEST(RobustSolveTest, AGaussNewtonStepIsTheReweightedLeastSquaresStepByHand) {
   }
 }
 
+TEST(RobustSolveTest, ALevenbergMarquardtStepIsTheDampedReweightedStepByHand) {
+  // LM solves (H + lambda diag(H)) d = -g with the reweighted H = sum_i w_i I and
+  // g = sum_i w_i (x - z_i): d = -sum w_i (x - z_i) / ((1 + lambda) sum w_i).
+  const double lambda = 0.5;
+  for (const char* loss : {"huber:1", "cauchy:1", "gm:2", "dcs:1", "tukey:4"}) {
+    RobustPoint p = MakeRobustPoint(loss);
+    const Vec2 x = p.values.At<Vec2>(1);
+    Vec2 num = Vec2::Zero();
+    double den = 0;
+    for (std::size_t i = 0; i < p.graph.size(); ++i) {
+      const Vec2 e = x - static_cast<const PointPrior<Vec2>&>(p.graph.at(i)).measurement();
+      double rho[3];
+      p.graph.at(i).loss()->Evaluate(e.squaredNorm(), rho);
+      num += rho[1] * e;
+      den += rho[1];
+    }
+    const Vec2 by_hand = x - num / ((1 + lambda) * den);
+    SolverOptions o;
+    o.algorithm = Algorithm::kLevenbergMarquardt;
+    o.lm.initial_lambda = lambda;
+    o.max_iterations = 1;
+    std::vector<IterationSummary> its;
+    o.callback = [&its](const IterationSummary& it) { its.push_back(it); };
+    const SolverSummary s = Optimize(p.graph, &p.values, o);
+    ASSERT_TRUE(s.IsSolutionUsable()) << loss << ": " << s.FullReport();
+    ASSERT_FALSE(its.empty()) << loss;
+    ASSERT_TRUE(its.back().accepted) << loss << ": the damped step raised the robust cost";
+    EXPECT_EQ(its.back().lambda, lambda) << loss;
+    EXPECT_LT((p.values.At<Vec2>(1) - by_hand).norm(), 1e-12)
+        << loss << ": solver " << p.values.At<Vec2>(1).transpose() << ", by hand " << by_hand.transpose();
+  }
+}
+
 class RobustSolveEveryAlgorithm : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(RobustSolveEveryAlgorithm, ReachesAStationaryPointOfTheRobustCostNearTheInliers) {
