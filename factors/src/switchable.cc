@@ -94,6 +94,12 @@ FactorType SwitchableEntry(const FactorType& inner, std::string tag) {
   t.variable_types.push_back(VarTypeOf<Switch>());
   t.measurement_size = inner.measurement_size;
   t.measurement_layout = inner.measurement_layout;
+  // Named as the inner type's would be (its last key type's parameter names), not after the
+  // switch that now comes last.
+  if (t.measurement_layout.empty() && !inner.variable_types.empty() &&
+      AmbientDim(inner.variable_types.back()) == inner.measurement_size) {
+    t.measurement_layout = Describe(inner.variable_types.back()).parameter_names;
+  }
   const FactorMaker make_inner = inner.make;
   t.make = [make_inner](std::vector<Key> keys, const double* m, SqrtInformation noise) -> std::unique_ptr<Factor> {
     const Key s = keys.back();

@@ -142,6 +142,20 @@ TEST(SwitchableFactor, VertigoFileFormsReadAndWriteBack) {
   EXPECT_NE(out.str().find("VERTEX_SWITCH 11 0.5"), std::string::npos) << out.str();
 }
 
+TEST(SwitchableFactor, AShortLineNamesTheFieldsAsThePosePoseEdgeDoes) {
+  std::istringstream in(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 2 2 0 0\nVERTEX_SWITCH 9 1\n"
+      "EDGE_SE2_SWITCHABLE 0 2 9 2 0 0 1 0 0 1 0\n");
+  try {
+    ReadGraph(in, "short.g2o", DefaultRegistry());
+    ADD_FAILURE() << "a short line was read";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("short.g2o:4"), std::string::npos) << m;
+    EXPECT_NE(m.find("id1 id2 id3 x y theta I11"), std::string::npos) << m;
+  }
+}
+
 TEST(SwitchableFactor, SwitchableSE3LineReads) {
   const std::string text =
       "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
