@@ -102,6 +102,10 @@ double PredictedChi2(const Factor& f, const Values& values, const Marginals& mar
   return e.dot(s.ldlt().solve(e));
 }
 
+// DCS's phi for a learned scale k and a bound c^2: k c^2, at most c^2 and at least 1 (1 also
+// where k is not learned yet, or where a bound set by hand is below 1).
+double DcsPhi(double k, double c2) { return std::max(1.0, std::min(k * c2, c2)); }
+
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -186,7 +190,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
         Factor& f = sub->at(i);
         if (!f.loop_closure()) continue;
         const double c2 = options.c > 0 ? options.c * options.c : Chi2Quantile(f.dim(), options.inlier_probability);
-        if (by_c2.count(c2) == 0) by_c2[c2] = std::make_shared<DcsLoss>(std::clamp(phi_scale * c2, 1.0, c2));
+        if (by_c2.count(c2) == 0) by_c2[c2] = std::make_shared<DcsLoss>(DcsPhi(phi_scale, c2));
         f.set_loss(by_c2[c2]);
       }
     };
@@ -197,7 +201,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     if (!c.usable) g.start.message = c.message;
     // The whole graph's closures with the phi learned last (for the weights below).
     for (std::size_t i : closures) {
-      work.at(i).set_loss(std::make_shared<DcsLoss>(std::clamp(phi_scale * c2_of[i], 1.0, c2_of[i])));
+      work.at(i).set_loss(std::make_shared<DcsLoss>(DcsPhi(phi_scale, c2_of[i])));
     }
   } else {
     g.start = Optimize(work, values, options.inner);

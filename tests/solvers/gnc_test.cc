@@ -89,6 +89,18 @@ TEST(Gnc, WithoutWrongClosuresNothingIsRejectedAndTheOptimumStays) {
   EXPECT_LT(MaxPositionDifference(v, clean), 1e-6);
 }
 
+TEST(Gnc, ABoundSetByHandBelowOneWorks) {
+  // c = 0.5 (c^2 0.25, below DCS's smallest phi of 1): every wrong closure still rejected.
+  const Corrupted c = Corrupt(150, 0.2, 5);
+  GncOptions o;
+  o.c = 0.5;
+  Values v = c.initial;
+  const GncSummary g = OptimizeGnc(c.graph, &v, o);
+  ASSERT_TRUE(g.usable) << g.message;
+  const std::set<std::size_t> rejected(g.rejected.begin(), g.rejected.end());
+  for (std::size_t i : c.wrong) EXPECT_TRUE(rejected.count(i)) << "wrong closure " << i << " kept";
+}
+
 TEST(Gnc, InvalidOptionsThrow) {
   const Corrupted c = Corrupt(50, 0.0, 1);
   Values v = c.initial;
