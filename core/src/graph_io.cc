@@ -140,21 +140,17 @@ class Reader {
   }
 
  private:
-  // Marks the factors between two poses whose ids are not consecutive as loop closures (a
-  // factor with other keys besides, such as a switchable one's switch, counts by its poses).
+  // Marks the factors between two poses whose ids are not consecutive as loop closures (only
+  // two-key factors: a switchable edge, which carries its own switch, is not marked, so that
+  // GNC or switchable constraints do not wrap it again).
   int MarkLoopClosures() {
     int marked = 0;
     for (std::size_t i = 0; i < graph_.size(); ++i) {
       Factor& f = graph_.at(i);
-      Key pose[2] = {0, 0};
-      int poses = 0;
-      for (Key k : f.keys()) {
-        if (!out_values_.Has(k) || !IsPose(out_values_.TypeOf(k))) continue;
-        if (poses < 2) pose[poses] = k;
-        ++poses;
-      }
-      if (poses != 2) continue;
-      const Key a = pose[0], b = pose[1];
+      if (f.keys().size() != 2) continue;
+      const Key a = f.keys()[0], b = f.keys()[1];
+      if (!out_values_.Has(a) || !out_values_.Has(b)) continue;
+      if (!IsPose(out_values_.TypeOf(a)) || !IsPose(out_values_.TypeOf(b))) continue;
       if ((a > b ? a - b : b - a) == 1) continue;
       f.set_loop_closure(true);
       ++marked;

@@ -32,6 +32,7 @@ VarType InternSwitchType() {
 SwitchableFactor::SwitchableFactor(std::unique_ptr<Factor> inner, Key switch_key)
     : Factor(WithSwitch(inner.get(), switch_key), Checked(inner.get()).noise()), inner_(std::move(inner)) {
   set_loop_closure(inner_->loop_closure());
+  set_loss(inner_->shared_loss());  // the inner factor's robust loss, on the switched error
 }
 
 SwitchableFactor::SwitchableFactor(const SwitchableFactor& other) : Factor(other), inner_(other.inner_->Clone()) {}

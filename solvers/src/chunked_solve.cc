@@ -105,12 +105,31 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
   if (!options.IsValid(&why)) throw InvalidArgument("invalid chunked-solve options: " + why);
   const auto t0 = std::chrono::steady_clock::now();
   ChunkedSolveSummary r;
+  // A factor whose variable has no value: not usable, as Optimize reports it (no exception).
+  for (std::size_t i = 0; i < graph.size(); ++i) {
+    for (Key k : graph.at(i).keys()) {
+      if (values->Has(k)) continue;
+      r.message = "factor " + std::to_string(i) + " (" + graph.at(i).Describe() + ") uses variable " +
+                  std::to_string(k) + ", which has no value; give every variable an initial value";
+      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return r;
+    }
+  }
   std::vector<Key> poses;
   for (Key k : values->keys()) {
     if (IsPose(values->TypeOf(k))) poses.push_back(k);
   }
   std::sort(poses.begin(), poses.end());
   const int n = static_cast<int>(poses.size());
+  if (n == 0) {  // nothing to grow by: one solve of the whole graph
+    r.last = Optimize(graph, values, options.solver);
+    r.chunks = 1;
+    r.iterations = r.last.iterations;
+    r.usable = r.last.IsSolutionUsable();
+    if (!r.usable) r.message = "the solve failed: " + r.last.message;
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }
   const int chunks = std::max(1, std::min(options.chunks, n / options.min_chunk_poses));
   Growing grow(graph, *values);
   int next = 0;

@@ -182,9 +182,11 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
       // factorisation (random false closures make the factor nearly dense). GNC's final test
       // still judges it against the map.
       for (FactorId id : settled) sub->Remove(id);
-      if (ratios.size() < 10) return;  // too few to learn from: keep phi
-      std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
-      phi_scale = ratios[ratios.size() / 2];
+      if (ratios.size() >= 10) {  // enough to learn from; else phi stays as learned so far
+        std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+        phi_scale = ratios[ratios.size() / 2];
+      }
+      // Every closure so far (those of this chunk too) with the phi learned so far.
       std::map<double, std::shared_ptr<const LossFunction>> by_c2;
       for (std::size_t i = 0; i < sub->size(); ++i) {
         Factor& f = sub->at(i);
@@ -289,7 +291,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     double rho[3];
     loss_of[i]->Evaluate(work.at(i).Chi2(*values), rho);
     g.weights[i] = rho[1];
-    // Where the start and the stages disagree the closure is in doubt: it is set aside and
+    // Where the start rejected a closure the stages keep, it is in doubt: it is set aside and
     // judged below against the map of the closures both keep (a false closure the stages
     // bent the map to fit does not fit that map; a true one the start gave up does).
     rejected[i] = rho[1] < options.reject_below || start_rejected[i];
@@ -298,7 +300,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   // explains is taken back and the map solved again: the robust cost can prefer to give up a
   // true closure that the map without it then fits. "Explains": the final surrogate would
   // keep it there (rho' at its chi2 at least reject_below: chi2 below c^2 for TLS, below
-  // 2.16 c^2 for GM). For a closure in doubt (start and stages disagree) that chi2 counts the
+  // 2.16 c^2 for GM). For a closure in doubt (the start rejected it, the stages keep it) that chi2 counts the
   // map's own uncertainty: against the measurement's covariance plus the predicted one
   // (e^T (I + J P J^T)^-1 e, whitened; P the joint marginal covariance of its variables),
   // because where the map without a true closure has drifted, its uncertainty has grown too.

@@ -69,6 +69,21 @@ FactorGraph WithSwitches(const FactorGraph& graph, Values* values, const Switcha
     out.Add(std::make_unique<SwitchPrior>(keys[k], 1.0, SqrtInformation::Isotropic(1, sigma)));
   }
   for (Key k : graph.fixed()) out.Fix(k);
+  // The switch priors are one-key factors, which the solvers take as anchoring the graph: where
+  // the graph itself has no anchor (nothing fixed, no one-key factor), hold its lowest-key pose
+  // as the solvers would have.
+  bool anchored = !graph.fixed().empty();
+  for (std::size_t i = 0; i < graph.size() && !anchored; ++i) anchored = graph.at(i).keys().size() == 1;
+  if (!anchored) {
+    bool found = false;
+    Key lowest = 0;
+    for (std::size_t i = 0; i < graph.size(); ++i) {
+      for (Key k : graph.at(i).keys()) {
+        if (values->Has(k) && IsPose(values->TypeOf(k)) && (!found || k < lowest)) lowest = k, found = true;
+      }
+    }
+    if (found) out.Fix(lowest);
+  }
   if (switch_keys != nullptr) *switch_keys = std::move(keys);
   return out;
 }

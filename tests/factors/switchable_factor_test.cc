@@ -8,6 +8,7 @@
 
 #include "testing/jacobian_check.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
 #include "tether/factors/builtin.h"
@@ -89,6 +90,19 @@ TEST(SwitchableFactor, ErrorIsTheInnerErrorScaledByTheClampedSwitch) {
   EXPECT_EQ(SwitchScale(0.4), 0.4);
 }
 
+TEST(SwitchableFactor, KeepsTheInnerFactorsLossAndMark) {
+  auto inner = std::make_unique<BetweenSE2>(1, 7, SE2d(1, 0, 0), Info(3));
+  inner->set_loss(MakeLoss("huber:1"));
+  inner->set_loop_closure(true);
+  const SwitchableFactor f(std::move(inner), 9);
+  ASSERT_NE(f.loss(), nullptr);
+  EXPECT_EQ(f.loss()->name(), MakeLoss("huber:1")->name());
+  EXPECT_TRUE(f.loop_closure());
+  const std::unique_ptr<Factor> copy = f.Clone();
+  EXPECT_EQ(copy->loss(), f.loss());
+  EXPECT_TRUE(copy->loop_closure());
+}
+
 TEST(SwitchableFactor, NullInnerFactorThrows) { EXPECT_THROW(SwitchableFactor(nullptr, 3), InvalidArgument); }
 
 TEST(SwitchPrior, ErrorAndJacobian) {
@@ -122,10 +136,11 @@ TEST(SwitchableFactor, VertigoFileFormsReadAndWriteBack) {
   ASSERT_NE(sw, nullptr);
   EXPECT_EQ(sw->switch_key(), Key(10));
   EXPECT_EQ(sw->inner().type_name(), "BetweenSE2");
-  // Between poses 0 and 2 a loop closure (by its poses); 1-2 is odometry.
-  EXPECT_TRUE(file.graph.at(2).loop_closure());
+  // A switchable edge carries its own switch: not marked as a loop closure (GNC and
+  // switchable constraints would wrap it again).
+  EXPECT_FALSE(file.graph.at(2).loop_closure());
   EXPECT_FALSE(file.graph.at(3).loop_closure());
-  EXPECT_EQ(file.loop_closures, 1);
+  EXPECT_EQ(file.loop_closures, 0);
   EXPECT_DOUBLE_EQ(file.graph.at(5).Chi2(file.values), 0.25 * 2);
 
   std::ostringstream out;
@@ -166,7 +181,7 @@ TEST(SwitchableFactor, SwitchableSE3LineReads) {
   const GraphFile file = ReadGraph(in, "vertigo3d.g2o", DefaultRegistry());
   ASSERT_EQ(file.graph.size(), 1u);
   EXPECT_EQ(file.graph.at(0).type_name(), "SwitchableBetweenSE3");
-  EXPECT_TRUE(file.graph.at(0).loop_closure());
+  EXPECT_FALSE(file.graph.at(0).loop_closure());
   EXPECT_NEAR(file.graph.at(0).Chi2(file.values), 0, 1e-20);
 }
 

@@ -76,6 +76,66 @@ TEST(ChunkedSolve, OneChunkIsOneSolve) {
   EXPECT_NEAR(sim.graph.Chi2(v), b.final_chi2, 1e-9 * b.final_chi2);
 }
 
+TEST(ChunkedSolve, AHookThatRemovesFactorsKeepsTheCountRight) {
+  // The hook removes every loop closure after the first solve: `solved` at the next call is
+  // what was solved, and the result is the odometry-only optimum (the start itself).
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 200, 4);
+  ChunkedSolveOptions o;
+  o.chunks = 4;
+  std::vector<std::size_t> solved, sizes_after;
+  o.before_solve = [&](int, std::size_t s, FactorGraph* sub, const Values&) {
+    solved.push_back(s);
+    std::vector<FactorId> closures;
+    for (std::size_t i = 0; i < sub->size(); ++i) {
+      const Factor& f = sub->at(i);
+      const Key a = f.keys()[0], b = f.keys().back();
+      if (f.keys().size() == 2 && (a > b ? a - b : b - a) != 1) closures.push_back(sub->id(i));
+    }
+    for (FactorId id : closures) sub->Remove(id);
+    sizes_after.push_back(sub->size());
+  };
+  Values v = sim.initial;
+  const ChunkedSolveSummary c = SolveInChunks(sim.graph, &v, o);
+  ASSERT_TRUE(c.usable) << c.message;
+  ASSERT_EQ(solved.size(), 4u);
+  for (std::size_t i = 1; i < 4; ++i) EXPECT_EQ(solved[i], sizes_after[i - 1]) << i;
+  EXPECT_EQ(sizes_after.back(), 199u);  // the odometry chain
+  EXPECT_NEAR(c.last.final_chi2, 0, 1e-12);
+}
+
+// A prior on a 2D point: a graph with no pose at all.
+class PointPrior2 : public TypedFactor<PointPrior2, 2, Eigen::Vector2d> {
+ public:
+  static constexpr const char* kTypeName = "TestPointPrior2";
+  PointPrior2(Key k, const Eigen::Vector2d& z) : TypedFactor({k}, SqrtInformation::Identity(2)), z_(z) {}
+  bool Evaluate(const double* const* p, double* e, double* const* j) const override {
+    e[0] = p[0][0] - z_[0];
+    e[1] = p[0][1] - z_[1];
+    if (j != nullptr && j[0] != nullptr) j[0][0] = 1, j[0][1] = 0, j[0][2] = 0, j[0][3] = 1;
+    return true;
+  }
+
+ private:
+  Eigen::Vector2d z_;
+};
+
+TEST(ChunkedSolve, AGraphWithoutPosesIsSolvedWholeAndAMissingValueIsReported) {
+  FactorGraph g;
+  g.Add<PointPrior2>(1, Eigen::Vector2d(3, 4));
+  g.Add<PointPrior2>(2, Eigen::Vector2d(-1, 2));
+  Values v;
+  v.Insert(1, Eigen::Vector2d(0, 0));
+  v.Insert(2, Eigen::Vector2d(0, 0));
+  const ChunkedSolveSummary c = SolveInChunks(g, &v);
+  ASSERT_TRUE(c.usable) << c.message;
+  EXPECT_EQ(c.chunks, 1);
+  EXPECT_NEAR((v.At<Eigen::Vector2d>(1) - Eigen::Vector2d(3, 4)).norm(), 0, 1e-9);
+  g.Add<PointPrior2>(7, Eigen::Vector2d(0, 0));  // no value for 7
+  const ChunkedSolveSummary missing = SolveInChunks(g, &v);
+  EXPECT_FALSE(missing.usable);
+  EXPECT_NE(missing.message.find("variable 7"), std::string::npos) << missing.message;
+}
+
 TEST(ChunkedSolve, InvalidOptionsThrow) {
   const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 60, 1);
   Values v = sim.initial;

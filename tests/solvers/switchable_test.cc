@@ -164,6 +164,31 @@ TEST(Switchable, CeresReachesTheSameSwitchedOptimum) {
   EXPECT_NEAR(chi2[1], chi2[0], 1e-4 * chi2[0]);
 }
 
+TEST(Switchable, AGraphWithoutAnAnchorKeepsItsGaugeAndGaussNewtonSolvesIt) {
+  // The switch priors are one-key factors; without the fix WithSwitches adds, the solvers
+  // would take them as anchors and leave the poses' gauge free (singular for Gauss-Newton).
+  const Corrupted c = Corrupt(120, 0.2, 7);
+  ASSERT_TRUE(c.graph.fixed().empty());
+  Values v = c.initial;
+  const FactorGraph s = WithSwitches(c.graph, &v);
+  EXPECT_TRUE(s.IsFixed(0));  // the lowest-key pose, as the solvers would hold it
+  FactorGraph anchored = c.graph;
+  anchored.Fix(5);
+  Values w = c.initial;
+  const FactorGraph t = WithSwitches(anchored, &w);
+  EXPECT_FALSE(t.IsFixed(0));
+  EXPECT_TRUE(t.IsFixed(5));
+  SwitchableOptions o;
+  o.solver.algorithm = Algorithm::kGaussNewton;
+  Values x = c.initial;
+  const SwitchableSummary r = OptimizeSwitchable(c.graph, &x, o);
+  ASSERT_TRUE(r.usable) << r.message;
+  EXPECT_EQ(x.At<SE2d>(0).translation(), c.initial.At<SE2d>(0).translation());  // held
+  int wrong = 0;
+  for (std::size_t i : r.rejected) wrong += c.wrong.count(i) != 0;
+  EXPECT_EQ(wrong, static_cast<int>(c.wrong.size()));
+}
+
 TEST(Switchable, InvalidOptionsThrow) {
   const Corrupted c = Corrupt(50, 0.0, 1);
   Values v = c.initial;

@@ -61,8 +61,9 @@ VarType InternSwitchType();
 inline double SwitchScale(double s) { return s < 0 ? 0.0 : (s > 1 ? 1.0 : s); }
 
 /// Any factor with its error scaled by psi(s) of a switch (keys: the inner factor's, then the
-/// switch). Its type name is "Switchable" + the inner type's name; the noise model and the
-/// loop-closure mark are the inner factor's.
+/// switch). Its type name is "Switchable" + the inner type's name; the noise model, the
+/// loop-closure mark and the robust loss are the inner factor's (the loss then applies to the
+/// switched error).
 class SwitchableFactor : public Factor {
  public:
   /// Throws InvalidArgument for a null inner factor.

@@ -11,7 +11,7 @@
 //
 // The graph's own losses are used as they are (for example DCS on the loop closures).
 // Variables other than poses enter with the first chunk in which a factor ties them to a pose
-// present, at their given values.
+// present, at their given values. A graph without SE2 or SE3 poses is solved whole, once.
 #include <functional>
 #include <string>
 
@@ -31,8 +31,9 @@ struct ChunkedSolveOptions {
   /// Called before each chunk's solve (chunk from 0) with the graph so far (the factors of
   /// earlier chunks first, in the order they joined: the first `solved` of them were in the
   /// last solve) and the estimate it starts from; it may change that graph's losses (a scale
-  /// learned from the residuals so far). Its factors are copies: the caller's graph is not
-  /// touched.
+  /// learned from the residuals so far) or remove factors from it for the chunks to come
+  /// (FactorGraph::Remove; `solved` at the next call counts what is left). Its factors are
+  /// copies: the caller's graph is not touched.
   std::function<void(int chunk, std::size_t solved, FactorGraph* sub, const Values& estimate)> before_solve;
 
   ChunkedSolveOptions();
@@ -50,7 +51,8 @@ struct ChunkedSolveSummary {
 
 /// Solves `graph` chunk by chunk from *values (its poses' values are replaced as the chunks
 /// go; only the first pose's and other variables' values are used as given). Throws
-/// InvalidArgument for invalid options.
+/// InvalidArgument for invalid options; a variable without a value, or a failed solve, gives
+/// a summary that is not usable and says why (and *values unchanged).
 ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values,
                                   const ChunkedSolveOptions& options = ChunkedSolveOptions());
 

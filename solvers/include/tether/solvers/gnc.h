@@ -19,7 +19,7 @@
 // Where the stages start (GncOptions::start):
 //   kChunkedDcs (default): DCS on the loop closures, solved chunk by chunk in time
 //     order (chunked_solve.h), so that each closure is judged against a map built from the
-//     closures before it. DCS's phi is learned as the chunks go: clamp(k c^2, 1, c^2), k the
+//     closures before it. DCS's phi is learned as the chunks go: max(1, min(k c^2, c^2)), k the
 //     median chi2 of the closures kept so far over the median of the chi2 distribution of their
 //     dimension (phi 1, the literature's, where closures fit far below their stated noise, as
 //     in the public files; c^2 where they fit as stated, as in simulated worlds, where phi 1
@@ -71,7 +71,7 @@ struct GncOptions {
   /// Where the stages start (above). Default kChunkedDcs.
   GncStart start = GncStart::kChunkedDcs;
   /// The chunks of the kChunkedDcs start (20 chunks of at least 50 poses, each solve at most
-  /// 30 LM iterations by default).
+  /// 30 LM iterations by default). GNC sets its own before_solve (one given here is replaced).
   ChunkedSolveOptions chunked;
   /// Each stage's solve (and the least-squares start): Levenberg-Marquardt, at most 30
   /// iterations by default.
@@ -91,7 +91,9 @@ struct GncSummary {
   std::vector<double> weights;
   std::vector<std::size_t> rejected;  ///< indices (in the graph) of the rejected loop closures
   int readmitted = 0;                 ///< closures below reject_below that the final map explains
-  int doubtful = 0;  ///< closures the start and the stages disagreed on (judged with the map's covariance)
+  /// Closures the chunked start rejected and the stages kept (judged with the map's
+  /// covariance); a closure the start kept and the stages rejected is simply rejected.
+  int doubtful = 0;
   int held_out = 0;  ///< closures the chunked start rejected beyond 10 c^2, left out of the stages
   /// Seconds of the start, of the stages and of the final least squares with readmission.
   double start_seconds = 0, stages_seconds = 0, final_seconds = 0;
@@ -100,7 +102,7 @@ struct GncSummary {
   double start_cost = 0, stages_cost = 0;
   bool kept_start = false;
   int start_iterations = 0;  ///< iterations of the start (over every chunk)
-  /// kChunkedDcs: the scale k learned for DCS's phi = clamp(k c^2, 1, c^2) (0: not learned,
+  /// kChunkedDcs: the scale k learned for DCS's phi = max(1, min(k c^2, c^2)) (0: not learned,
   /// phi 1).
   double phi_scale = 0;
   int loop_closures = 0;

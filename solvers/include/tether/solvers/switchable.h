@@ -27,9 +27,9 @@ struct SwitchableOptions {
   double inlier_probability = 0.99;
   /// A loop closure whose final weight psi(s)^2 is below this is rejected. Default 0.1.
   double reject_below = 0.1;
-  /// After the switched solve, solve least squares over the closures kept (from the switched
-  /// solution), as GNC ends. Default on: switches that stay partly open (weights between
-  /// reject_below and 1) bend the map; off gives the switched solution itself.
+  /// After the switched solve, solve again over the closures kept (from the switched
+  /// solution; least squares unless a closure carries a loss of its own), as GNC ends. Default on: switches that stay
+  /// partly open (weights between reject_below and 1) bend the map; off gives the switched solution itself.
   bool refit = true;
   /// The solve over the augmented graph: Levenberg-Marquardt, at most 100 iterations by
   /// default (switches make the problem slower to converge than plain least squares).
@@ -57,7 +57,9 @@ struct SwitchableSummary {
 /// (a loop closure wrapped as a SwitchableFactor), and the switch priors follow (standard
 /// deviation prior_sigma, or for 0 from the chi2 quantile as SwitchableOptions says). The switches'
 /// keys run from one past the largest key of *values, in closure order, and go into *values
-/// at 1; `switch_keys` (if not null) receives them. Throws InvalidArgument where the keys
+/// at 1; where `graph` has no anchor (nothing fixed, no one-key factor) its lowest-key pose is
+/// fixed in the result, as the solvers would hold it (the switch priors would otherwise count
+/// as anchors); `switch_keys` (if not null) receives them. Throws InvalidArgument where the keys
 /// would run out or the options are not valid.
 FactorGraph WithSwitches(const FactorGraph& graph, Values* values,
                          const SwitchableOptions& options = SwitchableOptions(),
