@@ -160,23 +160,29 @@ Vec2 CostGradient(const FactorGraph& graph, const Vec2& x) {
   return g;
 }
 
+// The point after one reweighted step with damping lambda (relative to diag(H)): with
+// w_i = rho'(|x - z_i|^2), x - sum w_i (x - z_i) / ((1 + lambda) sum w_i).
+Vec2 ReweightedStepByHand(const RobustPoint& p, double lambda) {
+  const Vec2 x = p.values.At<Vec2>(1);
+  Vec2 num = Vec2::Zero();
+  double den = 0;
+  for (std::size_t i = 0; i < p.graph.size(); ++i) {
+    const Vec2 e = x - static_cast<const PointPrior<Vec2>&>(p.graph.at(i)).measurement();
+    double rho[3];
+    p.graph.at(i).loss()->Evaluate(e.squaredNorm(), rho);
+    num += rho[1] * e;
+    den += rho[1];
+  }
+  return x - num / ((1 + lambda) * den);
+}
+
 TEST(RobustSolveTest, AGaussNewtonStepIsTheReweightedLeastSquaresStepByHand) {
   // Iteratively reweighted least squares: each factor's residual and Jacobian are weighted by
   // sqrt(rho'(s)) at the current point, so the step solves sum_i w_i (x + d - z_i) = 0 with
   // w_i = rho'(|x - z_i|^2): d = -sum w_i (x - z_i) / sum w_i.
   for (const char* loss : {"huber:1", "cauchy:1", "gm:2", "dcs:1", "tukey:4"}) {
     RobustPoint p = MakeRobustPoint(loss);
-    const Vec2 x = p.values.At<Vec2>(1);
-    Vec2 num = Vec2::Zero();
-    double den = 0;
-    for (std::size_t i = 0; i < p.graph.size(); ++i) {
-      const Vec2 e = x - static_cast<const PointPrior<Vec2>&>(p.graph.at(i)).measurement();
-      double rho[3];
-      p.graph.at(i).loss()->Evaluate(e.squaredNorm(), rho);
-      num += rho[1] * e;
-      den += rho[1];
-    }
-    const Vec2 by_hand = x - num / den;
+    const Vec2 by_hand = ReweightedStepByHand(p, 0);
     SolverOptions o;
     o.algorithm = Algorithm::kGaussNewton;
     o.max_iterations = 1;
@@ -193,17 +199,7 @@ TEST(RobustSolveTest, ALevenbergMarquardtStepIsTheDampedReweightedStepByHand) {
   const double lambda = 0.5;
   for (const char* loss : {"huber:1", "cauchy:1", "gm:2", "dcs:1", "tukey:4"}) {
     RobustPoint p = MakeRobustPoint(loss);
-    const Vec2 x = p.values.At<Vec2>(1);
-    Vec2 num = Vec2::Zero();
-    double den = 0;
-    for (std::size_t i = 0; i < p.graph.size(); ++i) {
-      const Vec2 e = x - static_cast<const PointPrior<Vec2>&>(p.graph.at(i)).measurement();
-      double rho[3];
-      p.graph.at(i).loss()->Evaluate(e.squaredNorm(), rho);
-      num += rho[1] * e;
-      den += rho[1];
-    }
-    const Vec2 by_hand = x - num / ((1 + lambda) * den);
+    const Vec2 by_hand = ReweightedStepByHand(p, lambda);
     SolverOptions o;
     o.algorithm = Algorithm::kLevenbergMarquardt;
     o.lm.initial_lambda = lambda;

@@ -103,6 +103,20 @@ void AddFalseClosures(const Truth& t, int count, bool grouped, std::uint64_t see
   }
 }
 
+// The factors with a loss whose final weight rho' is below 0.1 (the methods without a
+// rejected set of their own).
+std::vector<std::size_t> RejectedByWeight(const FactorGraph& graph, const Values& v) {
+  std::vector<std::size_t> rejected;
+  for (std::size_t i = 0; i < graph.size(); ++i) {
+    const Factor& f = graph.at(i);
+    if (f.loss() == nullptr) continue;
+    double rho[3];
+    f.loss()->Evaluate(f.Chi2(v), rho);
+    if (rho[1] < 0.1) rejected.push_back(i);
+  }
+  return rejected;
+}
+
 // The sigma of "sc:SIGMA" (0 where the method is not of that form or SIGMA is not above 0).
 double SwitchPriorSigma(const std::string& method) {
   if (method.compare(0, 3, "sc:") != 0) return 0;
@@ -181,13 +195,7 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
               }
               const ChunkedSolveSummary cs = SolveInChunks(graph, &v);
               ok = cs.usable;
-              for (std::size_t i = 0; i < graph.size(); ++i) {
-                const Factor& f = graph.at(i);
-                if (f.loss() == nullptr) continue;
-                double rho[3];
-                f.loss()->Evaluate(f.Chi2(v), rho);
-                if (rho[1] < 0.1) rejected.push_back(i);
-              }
+              rejected = RejectedByWeight(graph, v);
             } else if (method.compare(0, 2, "sc") == 0) {
               SwitchableOptions so;
               so.prior_sigma = method == "sc" ? 0.0 : SwitchPriorSigma(method);
@@ -200,13 +208,7 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
                                  DefaultRegistry(), &graph);
               }
               ok = Optimize(graph, &v).IsSolutionUsable();
-              for (std::size_t i = 0; i < graph.size(); ++i) {
-                const Factor& f = graph.at(i);
-                if (f.loss() == nullptr) continue;
-                double rho[3];
-                f.loss()->Evaluate(f.Chi2(v), rho);
-                if (rho[1] < 0.1) rejected.push_back(i);
-              }
+              rejected = RejectedByWeight(graph, v);
             }
           } catch (const Error& e) {
             ok = false;
