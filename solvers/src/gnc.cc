@@ -157,9 +157,22 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
   // their stated noise) and c^2 (closures that fit as stated: a closure at its bound keeps its
   // whole weight).
   const bool chunked = options.start == GncStart::kChunkedDcs;
+  // The bound c^2 and the chi2 median by residual dimension, each computed once.
+  std::map<int, double> bound_of_dim, median_of_dim;
+  const auto bound = [&](int dim) {
+    if (options.c > 0) return options.c * options.c;
+    auto it = bound_of_dim.find(dim);
+    if (it == bound_of_dim.end()) it = bound_of_dim.emplace(dim, Chi2Quantile(dim, options.inlier_probability)).first;
+    return it->second;
+  };
+  const auto median = [&](int dim) {
+    auto it = median_of_dim.find(dim);
+    if (it == median_of_dim.end()) it = median_of_dim.emplace(dim, Chi2Quantile(dim, 0.5)).first;
+    return it->second;
+  };
   std::vector<double> c2_of(work.size(), 0);
   for (std::size_t i : closures) {
-    c2_of[i] = options.c > 0 ? options.c * options.c : Chi2Quantile(work.at(i).dim(), options.inlier_probability);
+    c2_of[i] = bound(work.at(i).dim());
     work.at(i).set_loss(chunked ? std::make_shared<DcsLoss>(1.0) : nullptr);
   }
   double phi_scale = 0;  // k above (0 until learned: phi = 1)
@@ -173,8 +186,8 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
         if (!f.loop_closure() || f.loss() == nullptr) continue;
         const double s = f.Chi2(estimate);
         const double w = RobustWeight(f.loss(), s);
-        if (w * w >= options.reject_below) ratios.push_back(s / Chi2Quantile(f.dim(), 0.5));
-        const double c2 = options.c > 0 ? options.c * options.c : Chi2Quantile(f.dim(), options.inlier_probability);
+        if (w * w >= options.reject_below) ratios.push_back(s / median(f.dim()));
+        const double c2 = bound(f.dim());
         if (w * w < options.reject_below && s > kSettle * c2) settled.push_back(sub->id(i));
       }
       // A closure DCS rejects after a solve with a chi2 beyond kSettle c^2 leaves the chunks to
@@ -191,7 +204,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
       for (std::size_t i = 0; i < sub->size(); ++i) {
         Factor& f = sub->at(i);
         if (!f.loop_closure()) continue;
-        const double c2 = options.c > 0 ? options.c * options.c : Chi2Quantile(f.dim(), options.inlier_probability);
+        const double c2 = bound(f.dim());
         if (by_c2.count(c2) == 0) by_c2[c2] = std::make_shared<DcsLoss>(DcsPhi(phi_scale, c2));
         f.set_loss(by_c2[c2]);
       }

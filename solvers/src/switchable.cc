@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 
 #include "tether/core/error.h"
@@ -63,9 +64,12 @@ FactorGraph WithSwitches(const FactorGraph& graph, Values* values, const Switcha
     values->Insert(s, Switch{1.0});
     out.Add(std::make_unique<SwitchableFactor>(f.Clone(), s));
   }
+  std::map<int, double> sigma_of_dim;  // from the chi2 quantile, once per dimension
   for (std::size_t k = 0; k < keys.size(); ++k) {
-    const double sigma = options.prior_sigma > 0 ? options.prior_sigma
-                                                 : 1 / std::sqrt(Chi2Quantile(dims[k], options.inlier_probability));
+    if (options.prior_sigma == 0 && sigma_of_dim.count(dims[k]) == 0) {
+      sigma_of_dim[dims[k]] = 1 / std::sqrt(Chi2Quantile(dims[k], options.inlier_probability));
+    }
+    const double sigma = options.prior_sigma > 0 ? options.prior_sigma : sigma_of_dim[dims[k]];
     out.Add(std::make_unique<SwitchPrior>(keys[k], 1.0, SqrtInformation::Isotropic(1, sigma)));
   }
   for (Key k : graph.fixed()) out.Fix(k);
