@@ -5,6 +5,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "minimizer.h"
 #include "tether/core/error.h"
 #include "tether/solvers/optimizer.h"
 
@@ -111,7 +112,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
       if (values->Has(k)) continue;
       r.message = "factor " + std::to_string(i) + " (" + graph.at(i).Describe() + ") uses variable " +
                   std::to_string(k) + ", which has no value; give every variable an initial value";
-      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      r.seconds = internal::SecondsSince(t0);
       return r;
     }
   }
@@ -127,7 +128,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     r.iterations = r.last.iterations;
     r.usable = r.last.IsSolutionUsable();
     if (!r.usable) r.message = "the solve failed: " + r.last.message;
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.seconds = internal::SecondsSince(t0);
     return r;
   }
   const int chunks = std::max(1, std::min(options.chunks, n / options.min_chunk_poses));
@@ -146,7 +147,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     if (!r.last.IsSolutionUsable()) {
       r.message = "chunk " + std::to_string(c + 1) + " of " + std::to_string(chunks) + " (" + std::to_string(end) +
                   " poses) failed: " + r.last.message;
-      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      r.seconds = internal::SecondsSince(t0);
       return r;
     }
   }
@@ -155,7 +156,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     std::copy(p, p + AmbientDim(values->TypeOf(k)), values->Params(k));
   }
   r.usable = true;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = internal::SecondsSince(t0);
   return r;
 }
 

@@ -9,6 +9,7 @@
 #include <memory>
 #include <set>
 
+#include "minimizer.h"
 #include "tether/core/error.h"
 #include "tether/core/loss_function.h"
 #include "tether/core/robust_kernels.h"
@@ -105,10 +106,6 @@ double PredictedChi2(const Factor& f, const Values& values, const Marginals& mar
 // DCS's phi for a learned scale k and a bound c^2: k c^2, at most c^2 and at least 1 (1 also
 // where k is not learned yet, or where a bound set by hand is below 1).
 double DcsPhi(double k, double c2) { return std::max(1.0, std::min(k * c2, c2)); }
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 
@@ -223,10 +220,10 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     g.start_iterations = g.start.iterations;
   }
   g.last = g.start;
-  g.start_seconds = SecondsSince(t0);
+  g.start_seconds = internal::SecondsSince(t0);
   if (!g.start.IsSolutionUsable()) {
     g.message = "the start (" + std::string(chunked ? "chunked DCS" : "least squares") + ") failed: " + g.start.message;
-    g.seconds = SecondsSince(t0);
+    g.seconds = internal::SecondsSince(t0);
     return g;
   }
   // One surrogate per residual dimension (c^2 from the chi2 quantile), or one for all. mu_0
@@ -272,7 +269,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
       g.message =
           "GNC stage " + std::to_string(g.stages) + " (mu " + std::to_string(mu) + ") failed: " + g.last.message;
       g.mu = mu;
-      g.seconds = SecondsSince(t0);
+      g.seconds = internal::SecondsSince(t0);
       return g;
     }
     if (gm) {
@@ -288,7 +285,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     }
   }
   g.mu = mu;
-  g.stages_seconds = SecondsSince(t0) - g.start_seconds;
+  g.stages_seconds = internal::SecondsSince(t0) - g.start_seconds;
   // From a robust start the stages refine it; where they end costing more under the final
   // surrogate (the robust objective both are measured by), the start is kept.
   if (chunked && !closures.empty()) {
@@ -371,7 +368,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     if (rejected[i]) g.rejected.push_back(i);
   }
   g.usable = true;
-  g.seconds = SecondsSince(t0);
+  g.seconds = internal::SecondsSince(t0);
   g.final_seconds = g.seconds - g.start_seconds - g.stages_seconds;
   return g;
 }

@@ -6,7 +6,10 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
+#include "gauge.h"
+#include "minimizer.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/factors/switchable.h"
@@ -76,18 +79,9 @@ FactorGraph WithSwitches(const FactorGraph& graph, Values* values, const Switcha
   // The switch priors are one-key factors, which the solvers take as anchoring the graph: where
   // the graph itself has no anchor (nothing fixed, no one-key factor), hold its lowest-key pose
   // as the solvers would have.
-  bool anchored = !graph.fixed().empty();
-  for (std::size_t i = 0; i < graph.size() && !anchored; ++i) anchored = graph.at(i).keys().size() == 1;
-  if (!anchored) {
-    bool found = false;
-    Key lowest = 0;
-    for (std::size_t i = 0; i < graph.size(); ++i) {
-      for (Key k : graph.at(i).keys()) {
-        if (values->Has(k) && IsPose(values->TypeOf(k)) && (!found || k < lowest)) lowest = k, found = true;
-      }
-    }
-    if (found) out.Fix(lowest);
-  }
+  SolverSummary gauge;
+  const std::set<Key> held = internal::ChooseFixed(graph, *values, &gauge);
+  if (gauge.gauge_fixed_automatically) out.Fix(*held.begin());
   if (switch_keys != nullptr) *switch_keys = std::move(keys);
   return out;
 }
@@ -141,7 +135,7 @@ SwitchableSummary OptimizeSwitchable(const FactorGraph& graph, Values* values, c
       r.message = "least squares over the kept closures failed (" + r.refit.message + "); the switched solution stays";
     }
   }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = internal::SecondsSince(t0);
   return r;
 }
 
