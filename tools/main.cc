@@ -1,5 +1,6 @@
 // tether: the command-line program. `tether --help` lists the commands.
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <iostream>
 
 #include "tether/tools/bench.h"
@@ -7,6 +8,11 @@
 #include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
+  // A reader that goes away (`tether optimize ... | head -1`) must not end the run: writes to
+  // it fail quietly and the outputs are still written. A file-size limit (ulimit -f) becomes
+  // an error naming the file, not a signal that leaves it half written.
+  std::signal(SIGPIPE, SIG_IGN);
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"tether: factor-graph optimisation for SLAM"};
   app.require_subcommand(1);
 
@@ -168,6 +174,27 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
+  }
+  // An output option given an empty path (`-o "$UNSET"`) is refused before anything runs.
+  const std::pair<CLI::App*, std::vector<std::pair<const char*, const std::string*>>> paths[] = {
+      {optimize,
+       {{"-o", &opt.output},
+        {"--plot", &opt.plot},
+        {"--rejected-out", &opt.rejected_output},
+        {"--covariance-out", &opt.covariance_output},
+        {"--ground-truth", &opt.ground_truth}}},
+      {simulate, {{"-o", &sim.output}, {"--ground-truth", &sim.ground_truth}}},
+      {bench, {{"-o", &bc.output}}},
+      {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}}};
+  for (const auto& [sub, options] : paths) {
+    if (!sub->parsed()) continue;
+    for (const auto& [name, value] : options) {
+      if (sub->count(name) > 0 && value->empty()) {
+        std::cerr << "tether " << sub->get_name() << ": " << name
+                  << " was given an empty path (an unset shell variable?); give a file name\n";
+        return 2;
+      }
+    }
   }
   try {
     if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);

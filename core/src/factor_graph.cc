@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "tether/core/error.h"
 #include "tether/core/values.h"
 
 namespace tether {
@@ -17,6 +18,10 @@ FactorGraph& FactorGraph::operator=(const FactorGraph& other) {
     *this = std::move(copy);
   }
   return *this;
+}
+
+void FactorGraph::ThrowNullFactor() {
+  throw InvalidArgument("FactorGraph::Add: the factor is a null pointer; pass a factor made with std::make_unique");
 }
 
 bool FactorGraph::IndexOf(FactorId id, std::size_t* index) const {

@@ -1,5 +1,6 @@
 #include "tether/core/fields.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <system_error>
@@ -20,6 +21,25 @@ constexpr SeparatorTable kSeparators;
 bool IsSeparator(char c) { return kSeparators.is[static_cast<unsigned char>(c)]; }
 
 }  // namespace
+
+std::string QuoteToken(std::string_view token, std::size_t max_bytes) {
+  std::string out = "'";
+  const std::size_t shown = std::min(token.size(), max_bytes);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const unsigned char c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7f && c != '\\' && c != '\'') {
+      out.push_back(static_cast<char>(c));
+    } else {
+      static constexpr char kHex[] = "0123456789abcdef";
+      out += "\\x";
+      out.push_back(kHex[c >> 4]);
+      out.push_back(kHex[c & 15]);
+    }
+  }
+  out.push_back('\'');
+  if (shown < token.size()) out += "... (" + std::to_string(token.size()) + " bytes)";
+  return out;
+}
 
 Fields::Fields(std::string_view file, long line_number, std::string_view line) : file_(file), line_(line_number) {
   Reset(line_number, line);
@@ -62,9 +82,7 @@ double Fields::Double(std::size_t i) const {
          std::to_string(fields_.empty() ? 0 : fields_.size() - 1) + " fields after the tag); fix or remove the line");
   }
   std::string_view s = fields_[i];
-  const auto describe = [&] {
-    return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')";
-  };
+  const auto describe = [&] { return std::string(tag()) + " field " + std::to_string(i) + " (" + QuoteToken(s) + ")"; };
   // std::from_chars accepts neither a leading '+' nor leading blanks; tolerate the former.
   std::string_view digits = s;
   if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-' && digits[1] != '+') digits.remove_prefix(1);
@@ -88,9 +106,7 @@ std::uint64_t Fields::Id(std::size_t i) const {
          std::to_string(fields_.empty() ? 0 : fields_.size() - 1) + " fields after the tag); fix or remove the line");
   }
   const std::string_view s = fields_[i];
-  const auto describe = [&] {
-    return std::string(tag()) + " field " + std::to_string(i) + " ('" + std::string(s) + "')";
-  };
+  const auto describe = [&] { return std::string(tag()) + " field " + std::to_string(i) + " (" + QuoteToken(s) + ")"; };
   if (!s.empty() && s[0] == '-') {
     Fail(describe() + " is a negative id; ids must be integers from 0 to 18446744073709551615, fix the line");
   }

@@ -20,6 +20,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/fields.h"
+#include "tether/core/output_file.h"
 
 namespace tether {
 
@@ -125,6 +126,12 @@ class Reader {
       out.warnings.push_back(name_ + ": " + Describe(v.type).canonicalize_note + " on " +
                              Plural(v.canonicalized, "line", "lines") + " " + v.tag + " (first at line " +
                              std::to_string(v.first_canonicalized_line) + ")");
+    }
+    if (ctx_.canonicalized_measurements > 0) {
+      out.warnings.push_back(
+          name_ + ": " + ctx_.canonicalize_note + " in " +
+          Plural(static_cast<std::size_t>(ctx_.canonicalized_measurements), "edge measurement", "edge measurements") +
+          " (first at line " + std::to_string(ctx_.first_canonicalized_line) + ")");
     }
     if (ctx_.repaired_informations > 0) {
       out.warnings.push_back(name_ + ": repaired " +
@@ -239,7 +246,7 @@ class Reader {
     if (options_.format == FileFormat::kG2o && (tag == kToroVertex || tag == kToroEdge || tag == kToroEquiv)) {
       hint = "it is a TORO tag: read the file as TORO (a .graph name or FileFormat::kToro)";
     }
-    f.Fail("unknown tag '" + std::string(tag) + "'; known tags: " + known + "; " + hint + ", or remove the line");
+    f.Fail("unknown tag " + QuoteToken(tag) + "; known tags: " + known + "; " + hint + ", or remove the line");
   }
 
   // Records that line f uses `key` as a variable of type t; checks the type agrees.
@@ -362,6 +369,12 @@ void AppendVertex(std::string* line, Key k, VarType t, const double* p) {
     throw InvalidArgument("cannot write variable " + KeyToString(k) + " of type '" + d.name +
                           "': the type has no g2o vertex tag, so g2o files cannot hold it");
   }
+  for (int i = 0; i < d.ambient_dim; ++i) {
+    if (!std::isfinite(p[i])) {
+      throw InvalidArgument("cannot write variable " + KeyToString(k) + " (" + d.name + "): parameter " +
+                            std::to_string(i) + " is not finite, and the file could not be read back");
+    }
+  }
   line->append(d.tag);
   line->push_back(' ');
   AppendKey(line, k);
@@ -439,7 +452,25 @@ void WriteG2o(std::ostream& out, const Values& values, const FactorGraph& graph,
     buf.push_back('\n');
     flush(false);
   }
+  // Whatever is written must read back: a file with some vertices is read only where every id
+  // an edge or FIX names has one (one with none gets them composed from its edges).
+  const auto missing = [&](Key k) { return !values.empty() && !values.Has(k); };
+  for (Key k : graph.fixed()) {
+    if (missing(k)) {
+      throw InvalidArgument("cannot write FIX " + KeyToString(k) +
+                            ": the variable has no value, and the file could not be read back; insert a value for "
+                            "it or unfix it");
+    }
+  }
   for (std::size_t i = 0; i < graph.size(); ++i) {
+    for (Key k : graph.at(i).keys()) {
+      if (missing(k)) {
+        throw InvalidArgument("cannot write factor #" + std::to_string(i) + " (" + graph.at(i).type_name() +
+                              "): variable " + KeyToString(k) +
+                              " has no value, and the file could not be read back; insert a value for it or "
+                              "remove the factor");
+      }
+    }
     try {
       registry.AppendLine(graph.at(i), &buf);
     } catch (const InvalidArgument& e) {
@@ -453,29 +484,9 @@ void WriteG2o(std::ostream& out, const Values& values, const FactorGraph& graph,
 }
 
 void WriteG2oFile(const std::string& path, const Values& values, const FactorGraph& graph, const Registry& registry) {
-  const std::string tmp = path + ".tmp." + std::to_string(static_cast<long>(::getpid()));
-  {
-    std::ofstream out(tmp, std::ios::out | std::ios::trunc);
-    if (!out) {
-      throw IoError("cannot write " + path + ": cannot create " + tmp + ": " + ErrnoText() +
-                    "; check that the folder exists and is writable");
-    }
-    try {
-      WriteG2o(out, values, graph, registry);
-      out.close();
-      if (!out) throw IoError("cannot write " + path + ": writing " + tmp + " failed; check the disk space");
-    } catch (...) {
-      out.close();
-      std::remove(tmp.c_str());
-      throw;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = ErrnoText();
-    std::remove(tmp.c_str());
-    throw IoError("cannot write " + path + ": renaming " + tmp + " to it failed: " + why +
-                  "; check that the path is not a folder and is writable");
-  }
+  OutputFile out(path, "g2o graph");
+  out.Stage([&](std::ostream& s) { WriteG2o(s, values, graph, registry); });
+  out.Commit();
 }
 
 std::vector<std::vector<Key>> ConnectedPieces(const Values& values, const FactorGraph& graph) {
@@ -515,6 +526,9 @@ std::vector<std::vector<Key>> ConnectedPieces(const Values& values, const Factor
 }
 
 int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
+  if (values == nullptr) {
+    throw InvalidArgument("InitializeSpanningTree: values is a null pointer; pass the Values to initialise");
+  }
   struct Node {
     VarType type;
     std::vector<std::uint32_t> factors;  // factors with two or more keys that use this key

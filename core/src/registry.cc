@@ -42,35 +42,6 @@ std::string StandardLayout(const FactorType& t) {
 
 std::string Owned(const FactorType& t) { return "'" + t.name + "' (owner '" + t.owner + "')"; }
 
-double SmallestEigenvalue(const Eigen::MatrixXd& m) {
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(m, Eigen::EigenvaluesOnly);
-  return es.eigenvalues()(0);
-}
-
-std::string Short(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
-
-// An information entry, given the scale of its row and column, sqrt(|I_ii I_jj|). The factor
-// keeps the information as its square root, so R^T R differs from the file's numbers by a few
-// units in the 16th digit of that scale; printing to 15 digits of it gives the file's numbers
-// back (10 rather than 10.000000000000002, 0.050542 rather than 0.0505420000000001) and loses
-// nothing the square root kept.
-void AppendInformation(std::string* s, double v, double scale) {
-  if (!(std::abs(v) > 1e-15 * scale)) {  // also turns -0 into 0
-    s->push_back('0');
-    return;
-  }
-  const int digits = std::clamp(15 - static_cast<int>(std::ceil(std::log10(scale / std::abs(v)) - 1e-9)), 1, 17);
-  // to_chars with a precision prints exactly as "%.*g" does, at a fraction of snprintf's cost
-  // (writing intel.g2o: 56M of its 82M instructions were snprintf).
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
-  s->append(buf, r.ptr);
-}
-
 // What else a user can do about a clash: a plugin's types can be removed, built-in ones cannot.
 std::string UnloadHint(const FactorType& holder) {
   if (holder.owner.empty() || holder.owner == "builtin") return " (built-in types cannot be removed)";
@@ -103,9 +74,7 @@ SqrtInformation ReadContext::FromInformation(const Fields& f, Eigen::MatrixXd om
   std::string why;
   if (SqrtInformation::TryFromInformation(omega, &out, &why)) return out;
   if (repair == InformationRepair::kNone) {
-    const double smallest = omega.allFinite() ? SmallestEigenvalue(0.5 * (omega + omega.transpose())) : 0.0;
-    f.Fail("information matrix of " + std::string(f.tag()) + " is not positive definite (smallest eigenvalue " +
-           Short(smallest) + "); fix the file or pass --repair-information nearest-pd|isotropic");
+    f.Fail(std::string(f.tag()) + ": " + why + "; fix the file or pass --repair-information nearest-pd|isotropic");
   }
   if (RepairInformation(repair, &omega)) {
     if (repaired_informations++ == 0) first_repaired_line = f.line_number();
@@ -365,6 +334,34 @@ const FactorType* Registry::FindByName(const std::string& name) const {
   return it == by_name_.end() ? nullptr : &it->second;
 }
 
+namespace {
+
+// A measurement that is a value of the factor's last variable type of its size (an SE3 edge's
+// relative pose) is checked against that type's canonical form, so an edge quaternion far from
+// unit length is warned about as a vertex's is (the factor normalises it).
+void NoteCanonicalForm(const FactorType& type, const std::vector<double>& measurement, const Fields& f,
+                       ReadContext& ctx) {
+  for (auto it = type.variable_types.rbegin(); it != type.variable_types.rend(); ++it) {
+    const VariableType& d = Describe(*it);
+    if (d.ambient_dim != type.measurement_size) continue;
+    if (d.canonicalize == nullptr) return;
+    std::vector<double> copy = measurement;
+    bool changed = false;
+    try {
+      changed = d.canonicalize(copy.data());
+    } catch (const InvalidArgument&) {
+      return;  // the factory says what is wrong, with the line
+    }
+    if (changed && ctx.canonicalized_measurements++ == 0) {
+      ctx.first_canonicalized_line = f.line_number();
+      ctx.canonicalize_note = d.canonicalize_note;
+    }
+    return;
+  }
+}
+
+}  // namespace
+
 std::unique_ptr<Factor> Registry::Read(const FactorType& type, const Fields& f, ReadContext& ctx) const {
   std::unique_ptr<Factor> factor;
   try {
@@ -381,6 +378,7 @@ std::unique_ptr<Factor> Registry::Read(const FactorType& type, const Fields& f, 
       std::vector<double> measurement;
       measurement.reserve(type.measurement_size);
       for (int k = 0; k < type.measurement_size; ++k) measurement.push_back(f.Double(i++));
+      NoteCanonicalForm(type, measurement, f, ctx);
       const SqrtInformation noise = ctx.ReadUpperInformation(f, i, type.dim);
       factor = type.make(std::move(keys), measurement.data(), noise);
     }
@@ -423,15 +421,21 @@ void Registry::AppendLine(const Factor& factor, std::string* line) const {
     line->push_back(' ');
     AppendKey(line, k);
   }
-  for (double v : m) {
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    if (!std::isfinite(m[i])) {
+      throw InvalidArgument("cannot write a factor of type '" + type->name + "': measurement number " +
+                            std::to_string(i) + " is not finite, and the file could not be read back");
+    }
     line->push_back(' ');
-    AppendDouble(line, v);
+    AppendDouble(line, m[i]);
   }
+  // The information as the factor was given it (or R^T R), each entry the shortest text that
+  // reads back as the same double: a file's own numbers come back as they were.
   const Eigen::MatrixXd info = factor.noise().Information();
   for (int i = 0; i < info.rows(); ++i) {
     for (int j = i; j < info.cols(); ++j) {
       line->push_back(' ');
-      AppendInformation(line, info(i, j), std::sqrt(std::abs(info(i, i) * info(j, j))));
+      AppendDouble(line, info(i, j));
     }
   }
 }

@@ -11,12 +11,27 @@
 namespace tether {
 
 namespace {
+
+// The rule a refused matrix broke, and its numbers. Accepted: finite, symmetric, and every
+// pivot of its Cholesky factor above kPivotFloor times the square root of its largest entry
+// (a condition number up to about 1 / kPivotFloor^2 = 1e24).
+constexpr double kPivotFloor = 1e-12;
+
 std::string NotPositiveDefinite(const Eigen::MatrixXd& omega) {
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(omega, Eigen::EigenvaluesOnly);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (omega + omega.transpose()), Eigen::EigenvaluesOnly);
+  const double lo = es.eigenvalues()(0), hi = es.eigenvalues()(es.eigenvalues().size() - 1);
   std::ostringstream s;
-  s << "information matrix is not positive definite (smallest eigenvalue " << es.eigenvalues()(0) << ")";
+  s.precision(3);
+  if (!(lo > 0)) {
+    s << "information matrix is not positive definite (smallest eigenvalue " << lo << ", largest " << hi << ")";
+  } else {
+    s << "information matrix is singular to working precision: positive definite on paper (eigenvalues " << lo << " to "
+      << hi << ", condition number " << hi / lo << "), but a pivot of its Cholesky factor falls below " << kPivotFloor
+      << " times the square root of its largest entry (tether's limit, about condition number 1e24)";
+  }
   return s.str();
 }
+
 }  // namespace
 
 bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why) {
@@ -46,7 +61,7 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
     // LLT succeeds on matrices that are only semidefinite up to rounding; insist on a
     // strictly positive pivot relative to the scale.
     const Small L = llt.matrixL();
-    for (int i = 0; i < n; ++i) ok = ok && L(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
+    for (int i = 0; i < n; ++i) ok = ok && L(i, i) > kPivotFloor * std::sqrt(std::max(scale, 1e-300));
   }
   if (!ok) {
     if (why) *why = NotPositiveDefinite(omega);
@@ -57,6 +72,9 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
   const Small U = llt.matrixU();
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) r.r_[i * n + j] = j >= i ? U(i, j) : 0.0;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kInlineResidualDim, kInlineResidualDim> rows =
+      omega;
+  r.KeepGiven(rows.data());
   *out = r;
   return true;
 }
@@ -66,7 +84,7 @@ bool SqrtInformation::FromLarge(const Eigen::MatrixXd& omega, double scale, Sqrt
   Eigen::LLT<Eigen::MatrixXd> llt(omega);
   bool ok = llt.info() == Eigen::Success;
   const Eigen::MatrixXd U = llt.matrixU();
-  for (int i = 0; ok && i < n; ++i) ok = U(i, i) > 1e-12 * std::sqrt(std::max(scale, 1e-300));
+  for (int i = 0; ok && i < n; ++i) ok = U(i, i) > kPivotFloor * std::sqrt(std::max(scale, 1e-300));
   if (!ok) {
     if (why) *why = NotPositiveDefinite(omega);
     return false;
@@ -76,14 +94,29 @@ bool SqrtInformation::FromLarge(const Eigen::MatrixXd& omega, double scale, Sqrt
   double* d = r.data();
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) d[i * n + j] = j >= i ? U(i, j) : 0.0;
+  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = omega;
+  r.KeepGiven(rows.data());
   *out = std::move(r);
   return true;
 }
 
 void SqrtInformation::Resize(int dim) {
   dim_ = dim;
+  given_ = false;
   std::fill(r_, r_ + kInlineResidualDim * kInlineResidualDim, 0.0);
-  big_.assign(dim > kInlineResidualDim ? static_cast<std::size_t>(dim) * dim : 0, 0.0);
+  std::fill(given_diag_, given_diag_ + kInlineResidualDim, 0.0);
+  big_.assign(dim > kInlineResidualDim ? static_cast<std::size_t>(dim) * (dim + 1) : 0, 0.0);
+}
+
+void SqrtInformation::KeepGiven(const double* omega) {
+  const int n = dim_;
+  double* d = data();
+  double* diag = n <= kInlineResidualDim ? given_diag_ : big_.data() + static_cast<std::size_t>(n) * n;
+  for (int i = 0; i < n; ++i) {
+    diag[i] = omega[i * n + i];
+    for (int j = i + 1; j < n; ++j) d[j * n + i] = omega[i * n + j];
+  }
+  given_ = true;
 }
 
 SqrtInformation SqrtInformation::FromSigmas(const Eigen::VectorXd& sigmas) {
@@ -125,13 +158,24 @@ SqrtInformation SqrtInformation::Isotropic(int dim, double sigma) {
 Eigen::MatrixXd SqrtInformation::R() const {
   Eigen::MatrixXd m(dim_, dim_);
   for (int i = 0; i < dim_; ++i)
-    for (int j = 0; j < dim_; ++j) m(i, j) = data()[i * dim_ + j];
+    for (int j = 0; j < dim_; ++j) m(i, j) = j >= i ? data()[i * dim_ + j] : 0.0;
   return m;
 }
 
 Eigen::MatrixXd SqrtInformation::Information() const {
-  const Eigen::MatrixXd r = R();
-  return r.transpose() * r;
+  if (!given_) {
+    const Eigen::MatrixXd r = R();
+    return r.transpose() * r;
+  }
+  const int n = dim_;
+  const double* d = data();
+  const double* diag = n <= kInlineResidualDim ? given_diag_ : big_.data() + static_cast<std::size_t>(n) * n;
+  Eigen::MatrixXd omega(n, n);
+  for (int i = 0; i < n; ++i) {
+    omega(i, i) = diag[i];
+    for (int j = i + 1; j < n; ++j) omega(i, j) = omega(j, i) = d[j * n + i];
+  }
+  return omega;
 }
 
 namespace {

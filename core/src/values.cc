@@ -14,15 +14,42 @@ const std::vector<double>& EmptyData() {
 }
 }  // namespace
 
+namespace {
+
+// A value the type's canonical form rejects (a zero quaternion) is refused where it comes in:
+// it would solve to nonsense and be written into a file the reader refuses. Non-finite values
+// are left to the solvers (which name the factor and keys) and the writer (which refuses them).
+void CheckParams(Key k, VarType type, const double* params) {
+  const VariableType& d = Describe(type);
+  if (d.canonicalize == nullptr) return;
+  double copy[64];
+  std::vector<double> big;
+  double* x = copy;
+  if (d.ambient_dim > 64) {
+    big.assign(params, params + d.ambient_dim);
+    x = big.data();
+  } else {
+    std::copy(params, params + d.ambient_dim, copy);
+  }
+  try {
+    d.canonicalize(x);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument("Values::Insert: key " + KeyToString(k) + " (" + d.name + "): " + e.what());
+  }
+}
+
+}  // namespace
+
 void Values::InsertParams(Key k, VarType type, const double* params) {
   if (!IsKnown(type)) {
     throw InvalidArgument("Values::Insert: key " + KeyToString(k) + " has variable type id " +
                           std::to_string(static_cast<int>(type)) + ", which is not registered");
   }
+  const int n = AmbientDim(type);
+  CheckParams(k, type, params);
   const std::size_t t = static_cast<std::size_t>(type);
   if (data_.size() <= t) data_.resize(t + 1);
   std::vector<double>& d = data_[t];
-  const int n = AmbientDim(type);
   const auto index = static_cast<std::uint32_t>(d.size() / n);
   if (!slots_.emplace(k, Slot{type, index}).second) {
     throw InvalidArgument("Values::Insert: key " + KeyToString(k) + " exists already (as " +

@@ -475,6 +475,7 @@ void PointsFromPoses(const FactorGraph& graph, Values* values, InitSummary* s) {
 }  // namespace
 
 InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method) {
+  if (values == nullptr) throw InvalidArgument("Initialize: values is a null pointer; pass the Values to initialise");
   const auto start = std::chrono::steady_clock::now();
   InitSummary s;
   s.method = method;

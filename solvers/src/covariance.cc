@@ -1,16 +1,16 @@
 #include "tether/solvers/covariance.h"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <ostream>
 #include <unordered_map>
 
 #include "covariance_factor.h"
 #include "gauge.h"
 #include "minimizer.h"
 #include "problem.h"
+#include "tether/core/output_file.h"
+#include "tether/core/registry.h"
 
 namespace tether {
 
@@ -163,40 +163,37 @@ std::string Marginals::Description() const {
   return d;
 }
 
-void WriteCovarianceFile(const std::string& path, const Values& values, const std::vector<Key>& keys,
-                         const std::vector<Eigen::MatrixXd>& covariances) {
+void WriteCovariances(std::ostream& out, const Values& values, const std::vector<Key>& keys,
+                      const std::vector<Eigen::MatrixXd>& covariances) {
   if (keys.size() != covariances.size()) {
-    throw InvalidArgument("WriteCovarianceFile: " + std::to_string(keys.size()) + " keys but " +
+    throw InvalidArgument("WriteCovariances: " + std::to_string(keys.size()) + " keys but " +
                           std::to_string(covariances.size()) + " covariances");
   }
-  const std::string tmp = path + ".tmp." + std::to_string(static_cast<long>(::getpid()));
-  {
-    std::ofstream f(tmp);
-    if (!f) throw IoError(path + ": cannot write the covariances (cannot create " + tmp + "); check the folder");
-    f << "# tether marginal covariances in tangent coordinates (box-plus delta): id type n, then the upper "
-         "triangle row by row\n";
-    char buf[32];
-    for (std::size_t i = 0; i < keys.size(); ++i) {
-      const Eigen::MatrixXd& c = covariances[i];
-      f << keys[i] << ' ' << ToString(values.TypeOf(keys[i])) << ' ' << c.rows();
-      for (Eigen::Index r = 0; r < c.rows(); ++r) {
-        for (Eigen::Index k = r; k < c.cols(); ++k) {
-          std::snprintf(buf, sizeof buf, " %.17g", c(r, k));
-          f << buf;
-        }
+  std::string line =
+      "# tether marginal covariances in tangent coordinates (box-plus delta): id type n, then the upper "
+      "triangle row by row\n";
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const Eigen::MatrixXd& c = covariances[i];
+    AppendKey(&line, keys[i]);
+    line += ' ' + std::string(ToString(values.TypeOf(keys[i]))) + ' ' + std::to_string(c.rows());
+    for (Eigen::Index r = 0; r < c.rows(); ++r) {
+      for (Eigen::Index k = r; k < c.cols(); ++k) {
+        line.push_back(' ');
+        AppendDouble(&line, c(r, k));
       }
-      f << '\n';
     }
-    f.flush();
-    if (!f) {
-      std::remove(tmp.c_str());
-      throw IoError(path + ": writing the covariances failed (disk full?)");
-    }
+    line.push_back('\n');
+    out.write(line.data(), static_cast<std::streamsize>(line.size()));
+    line.clear();
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw IoError(path + ": cannot rename " + tmp + " into place; check the folder's permissions");
-  }
+  out.write(line.data(), static_cast<std::streamsize>(line.size()));
+}
+
+void WriteCovarianceFile(const std::string& path, const Values& values, const std::vector<Key>& keys,
+                         const std::vector<Eigen::MatrixXd>& covariances) {
+  OutputFile file(path, "covariances");
+  file.Stage([&](std::ostream& s) { WriteCovariances(s, values, keys, covariances); });
+  file.Commit();
 }
 
 }  // namespace tether

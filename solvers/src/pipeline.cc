@@ -4,6 +4,7 @@
 
 #include "tether/core/enum_names.h"
 #include "tether/core/error.h"
+#include "tether/core/output_file.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -50,8 +51,9 @@ int PipelineResult::ExitCode() const {
     case PipelineStatus::kSolveFailed:
       return 3;
     case PipelineStatus::kBadInput:
-    case PipelineStatus::kWriteFailed:
       return 1;
+    case PipelineStatus::kWriteFailed:
+      return 4;
   }
   return 1;
 }
@@ -91,6 +93,19 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
     ApplyRobustRules(options.robust, registry, &none);  // a tag no type has: refused before reading
   } catch (const InvalidArgument& e) {
     return stop(PipelineStatus::kInvalidOptions, e.what());
+  }
+  // The output is checked before anything is read: a typo in its folder costs no solve.
+  OutputSet outputs;
+  OutputFile* output = nullptr;
+  if (!options.output.empty()) {
+    try {
+      outputs.AddInput(options.input, "input graph");
+      output = &outputs.Add(options.output, "optimised graph");
+    } catch (const IoError& e) {
+      return stop(PipelineStatus::kWriteFailed, std::string(e.what()) + "; nothing was read");
+    } catch (const Error& e) {
+      return stop(PipelineStatus::kInvalidOptions, e.what());
+    }
   }
   try {
     r.file = ReadProblem(options, registry);
@@ -138,9 +153,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
                                                   "): " + r.summary.message + "; no output written");
   }
 
-  if (!options.output.empty()) {
+  if (output != nullptr) {
     try {
-      WriteProblem(options.output, r.file.graph, r.values, registry);
+      output->Stage([&](std::ostream& s) { WriteG2o(s, r.values, r.file.graph, registry); });
+      output->Commit();
     } catch (const Error& e) {
       return stop(PipelineStatus::kWriteFailed, e.what());
     }

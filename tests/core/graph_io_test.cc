@@ -327,8 +327,8 @@ TEST(GraphIoTest, NonPositiveDefiniteInformationIsAnErrorUnlessRepaired) {
       "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
       "EDGE_SE2 0 2 2 0 0 1 3 0 1 0 1\n";
   EXPECT_EQ(ReadError(text),
-            "t.g2o:4: information matrix of EDGE_SE2 is not positive definite (smallest eigenvalue -0.5); fix the "
-            "file or pass --repair-information nearest-pd|isotropic");
+            "t.g2o:4: EDGE_SE2: information matrix is not positive definite (smallest eigenvalue -0.5, largest 1); "
+            "fix the file or pass --repair-information nearest-pd|isotropic");
   for (InformationRepair r : {InformationRepair::kNearestPD, InformationRepair::kIsotropic}) {
     const GraphFile g = Read(text, "t.g2o", Repair(r));
     EXPECT_EQ(g.repaired_informations, 2);
@@ -565,7 +565,7 @@ TEST(GraphIoTest, ToroIsDetectedByTagsAndErrorsUseToroLayouts) {
             "I13 I23, "
             "TORO's order), found 10; fix or remove the line");
   EXPECT_CONTAINS(ReadError("EDGE2 0 1 1 0 0 1 0 -1 1 0 0\n", "w.graph"),
-                  "w.graph:1: information matrix of EDGE2 is not positive definite (smallest eigenvalue -1)");
+                  "w.graph:1: EDGE2: information matrix is not positive definite (smallest eigenvalue -1,");
   EXPECT_EQ(
       Read("EDGE2 0 1 1 0 0 1 0 -1 1 0 0\n", "w.graph", Repair(InformationRepair::kNearestPD)).repaired_informations,
       1);
@@ -690,11 +690,11 @@ TEST(GraphIoTest, WriteFailuresThrowIoErrorNamingThePathAndLeaveNothingBehind) {
   TempDir dir;
   const std::string missing = dir.File("no/such/folder/out.g2o");
   EXPECT_CONTAINS(ErrorOf<IoError>([&] { WriteG2oFile(missing, values, graph, DefaultRegistry()); }),
-                  "cannot write " + missing);
-  // The target is a folder: the rename fails and the temporary file is removed.
+                  "cannot write the g2o graph '" + missing + "': its folder");
+  // The target is a folder: refused before anything is written.
   fs::create_directories(dir.File("a_folder"));
   const std::string m = ErrorOf<IoError>([&] { WriteG2oFile(dir.File("a_folder"), values, graph, DefaultRegistry()); });
-  EXPECT_CONTAINS(m, "cannot write " + dir.File("a_folder") + ": renaming");
+  EXPECT_CONTAINS(m, "cannot write the g2o graph '" + dir.File("a_folder") + "': it is a folder");
   EXPECT_EQ(dir.Entries(), std::vector<std::string>{"a_folder"});
   // A factor that cannot be written: the exception passes through, no file appears.
   FactorGraph bad;

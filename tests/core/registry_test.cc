@@ -333,13 +333,13 @@ TEST(RegistryTest, NonPositiveDefiniteInformationIsAnErrorByDefault) {
   const std::string m = ErrorOf<ParseError>(
       [&] { r.Read(*r.FindByTag("EDGE_SE2"), Fields("g.g2o", 5, "EDGE_SE2 1 2 0 0 0 1 0 0 -2 0 1"), ctx); });
   EXPECT_EQ(m,
-            "g.g2o:5: information matrix of EDGE_SE2 is not positive definite (smallest eigenvalue -2); fix the "
-            "file or pass --repair-information nearest-pd|isotropic");
+            "g.g2o:5: EDGE_SE2: information matrix is not positive definite (smallest eigenvalue -2, largest 1); "
+            "fix the file or pass --repair-information nearest-pd|isotropic");
   // A singular (semidefinite) matrix is not positive definite either.
   EXPECT_CONTAINS(ErrorOf<ParseError>([&] {
                     r.Read(*r.FindByTag("EDGE_SE2"), Fields("g.g2o", 6, "EDGE_SE2 1 2 0 0 0 1 1 0 1 0 1"), ctx);
                   }),
-                  "g.g2o:6: information matrix of EDGE_SE2 is not positive definite (smallest eigenvalue");
+                  "g.g2o:6: EDGE_SE2: information matrix is not positive definite (smallest eigenvalue");
   EXPECT_EQ(ctx.repaired_informations, 0);
 }
 
@@ -350,8 +350,8 @@ TEST(RegistryTest, NonPositiveDefiniteSE3InformationNamesTheTag) {
     for (int j = i; j < 6; ++j) line += i == j ? (i == 4 ? " -3.2e-05" : " 1") : " 0";
   ReadContext ctx;
   EXPECT_EQ(ErrorOf<ParseError>([&] { r.Read(*r.FindByTag("EDGE_SE3:QUAT"), Fields("p.g2o", 31, line), ctx); }),
-            "p.g2o:31: information matrix of EDGE_SE3:QUAT is not positive definite (smallest eigenvalue "
-            "-3.2e-05); "
+            "p.g2o:31: EDGE_SE3:QUAT: information matrix is not positive definite (smallest eigenvalue "
+            "-3.2e-05, largest 1); "
             "fix the file or pass --repair-information nearest-pd|isotropic");
 }
 

@@ -271,10 +271,18 @@ TEST_F(PipelineTest, OutputThatCannotBeWrittenIsWriteFailed) {
   o.output = P("no/such/folder/out.g2o");
   const PipelineResult r = RunPipeline(o, DefaultRegistry());
   EXPECT_EQ(r.status, PipelineStatus::kWriteFailed);
-  EXPECT_EQ(r.ExitCode(), 1);
-  EXPECT_TRUE(r.summary.IsSolutionUsable());
+  EXPECT_EQ(r.ExitCode(), 4);
+  // Checked before anything is read: a typo in the folder costs no solve.
+  EXPECT_FALSE(r.optimized);
+  EXPECT_EQ(r.file.graph.size(), 0u);
   EXPECT_NE(r.message.find("no/such/folder/out.g2o"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("nothing was read"), std::string::npos) << r.message;
   EXPECT_FALSE(r.written);
+  // An output that names the input is refused as an invalid option.
+  o.output = o.input;
+  const PipelineResult same = RunPipeline(o, DefaultRegistry());
+  EXPECT_EQ(same.status, PipelineStatus::kInvalidOptions);
+  EXPECT_NE(same.message.find("does not write over what it reads"), std::string::npos) << same.message;
 }
 
 TEST(PipelineOptionsTest, DefaultsNeedOnlyAnInput) {

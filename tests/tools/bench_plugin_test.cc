@@ -11,6 +11,7 @@
 #include <string>
 
 #include "tether/tools/bench.h"
+#include "tether/tools/commands.h"
 
 namespace tether {
 namespace {
@@ -67,7 +68,7 @@ TEST_F(BenchPluginTest, APluginThatCannotBeLoadedRunsNothing) {
   cmd.repeat = 1;
   cmd.plugins = {P("no_such_plugin.so")};
   std::ostringstream out, err;
-  EXPECT_EQ(RunBench(cmd, out, err), 1);
+  EXPECT_EQ(RunBench(cmd, out, err), kExitPluginFailed);
   EXPECT_NE(err.str().find("no_such_plugin"), std::string::npos) << err.str();
   EXPECT_EQ(err.str().find("run 1 of"), std::string::npos) << err.str();
   EXPECT_TRUE(out.str().empty()) << out.str();

@@ -22,6 +22,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/commands.h"
 #include "tether/tools/outlier_bench.h"
 #include "tether/tools/replay_bench.h"
 
@@ -441,7 +442,7 @@ int RunOutliers(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
     err << "error: " << e.what() << "\n";
     return 1;
   }
-  return bench::WriteTable(FormatOutlierBenchMarkdown(rows), cmd.output, out, err) != 0 ? 1 : 0;
+  return bench::WriteTable(FormatOutlierBenchMarkdown(rows), cmd.output, out, err);
 }
 
 }  // namespace
@@ -508,7 +509,7 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
       err << l.Summary() << "\n";
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
-      return 1;
+      return kExitPluginFailed;
     }
   }
 
@@ -562,7 +563,7 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
 
   const std::string table =
       cmd.format == "csv" ? FormatBenchCsv(rows, blas) : FormatBenchMarkdown(rows, cmd.repeat, blas);
-  if (bench::WriteTable(table, cmd.output, out, err) != 0) return 1;
+  if (const int rc = bench::WriteTable(table, cmd.output, out, err); rc != 0) return rc;
 
   std::vector<BenchOutcome> outcomes;
   for (const BenchRow& row : rows) outcomes.push_back(row.outcome);

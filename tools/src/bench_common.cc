@@ -15,6 +15,8 @@
 #include <sstream>
 
 #include "tether/core/enum_names.h"
+#include "tether/core/error.h"
+#include "tether/core/output_file.h"
 
 namespace tether {
 namespace bench {
@@ -183,10 +185,13 @@ std::string CheckFilesAndOutput(const std::vector<std::string>& files, const std
     if (fs::is_directory(f, ec)) return f + " is a directory; name graph files";
   }
   if (!output.empty()) {
-    const fs::path parent = fs::path(output).parent_path();
-    std::error_code ec;
-    if (!parent.empty() && !fs::is_directory(parent, ec)) {
-      return "cannot write " + output + ": no folder " + parent.string();
+    // The same checks every output of tether gets (output_file.h): up front, before any run.
+    OutputSet outputs;
+    for (const std::string& f : files) outputs.AddInput(f, "graph file");
+    try {
+      outputs.Add(output, "table");
+    } catch (const Error& e) {
+      return e.what();
     }
   }
   return "";
@@ -197,24 +202,11 @@ int WriteTable(const std::string& table, const std::string& output, std::ostream
     out << table << std::flush;
     return 0;
   }
-  const std::string tmp = output + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp);
-    f << table;
-    f.close();
-    if (!f) {
-      err << "error: cannot write " << tmp << "\n";
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      return 1;
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, output, ec);
-  if (ec) {
-    err << "error: cannot write " << output << ": " << ec.message() << "\n";
-    fs::remove(tmp, ec);
-    return 1;
+  try {
+    WriteTextFile(output, table, "table");
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return 4;
   }
   err << "wrote " << output << "\n";
   return 0;

@@ -8,6 +8,7 @@
 #include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/output_file.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/covariance.h"
@@ -181,9 +182,10 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
   return true;
 }
 
-// --gnc, --switchable: the rejected loop closures, counted and written as g2o lines.
-int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, const Registry& registry,
-                   std::ostream& out, std::ostream& err) {
+// --gnc, --switchable: the rejected loop closures, counted, and staged as g2o lines into
+// `file` where there is one.
+void ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, const Registry& registry,
+                    OutputFile* file, std::ostream& out) {
   const bool gnc = cmd.gnc;
   const std::vector<std::size_t>& rejected = gnc ? result.gnc.rejected : result.switchable.rejected;
   const std::vector<double>& weights = gnc ? result.gnc.weights : result.switchable.weights;
@@ -201,9 +203,7 @@ int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, con
   out << rejected.size() << " of " << (gnc ? result.gnc.loop_closures : result.switchable.loop_closures)
       << " loop closures rejected (weight below "
       << (gnc ? GncOptions().reject_below : SwitchableOptions().reject_below) << "), " << seconds << "\n";
-  std::string path = cmd.rejected_output;
-  if (path.empty() && !cmd.output.empty()) path = cmd.output + ".rejected.g2o";
-  if (path.empty()) return 0;
+  if (file == nullptr) return;
   std::string text;
   for (std::size_t i : rejected) {
     char weight[64];
@@ -215,14 +215,7 @@ int ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, con
       text += "# (no g2o form: " + std::string(e.what()) + ")\n";
     }
   }
-  try {
-    svg::WriteTextFile(path, text, "rejected loop closures");
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return 1;
-  }
-  out << "wrote the rejected loop closures to " << path << "\n";
-  return 0;
+  file->Stage(text);
 }
 
 // --covariance: "all", or comma-separated ids into `keys`; false after saying why.
@@ -252,11 +245,10 @@ bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std
   return true;
 }
 
-// The marginal covariances at the solution, written to the covariance file; 0, or 1 after
-// saying why (an id that has none, a singular system, a file that cannot be written).
-int WriteCovariances(const OptimizeCommand& cmd, const PipelineResult& result, std::vector<Key> keys, std::ostream& out,
-                     std::ostream& err) {
-  const std::string path = cmd.covariance_output.empty() ? cmd.output + ".cov" : cmd.covariance_output;
+// The marginal covariances at the solution, staged into `file`; 0, or 1 after saying why (an
+// id that has none, a singular system).
+int StageCovariances(const OptimizeCommand& cmd, const PipelineResult& result, std::vector<Key> keys, OutputFile* file,
+                     std::ostream& out, std::ostream& err) {
   CovarianceOptions options;
   if (cmd.linear == "ldlt" || cmd.linear == "qr") options.linear_solver = cmd.linear;
   options.num_threads = cmd.threads;
@@ -268,17 +260,74 @@ int WriteCovariances(const OptimizeCommand& cmd, const PipelineResult& result, s
     if (cmd.covariance == "all") keys = marginals.free_keys();
     const std::vector<Eigen::MatrixXd> cov = marginals.MarginalsOf(keys);
     const Clock::time_point t2 = Clock::now();
-    WriteCovarianceFile(path, result.values, keys, cov);
-    const auto s = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
+    file->Stage([&](std::ostream& s) { WriteCovariances(s, result.values, keys, cov); });
+    const auto sec = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
     char buf[240];
     std::snprintf(buf, sizeof buf,
                   "covariance of %zu variables in %.4f s: linearise %.4f s, factorise %.4f s, marginals %.4f s\n",
-                  keys.size(), s(t2 - t0), marginals.linearize_seconds(), marginals.factorize_seconds(), s(t2 - t1));
+                  keys.size(), sec(t2 - t0), marginals.linearize_seconds(), marginals.factorize_seconds(),
+                  sec(t2 - t1));
     out << buf << "covariance method: " << marginals.Description() << "\n";
-    out << "wrote " << path << "\n";
+  } catch (const IoError&) {
+    throw;
   } catch (const Error& e) {
     err << "error: covariance: " << e.what() << "\n";
     return 1;
+  }
+  return 0;
+}
+
+// Every output of `tether optimize`, checked before anything runs (paths usable, none naming
+// an input or another output) and committed together once everything is staged.
+struct OptimizeOutputs {
+  OutputSet set;
+  OutputFile* graph = nullptr;
+  OutputFile* plot = nullptr;
+  OutputFile* rejected = nullptr;
+  OutputFile* covariance = nullptr;
+};
+
+// 0, or the exit code after saying why: 2 for an output the arguments cannot have (an empty
+// path, two outputs or an input and an output on one file), 4 for a path that cannot be written.
+int PrepareOutputs(const OptimizeCommand& cmd, OptimizeOutputs* o, std::ostream& err) {
+  try {
+    o->set.AddInput(cmd.input, "input graph");
+    o->set.AddInput(cmd.ground_truth, "ground truth");
+    for (const std::string& p : cmd.plugins) o->set.AddInput(p, "plugin");
+    if (!cmd.output.empty()) o->graph = &o->set.Add(cmd.output, "optimised graph");
+    if (!cmd.plot.empty()) o->plot = &o->set.Add(cmd.plot, "plot");
+    if (cmd.gnc || cmd.switchable) {
+      const std::string path = !cmd.rejected_output.empty() ? cmd.rejected_output
+                               : !cmd.output.empty()        ? cmd.output + ".rejected.g2o"
+                                                            : "";
+      if (!path.empty()) o->rejected = &o->set.Add(path, "rejected loop closures");
+    }
+    if (!cmd.covariance.empty() && (!cmd.output.empty() || !cmd.covariance_output.empty())) {
+      const std::string path = cmd.covariance_output.empty() ? cmd.output + ".cov" : cmd.covariance_output;
+      o->covariance = &o->set.Add(path, "covariances");
+    }
+  } catch (const IoError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  } catch (const Error& e) {
+    err << "tether optimize: " << e.what() << "\n";
+    return 2;
+  }
+  for (const std::string& note : o->set.Notes()) err << "note: " << note << "\n";
+  return 0;
+}
+
+// Commits every staged output and says so; 0, or kExitWriteFailed after saying why (nothing is
+// then written).
+int CommitOutputs(OutputSet* set, const std::vector<const OutputFile*>& files, std::ostream& out, std::ostream& err) {
+  try {
+    set->CommitAll();
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  }
+  for (const OutputFile* f : files) {
+    if (f != nullptr && f->committed()) out << "wrote " << f->path() << "\n";
   }
   return 0;
 }
@@ -288,9 +337,12 @@ int WriteCovariances(const OptimizeCommand& cmd, const PipelineResult& result, s
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
   PipelineOptions po;
   if (!FillPipelineOptions(cmd, &po, err)) return 2;
+  OptimizeOutputs outputs;
+  if (const int rc = PrepareOutputs(cmd, &outputs, err); rc != 0) return rc;
+  po.output.clear();  // the graph is staged with the other outputs and committed with them
   Registry& registry = DefaultRegistry();
   PluginLoader loader(registry);
-  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
+  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return kExitPluginFailed;
   if (!CheckSolverOptions(cmd, &po.solver, err)) return 2;
   std::vector<Key> covariance_keys;
   if (!ParseCovarianceKeys(cmd, &covariance_keys, err)) return 2;
@@ -337,14 +389,19 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     err << "error: " << result.message << "\n";
     return result.ExitCode();
   }
-  if (result.written) out << "wrote " << cmd.output << "\n";
-  if (cmd.gnc || cmd.switchable) {
-    const int rc = ReportRejected(cmd, result, registry, out, err);
-    if (rc != 0) return rc;
-  }
-  if (!cmd.covariance.empty()) {
-    const int rc = WriteCovariances(cmd, result, covariance_keys, out, err);
-    if (rc != 0) return rc;
+  // Every output is staged first; a failure on the way leaves every target as it was.
+  try {
+    if (outputs.graph != nullptr) {
+      outputs.graph->Stage([&](std::ostream& s) { WriteG2o(s, result.values, result.file.graph, registry); });
+    }
+    if (cmd.gnc || cmd.switchable) ReportRejected(cmd, result, registry, outputs.rejected, out);
+    if (outputs.covariance != nullptr) {
+      const int rc = StageCovariances(cmd, result, covariance_keys, outputs.covariance, out, err);
+      if (rc != 0) return rc;
+    }
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
   }
   if (!cmd.ground_truth.empty()) {
     const TrajectoryError start = AbsoluteTrajectoryError(result.file.values, truth.values);
@@ -358,20 +415,19 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     }
   }
   try {
-    if (!cmd.plot.empty()) {
+    if (outputs.plot != nullptr) {
       PlotOptions plot;
       plot.title = cmd.input;
       plot.before_label = "file's start";
       plot.after_label = "result";
       const Values* gt = cmd.ground_truth.empty() ? nullptr : &truth.values;
-      WriteSvgFile(cmd.plot, result.file.graph, &result.file.values, &result.values, gt, plot);
-      out << "wrote " << cmd.plot << "\n";
+      outputs.plot->Stage(RenderSvg(result.file.graph, &result.file.values, &result.values, gt, plot));
     }
   } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return 1;
+    err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
   }
-  return 0;
+  return CommitOutputs(&outputs.set, {outputs.graph, outputs.rejected, outputs.covariance, outputs.plot}, out, err);
 }
 
 int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err) {
@@ -391,13 +447,30 @@ int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err
     err << "tether simulate: -o FILE is required\n";
     return 2;
   }
+  OutputSet outputs;
+  OutputFile* graph_file = nullptr;
+  OutputFile* truth_file = nullptr;
+  try {
+    graph_file = &outputs.Add(cmd.output, "simulated graph");
+    if (!cmd.ground_truth.empty()) truth_file = &outputs.Add(cmd.ground_truth, "ground truth");
+  } catch (const IoError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  } catch (const Error& e) {
+    err << "tether simulate: " << e.what() << "\n";
+    return 2;
+  }
+  for (const std::string& note : outputs.Notes()) err << "note: " << note << "\n";
   const SimulatedGraph sim = Simulate(so);
   try {
-    WriteG2oFile(cmd.output, sim.initial, sim.graph, DefaultRegistry());
-    if (!cmd.ground_truth.empty()) WriteG2oFile(cmd.ground_truth, sim.ground_truth, sim.graph, DefaultRegistry());
+    graph_file->Stage([&](std::ostream& s) { WriteG2o(s, sim.initial, sim.graph, DefaultRegistry()); });
+    if (truth_file != nullptr) {
+      truth_file->Stage([&](std::ostream& s) { WriteG2o(s, sim.ground_truth, sim.graph, DefaultRegistry()); });
+    }
+    outputs.CommitAll();
   } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return 1;
+    err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
   }
   const GraphCounts counts = Count(sim.ground_truth);
   out << "wrote " << cmd.output << ": " << cmd.world << ", " << counts.poses << " poses, " << counts.landmarks
@@ -410,7 +483,7 @@ int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err
 int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostream& err) {
   Registry& registry = DefaultRegistry();
   PluginLoader loader(registry);
-  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return 1;
+  if (!LoadPlugins(cmd.plugins, &loader, out, err)) return kExitPluginFailed;
   out << "plugin search path (after explicit paths):";
   for (const std::string& d : PluginLoader::SearchPath()) out << " " << d;
   out << "\n";

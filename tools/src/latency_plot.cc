@@ -5,6 +5,7 @@
 
 #include "svg_writer.h"
 #include "tether/core/error.h"
+#include "tether/core/output_file.h"
 
 namespace tether {
 namespace {
@@ -208,7 +209,7 @@ std::string RenderLatencySvg(const std::vector<std::size_t>& steps, const std::v
 
 void WriteLatencySvgFile(const std::string& path, const std::vector<std::size_t>& steps,
                          const std::vector<double>& seconds, const LatencyPlotOptions& options) {
-  svg::WriteTextFile(path, RenderLatencySvg(steps, seconds, options), "latency plot");
+  WriteTextFile(path, RenderLatencySvg(steps, seconds, options), "latency plot");
 }
 
 }  // namespace tether

@@ -18,6 +18,7 @@
 #include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/commands.h"
 #include "tether/tools/latency_plot.h"
 
 namespace tether {
@@ -170,6 +171,20 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   const SmootherOptions& options = ro.smoother;
   if (!options.IsValid(&why)) return Failed(std::move(r), ReplayStatus::kBadUsage, why);
   Registry& registry = DefaultRegistry();
+  // The output path is checked before the replay: a typo costs no replay.
+  std::unique_ptr<OutputFile> own_output;
+  OutputFile* output = ro.output_file;
+  if (output == nullptr && !ro.output.empty()) {
+    try {
+      OutputSet check;
+      check.AddInput(path, "input graph");
+      check.Add(ro.output, "final estimate");
+      own_output = std::make_unique<OutputFile>(ro.output, "final estimate");
+      output = own_output.get();
+    } catch (const Error& e) {
+      return Failed(std::move(r), ReplayStatus::kWriteFailed, e.what());
+    }
+  }
   GraphFile file;
   try {
     file = ReadGraphFile(path, registry);
@@ -244,11 +259,12 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   if (!BatchOptimum(file, &r.batch_chi2, &why)) return Failed(std::move(r), ReplayStatus::kSolveFailed, why);
   r.relative_gap = RelativeChi2Gap(r.final_chi2, r.batch_chi2);
 
-  if (!ro.output.empty()) {
+  if (output != nullptr) {
     try {
-      WriteG2oFile(ro.output, smoother.Estimate(), smoother.graph(), registry);
+      output->Stage([&](std::ostream& s) { WriteG2o(s, smoother.Estimate(), smoother.graph(), registry); });
+      if (own_output) output->Commit();
     } catch (const Error& e) {
-      return Failed(std::move(r), ReplayStatus::kBadInput, e.what());
+      return Failed(std::move(r), ReplayStatus::kWriteFailed, e.what());
     }
   }
   return r;
@@ -277,7 +293,23 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
         << Format("%.9g", c.batch_chi2) << ", relative gap " << Format("%.3e", c.gap) << "\n"
         << std::flush;
   };
-  const ReplayResult r = ReplayFile(cmd.input, o, print_check);
+  // Both outputs are checked before the replay and committed together after it.
+  OutputSet outputs;
+  OutputFile* plot_file = nullptr;
+  ReplayOptions ro = o;
+  try {
+    outputs.AddInput(cmd.input, "input graph");
+    if (!o.output.empty()) ro.output_file = &outputs.Add(o.output, "final estimate");
+    if (!cmd.plot.empty()) plot_file = &outputs.Add(cmd.plot, "latency plot");
+  } catch (const IoError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  } catch (const Error& e) {
+    err << "tether replay: " << e.what() << "\n";
+    return 2;
+  }
+  for (const std::string& note : outputs.Notes()) err << "note: " << note << "\n";
+  const ReplayResult r = ReplayFile(cmd.input, ro, print_check);
   for (const std::string& w : r.warnings) err << "warning: " << w << "\n";
   switch (r.status) {
     case ReplayStatus::kDone:
@@ -291,6 +323,9 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     case ReplayStatus::kSolveFailed:
       err << "error: " << r.message << "\n";
       return 3;
+    case ReplayStatus::kWriteFailed:
+      err << "error: " << r.message << "\n";
+      return kExitWriteFailed;
   }
 
   out << "graph: " << r.variables << " variables (" << r.poses << " poses), " << r.factors << " factors\n";
@@ -313,18 +348,24 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
         << " batch solves, largest relative chi2 gap: " << Format("%.3e", r.max_check_gap) << "\n";
   }
   out << "peak memory [MiB]: " << Format("%.1f", r.peak_rss_mib) << "\n";
-  if (!o.output.empty()) out << "wrote " << o.output << "\n";
-  if (!cmd.plot.empty()) {
+  if (plot_file != nullptr) {
     LatencyPlotOptions po;
     po.title = "tether replay " + std::filesystem::path(cmd.input).filename().string() + ": update latency";
     try {
-      WriteLatencySvgFile(cmd.plot, r.update_steps, r.latencies, po);
+      plot_file->Stage(RenderLatencySvg(r.update_steps, r.latencies, po));
     } catch (const Error& e) {
-      err << "error: " << e.what() << "\n";
-      return 1;
+      err << "error: " << e.what() << "; nothing was written\n";
+      return kExitWriteFailed;
     }
-    out << "wrote " << cmd.plot << "\n";
   }
+  try {
+    outputs.CommitAll();
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  }
+  if (ro.output_file != nullptr) out << "wrote " << o.output << "\n";
+  if (plot_file != nullptr) out << "wrote " << cmd.plot << "\n";
   return 0;
 }
 

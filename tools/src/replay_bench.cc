@@ -27,6 +27,8 @@ const char* StatusName(ReplayStatus s) {
       return "bad-input";
     case ReplayStatus::kSolveFailed:
       return "solve-failed";
+    case ReplayStatus::kWriteFailed:
+      return "write-failed";
   }
   return "crashed";
 }
@@ -39,6 +41,7 @@ BenchOutcome OutcomeOf(ReplayStatus s) {
       return BenchOutcome::kBadInput;
     case ReplayStatus::kBadUsage:
     case ReplayStatus::kSolveFailed:
+    case ReplayStatus::kWriteFailed:
       return BenchOutcome::kSolveFailed;
   }
   return BenchOutcome::kCrashed;
@@ -267,7 +270,7 @@ int RunReplayBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err
   }
   const std::string table =
       cmd.format == "csv" ? FormatReplayBenchCsv(rows) : FormatReplayBenchMarkdown(rows, cmd.repeat);
-  if (bench::WriteTable(table, cmd.output, out, err) != 0) return 1;
+  if (const int rc = bench::WriteTable(table, cmd.output, out, err); rc != 0) return rc;
   std::vector<BenchOutcome> outcomes;
   for (const ReplayBenchRow& row : rows) outcomes.push_back(row.outcome);
   return bench::ExitCode(outcomes);

@@ -8,6 +8,7 @@
 
 #include "svg_writer.h"
 #include "tether/core/error.h"
+#include "tether/core/output_file.h"
 #include "tether/tools/trajectory_error.h"
 
 namespace tether {
@@ -289,7 +290,7 @@ void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Value
 
 void WriteSvgFile(const std::string& path, const FactorGraph& graph, const Values* before, const Values* after,
                   const Values* truth, const PlotOptions& options) {
-  svg::WriteTextFile(path, RenderSvg(graph, before, after, truth, options), "SVG plot");
+  WriteTextFile(path, RenderSvg(graph, before, after, truth, options), "SVG plot");
 }
 
 }  // namespace tether

@@ -117,22 +117,5 @@ void PathData::Command(char c, long long a, long long b) {
   AppendHundredths(b, &out_);
 }
 
-void WriteTextFile(const std::string& path, const std::string& text, const std::string& what) {
-  const std::string tmp = path + ".tmp";
-  auto fail = [&](const std::string& why, int err) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot write " + what + " '" + path + "': " + why +
-                  (err != 0 ? std::string(": ") + std::strerror(err) : "") +
-                  "; check that the directory exists and is writable");
-  };
-  errno = 0;
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  if (!out) fail("cannot create '" + tmp + "'", errno);
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  out.close();
-  if (!out) fail("writing '" + tmp + "' failed", errno);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("cannot rename '" + tmp + "' to it", errno);
-}
-
 }  // namespace svg
 }  // namespace tether

@@ -48,9 +48,5 @@ class PathData {
   long long cx_ = 0, cy_ = 0, sx_ = 0, sy_ = 0;
 };
 
-/// Writes `text` to `path` through a temporary file renamed into place, so a failure never
-/// leaves half a file. Throws IoError ("cannot write <what> '<path>': ...") when it cannot.
-void WriteTextFile(const std::string& path, const std::string& text, const std::string& what);
-
 }  // namespace svg
 }  // namespace tether

@@ -27,8 +27,9 @@ class FactorGraph {
   FactorGraph(FactorGraph&&) = default;
   FactorGraph& operator=(FactorGraph&&) = default;
 
-  /// Adds a factor; returns its handle.
+  /// Adds a factor; returns its handle. Throws InvalidArgument for a null pointer.
   FactorId Add(std::unique_ptr<Factor> f) {
+    if (f == nullptr) ThrowNullFactor();
     factors_.push_back(std::move(f));
     ids_.push_back(next_id_);
     return next_id_++;
@@ -70,6 +71,7 @@ class FactorGraph {
   bool HasLoss() const;
 
  private:
+  [[noreturn]] static void ThrowNullFactor();
   std::vector<std::unique_ptr<Factor>> factors_;
   std::vector<FactorId> ids_;  // increasing: factors keep the order they were added in
   FactorId next_id_ = 0;

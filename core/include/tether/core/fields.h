@@ -10,6 +10,11 @@
 
 namespace tether {
 
+/// A token from a file as a message shows it: at most `max_bytes` of it (then "..." and its
+/// length), with control bytes, backslashes, quotes and bytes outside printable ASCII written
+/// as \xNN, so a binary file or a 10 MB token gives a short, readable line.
+std::string QuoteToken(std::string_view token, std::size_t max_bytes = 40);
+
 class Fields {
  public:
   /// Splits `line` at spaces and tabs. fields()[0] is the tag.

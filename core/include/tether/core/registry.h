@@ -25,6 +25,11 @@ struct ReadContext {
   InformationRepair repair = InformationRepair::kNone;
   int repaired_informations = 0;  ///< how many information matrices were changed by `repair`
   long first_repaired_line = 0;   ///< line of the first repaired matrix (0: none)
+  /// Edge measurements brought to their canonical form noticeably (a quaternion far from unit
+  /// length normalised), with the line of the first and what was done, for one warning a file.
+  int canonicalized_measurements = 0;
+  long first_canonicalized_line = 0;
+  std::string canonicalize_note;
   /// Parses an information matrix stored as its upper triangle (row by row) starting at
   /// field `first`, applies the repair policy, and returns its square root. Throws a
   /// ParseError naming the line if it is not positive definite and repair is off.

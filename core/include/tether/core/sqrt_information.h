@@ -31,8 +31,11 @@ class SqrtInformation {
   static SqrtInformation FromSigmas(const Eigen::VectorXd& sigmas);
 
   int dim() const { return dim_; }
-  /// The information matrix R^T R.
+  /// The information matrix: exactly the one given to FromInformation (so that a file's
+  /// numbers are written back bit for bit), else R^T R.
   Eigen::MatrixXd Information() const;
+  /// True where the information was given as a matrix (FromInformation) and is kept as given.
+  bool has_given_information() const { return given_; }
   /// The upper-triangular square root R.
   Eigen::MatrixXd R() const;
 
@@ -47,9 +50,16 @@ class SqrtInformation {
   double* data() { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   void Resize(int dim);
 
+  void KeepGiven(const double* omega_row_major);
+
   int dim_ = 0;
-  double r_[kInlineResidualDim * kInlineResidualDim] = {};  // row-major, upper triangle used
-  std::vector<double> big_;                                 // the same, for dim_ > kInlineResidualDim
+  // Row-major; R in the upper triangle. Where the information was given, its strict upper
+  // triangle is kept (transposed) in R's unused strict lower triangle and its diagonal in
+  // given_diag_ (inline) or after the n x n block (big_), so keeping it costs no allocation.
+  double r_[kInlineResidualDim * kInlineResidualDim] = {};
+  double given_diag_[kInlineResidualDim] = {};
+  std::vector<double> big_;  // the same, for dim_ > kInlineResidualDim: n x n, then n diagonal entries
+  bool given_ = false;
 };
 
 /// How non-positive-definite information matrices in input files are treated.

@@ -14,6 +14,7 @@
 // A held variable has no covariance: asking for it throws InvalidArgument naming the key.
 // docs/solvers.md ("Marginal covariances") describes the methods and their cost.
 #include <Eigen/Core>
+#include <iosfwd>
 #include <memory>
 #include <set>
 #include <string>
@@ -89,9 +90,13 @@ class Marginals {
 /// Writes covariances as text, one line per variable:
 ///   id type n c11 c12 ... c1n c22 ... cnn
 /// (type as ToString(VarType), n the tangent dimension, then the upper triangle row by row,
-/// printed with 17 significant digits), after one comment line starting with '#'. The file is
-/// written to a temporary name and renamed, so a failure never leaves half a file. Throws
-/// IoError where it cannot be written.
+/// each number the shortest text that reads back as the same double), after one comment line
+/// starting with '#'. Throws InvalidArgument where keys and covariances differ in number.
+void WriteCovariances(std::ostream& out, const Values& values, const std::vector<Key>& keys,
+                      const std::vector<Eigen::MatrixXd>& covariances);
+/// The same into a file, through tether's one output writer (tether/core/output_file.h): a
+/// temporary file renamed into place, so a failure never leaves half a file. Throws IoError
+/// where it cannot be written.
 void WriteCovarianceFile(const std::string& path, const Values& values, const std::vector<Key>& keys,
                          const std::vector<Eigen::MatrixXd>& covariances);
 

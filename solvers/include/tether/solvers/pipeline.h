@@ -70,7 +70,7 @@ enum class PipelineStatus {
   kInvalidOptions,  ///< PipelineOptions::IsValid failed; nothing was read
   kBadInput,        ///< the file could not be read or initialised; nothing written
   kSolveFailed,     ///< the solver's status is not usable (summary says why); nothing written
-  kWriteFailed,     ///< solved, but the output could not be written
+  kWriteFailed,     ///< the output cannot be written (checked before reading) or writing it failed; nothing written
 };
 
 /// "ok", "invalid-options", "bad-input", "solve-failed", "write-failed".
@@ -106,8 +106,8 @@ struct PipelineResult {
   bool written = false;
 
   bool ok() const { return status == PipelineStatus::kOk; }
-  /// The exit code `tether optimize` returns: 0 ok; 1 bad input or an output that cannot be
-  /// written; 2 invalid options; 3 the solve failed.
+  /// The exit code `tether optimize` returns: 0 ok; 1 bad input; 2 invalid options; 3 the
+  /// solve failed; 4 an output that cannot be written.
   int ExitCode() const;
 };
 

@@ -9,6 +9,15 @@
 
 namespace tether {
 
+/// Exit codes of the `tether` program: 0 done; 1 bad input (the message names file:line); 2
+/// bad usage (arguments); 3 the solve failed; 4 an output could not be written (nothing was
+/// written); 5 a plugin could not be loaded.
+constexpr int kExitBadInput = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitSolveFailed = 3;
+constexpr int kExitWriteFailed = 4;
+constexpr int kExitPluginFailed = 5;
+
 struct OptimizeCommand {
   std::string input;
   std::string output;              ///< g2o file with the optimised values (optional)

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/output_file.h"
 #include "tether/solvers/incremental_smoother.h"
 
 namespace tether {
@@ -30,8 +31,12 @@ struct ReplayOptions {
   /// The smoother's options (re-linearisation, rounds, wildfire; checked by IsValid).
   SmootherOptions smoother;
   /// Where given, the final estimate and the graph are written here as g2o after Finish
-  /// (through a temporary file renamed into place); a failure is kBadInput.
+  /// (through tether's output writer: a temporary file renamed into place); the path is checked
+  /// before the replay starts; a failure is kWriteFailed.
   std::string output;
+  /// Where set (not owned), the final estimate is staged into it instead of written to
+  /// `output`, for the caller to commit together with its other outputs.
+  OutputFile* output_file = nullptr;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -53,6 +58,7 @@ enum class ReplayStatus {
   kBadUsage,     ///< invalid ReplayOptions or smoother options
   kBadInput,     ///< the file could not be read, or an update was refused
   kSolveFailed,  ///< an update's solve, Finish or the batch solve failed
+  kWriteFailed,  ///< the output cannot be written (checked before the replay) or writing it failed
 };
 
 /// The measurements of one replay. Times are wall-clock seconds.
