@@ -42,6 +42,9 @@ std::string Hint(int err) {
       return "the program reading it went away; keep it reading until tether ends";
     case ENXIO:
       return "nothing is reading the FIFO; start its reader first";
+    case ENOENT:
+    case ENOTDIR:
+      return "check the path";
     default:
       return "check the path and the disk";
   }
@@ -436,8 +439,9 @@ OutputFile& OutputSet::Add(const std::string& path, const std::string& what) {
   }
   for (const auto& other : outputs_) {
     if (other->identity() == out->identity() && !(out->char_device() && other->char_device())) {
-      throw InvalidArgument("the " + what + " and the " + other->what() + " both name '" + path + "' (" +
-                            other->path() + "); give each output its own path");
+      const std::string also = other->path() == path ? "" : " (as '" + other->path() + "')";
+      throw InvalidArgument("the " + what + " and the " + other->what() + " both name '" + path + "'" + also +
+                            "; give each output its own path");
     }
   }
   outputs_.push_back(std::move(out));

@@ -159,8 +159,13 @@ TEST_F(ReliabilityTest, EveryCaseGivesItsExitCodeMessageAndLeavesTheFilesRight) 
       if (*c.message != '\0' && line.find(c.message) != std::string::npos) break;
     }
     if (line.size() > 240) line = line.substr(0, 240) + " ...";
-    for (char& ch : line) ch = ch == '|' ? '/' : ch;
-    table += std::string("| ") + c.name + " | `" + c.command + "` | " + std::to_string(code) + " | " + line + " |\n";
+    const auto cell = [](std::string text) {
+      std::string out;
+      for (char ch : text) out += ch == '|' ? std::string("\\|") : std::string(1, ch);
+      return out;
+    };
+    table +=
+        "| " + cell(c.name) + " | `" + cell(c.command) + "` | " + std::to_string(code) + " | " + cell(line) + " |\n";
   }
   if (const char* path = std::getenv("TETHER_RELIABILITY_TABLE")) std::ofstream(path) << table;
 }

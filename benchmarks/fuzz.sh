@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Fuzzes every graph reader with libFuzzer under AddressSanitizer and UndefinedBehaviorSanitizer.
+#
+#   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
+#
+# Seeds: the first 40 lines of every public dataset in ../shared/datasets (g2o files for fuzz_g2o,
+# TORO .graph files for fuzz_toro), files written by `tether simulate` where that folder is
+# absent, and the regression inputs in tests/fuzz/regressions. Prints per target: executions,
+# coverage (cov, ft), corpus size and findings; exits non-zero where a target found something
+# (the input is left in build-fuzz/findings/TARGET/).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-60}"
+root="$PWD"
+work="$root/build-fuzz"
+
+need=()
+command -v clang++ > /dev/null || need+=(clang)
+ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a > /dev/null 2>&1 || need+=(libclang-rt-14-dev)
+if [ ${#need[@]} -gt 0 ]; then
+  apt-get update
+  DEBIAN_FRONTEND=noninteractive apt-get install -y "${need[@]}"
+fi
+bash scripts/install_deps.sh > /dev/null
+
+CC=clang CXX=clang++ cmake -S . -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETHER_BUILD_FUZZERS=ON \
+  -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_TOOLS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DBUILD_SHARED_LIBS=OFF > /dev/null
+cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro > /dev/null
+
+# Seed corpora.
+datasets="$root/../shared/datasets"
+for t in g2o toro; do mkdir -p "$work/corpus/$t" "$work/findings/$t"; done
+if [ -d "$datasets" ]; then
+  while IFS= read -r f; do
+    case "$f" in *.graph) t=toro ;; *) t=g2o ;; esac
+    { printf '\000'; head -n 40 "$f"; } > "$work/corpus/$t/seed_$(basename "$f")"
+  done < <(find "$datasets" -type f \( -name '*.g2o' -o -name '*.graph' \))
+else
+  echo "fuzz: $datasets is absent; seeding from small written graphs only"
+fi
+printf '\000VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 500 0 0 500 0 500\n' > "$work/corpus/g2o/seed_se2"
+printf '\000VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_XY 5 1 2\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nFIX 0\n' > "$work/corpus/g2o/seed_se3"
+printf '\004VERTEX_SWITCH 7 1\nEDGE_SWITCH_PRIOR 7 1 1\nEDGE_SE2_SWITCHABLE 0 1 7 1 0 0 1 0 0 1 0 1\n' > "$work/corpus/g2o/seed_switch"
+printf '\000VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 1 0 1 1 0 0\nEQUIV 0 1\n' > "$work/corpus/toro/seed_toro"
+for f in "$root"/tests/fuzz/regressions/*; do
+  [ -e "$f" ] || continue
+  case "$f" in *toro*) cp "$f" "$work/corpus/toro/" ;; *) cp "$f" "$work/corpus/g2o/" ;; esac
+done
+cat > "$work/tags.dict" << 'DICT'
+"VERTEX_SE2"
+"VERTEX_SE3:QUAT"
+"VERTEX_XY"
+"VERTEX_TRACKXYZ"
+"VERTEX_SWITCH"
+"EDGE_SE2"
+"EDGE_SE3:QUAT"
+"EDGE_SE2_XY"
+"EDGE_PRIOR_SE2"
+"EDGE_SWITCH_PRIOR"
+"EDGE_SE2_SWITCHABLE"
+"EDGE_SE3_SWITCHABLE"
+"FIX"
+"VERTEX2"
+"EDGE2"
+"EQUIV"
+"nan"
+"inf"
+"1e308"
+"-0"
+"18446744073709551615"
+DICT
+
+status=0
+printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
+for t in g2o toro; do
+  log="$work/fuzz_$t.log"
+  ( cd "$work/findings/$t" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+      "$work/build/tests/fuzz/fuzz_$t" "$work/corpus/$t" -dict="$work/tags.dict" -max_total_time="$seconds" \
+      -timeout=10 -rss_limit_mb=2048 -max_len=4096 -print_final_stats=1 > "$log" 2>&1 ) || true
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  last=$(grep -E '^#[0-9]+' "$log" | tail -1)
+  cov=$(echo "$last" | grep -o 'cov: [0-9]*' | grep -o '[0-9]*' || echo 0)
+  ft=$(echo "$last" | grep -o 'ft: [0-9]*' | grep -o '[0-9]*' || echo 0)
+  corpus=$(ls "$work/corpus/$t" | wc -l)
+  found=$(ls "$work/findings/$t" | grep -cE '^(crash|leak|timeout|oom|slow-unit)-' || true)
+  printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' "fuzz_$t" "$seconds" "$execs" "$rate" "$cov" "$ft" "$corpus" "$found"
+  if [ "$found" -gt 0 ]; then
+    status=1
+    echo "fuzz_$t: findings in $work/findings/$t (log: $log):"
+    grep -E 'ERROR|finding:|runtime error' "$log" | head -5
+  fi
+done
+exit "$status"
