@@ -290,31 +290,26 @@ struct OptimizeOutputs {
 // 0, or the exit code after saying why: 2 for an output the arguments cannot have (an empty
 // path, two outputs or an input and an output on one file), 4 for a path that cannot be written.
 int PrepareOutputs(const OptimizeCommand& cmd, OptimizeOutputs* o, std::ostream& err) {
-  try {
-    o->set.AddInput(cmd.input, "input graph");
-    o->set.AddInput(cmd.ground_truth, "ground truth");
-    for (const std::string& p : cmd.plugins) o->set.AddInput(p, "plugin");
-    if (!cmd.output.empty()) o->graph = &o->set.Add(cmd.output, "optimised graph");
-    if (!cmd.plot.empty()) o->plot = &o->set.Add(cmd.plot, "plot");
-    if (cmd.gnc || cmd.switchable) {
-      const std::string path = !cmd.rejected_output.empty() ? cmd.rejected_output
-                               : !cmd.output.empty()        ? cmd.output + ".rejected.g2o"
-                                                            : "";
-      if (!path.empty()) o->rejected = &o->set.Add(path, "rejected loop closures");
-    }
-    if (!cmd.covariance.empty() && (!cmd.output.empty() || !cmd.covariance_output.empty())) {
-      const std::string path = cmd.covariance_output.empty() ? cmd.output + ".cov" : cmd.covariance_output;
-      o->covariance = &o->set.Add(path, "covariances");
-    }
-  } catch (const IoError& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitWriteFailed;
-  } catch (const Error& e) {
-    err << "tether optimize: " << e.what() << "\n";
-    return 2;
-  }
-  for (const std::string& note : o->set.Notes()) err << "note: " << note << "\n";
-  return 0;
+  return CheckOutputs(
+      "optimize", o->set,
+      [&] {
+        o->set.AddInput(cmd.input, "input graph");
+        o->set.AddInput(cmd.ground_truth, "ground truth");
+        for (const std::string& p : cmd.plugins) o->set.AddInput(p, "plugin");
+        if (!cmd.output.empty()) o->graph = &o->set.Add(cmd.output, "optimised graph");
+        if (!cmd.plot.empty()) o->plot = &o->set.Add(cmd.plot, "plot");
+        if (cmd.gnc || cmd.switchable) {
+          const std::string path = !cmd.rejected_output.empty() ? cmd.rejected_output
+                                   : !cmd.output.empty()        ? cmd.output + ".rejected.g2o"
+                                                                : "";
+          if (!path.empty()) o->rejected = &o->set.Add(path, "rejected loop closures");
+        }
+        if (!cmd.covariance.empty() && (!cmd.output.empty() || !cmd.covariance_output.empty())) {
+          const std::string path = cmd.covariance_output.empty() ? cmd.output + ".cov" : cmd.covariance_output;
+          o->covariance = &o->set.Add(path, "covariances");
+        }
+      },
+      err);
 }
 
 // Commits every staged output and says so; 0, or kExitWriteFailed after saying why (nothing is
@@ -333,6 +328,20 @@ int CommitOutputs(OutputSet* set, const std::vector<const OutputFile*>& files, s
 }
 
 }  // namespace
+
+int CheckOutputs(const std::string& command, OutputSet& set, const std::function<void()>& add, std::ostream& err) {
+  try {
+    add();
+  } catch (const IoError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitWriteFailed;
+  } catch (const Error& e) {
+    err << "tether " << command << ": " << e.what() << "\n";
+    return kExitUsage;
+  }
+  for (const std::string& note : set.Notes()) err << "note: " << note << "\n";
+  return 0;
+}
 
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
   PipelineOptions po;
@@ -450,17 +459,14 @@ int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err
   OutputSet outputs;
   OutputFile* graph_file = nullptr;
   OutputFile* truth_file = nullptr;
-  try {
-    graph_file = &outputs.Add(cmd.output, "simulated graph");
-    if (!cmd.ground_truth.empty()) truth_file = &outputs.Add(cmd.ground_truth, "ground truth");
-  } catch (const IoError& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitWriteFailed;
-  } catch (const Error& e) {
-    err << "tether simulate: " << e.what() << "\n";
-    return 2;
-  }
-  for (const std::string& note : outputs.Notes()) err << "note: " << note << "\n";
+  const int rc = CheckOutputs(
+      "simulate", outputs,
+      [&] {
+        graph_file = &outputs.Add(cmd.output, "simulated graph");
+        if (!cmd.ground_truth.empty()) truth_file = &outputs.Add(cmd.ground_truth, "ground truth");
+      },
+      err);
+  if (rc != 0) return rc;
   const SimulatedGraph sim = Simulate(so);
   try {
     graph_file->Stage([&](std::ostream& s) { WriteG2o(s, sim.initial, sim.graph, DefaultRegistry()); });

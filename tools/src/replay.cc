@@ -297,18 +297,15 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   OutputSet outputs;
   OutputFile* plot_file = nullptr;
   ReplayOptions ro = o;
-  try {
-    outputs.AddInput(cmd.input, "input graph");
-    if (!o.output.empty()) ro.output_file = &outputs.Add(o.output, "final estimate");
-    if (!cmd.plot.empty()) plot_file = &outputs.Add(cmd.plot, "latency plot");
-  } catch (const IoError& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitWriteFailed;
-  } catch (const Error& e) {
-    err << "tether replay: " << e.what() << "\n";
-    return 2;
-  }
-  for (const std::string& note : outputs.Notes()) err << "note: " << note << "\n";
+  const int rc = CheckOutputs(
+      "replay", outputs,
+      [&] {
+        outputs.AddInput(cmd.input, "input graph");
+        if (!o.output.empty()) ro.output_file = &outputs.Add(o.output, "final estimate");
+        if (!cmd.plot.empty()) plot_file = &outputs.Add(cmd.plot, "latency plot");
+      },
+      err);
+  if (rc != 0) return rc;
   const ReplayResult r = ReplayFile(cmd.input, ro, print_check);
   for (const std::string& w : r.warnings) err << "warning: " << w << "\n";
   switch (r.status) {

@@ -1,6 +1,7 @@
 #pragma once
 // The commands of the `tether` program, callable from tests. Each returns the process exit
 // code and writes its report to `out` and errors to `err`.
+#include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -17,6 +18,13 @@ constexpr int kExitUsage = 2;
 constexpr int kExitSolveFailed = 3;
 constexpr int kExitWriteFailed = 4;
 constexpr int kExitPluginFailed = 5;
+
+class OutputSet;
+/// Runs `add`, which adds a command's outputs (and inputs) to `set`, and prints the set's notes;
+/// 0, or the exit code after saying why: kExitUsage for outputs the arguments cannot have (an
+/// empty path, an output naming an input or another output), kExitWriteFailed for a path that
+/// cannot be written. `command` names the command in messages ("optimize").
+int CheckOutputs(const std::string& command, OutputSet& set, const std::function<void()>& add, std::ostream& err);
 
 struct OptimizeCommand {
   std::string input;
