@@ -99,8 +99,10 @@ class Rng {
 class Simulation {
  public:
   explicit Simulation(const SimulateOptions& o) : o_(o), world_(o.seed, 1), noise_(o.seed, 2) {
-    const double it = 1.0 / (o.translation_sigma * o.translation_sigma);
-    const double ir = 1.0 / (o.rotation_sigma * o.rotation_sigma);
+    // (1 / sigma)^2 rather than 1 / sigma^2: for the default sigmas it is 400 and 10000 exactly,
+    // so the files say 400 where 1 / sigma^2 would write 399.99999999999994.
+    const double rt = 1.0 / o.translation_sigma, rr = 1.0 / o.rotation_sigma;
+    const double it = rt * rt, ir = rr * rr;
     se2_info_ = SqrtInformation::FromInformation(Eigen::Vector3d(it, it, ir).asDiagonal().toDenseMatrix());
     Eigen::Matrix<double, 6, 1> d;
     d << it, it, it, 4.0 * ir, 4.0 * ir, 4.0 * ir;  // quaternion vector part ~ rotation vector / 2
