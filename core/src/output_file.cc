@@ -314,7 +314,8 @@ void OutputFile::Stage(const std::function<void(std::ostream&)>& write) {
   }
   const std::string dir = DirName(target_);
 #ifdef O_TMPFILE
-  s.fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+  // An unnamed file is given its name at commit through /proc/self/fd; without /proc, a named one.
+  if (::access("/proc/self/fd", X_OK) == 0) s.fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
 #endif
   if (s.fd < 0) {
     // No unnamed temporary files here (an old kernel, or a file system without them): a

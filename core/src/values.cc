@@ -1,6 +1,7 @@
 #include "tether/core/values.h"
 
 #include <algorithm>
+#include <cmath>
 #include <ostream>
 
 #include "tether/core/error.h"
@@ -22,6 +23,9 @@ namespace {
 void CheckParams(Key k, VarType type, const double* params) {
   const VariableType& d = Describe(type);
   if (d.canonicalize == nullptr) return;
+  for (int i = 0; i < d.ambient_dim; ++i) {
+    if (!std::isfinite(params[i])) return;  // the solvers report it, naming the factor and keys
+  }
   double copy[64];
   std::vector<double> big;
   double* x = copy;
