@@ -7,7 +7,11 @@
 # TORO .graph files for fuzz_toro), files written by `tether simulate` where that folder is
 # absent, and the regression inputs in tests/fuzz/regressions. Prints per target: executions,
 # coverage (cov, ft), corpus size and findings; exits non-zero where a target found something
-# (the input is left in build-fuzz/findings/TARGET/).
+# (the input is left in build-fuzz/findings/TARGET/, with a minimised copy min-*; the findings of
+# an earlier run are moved to build-fuzz/findings/TARGET.DATE/ first). The corpus in
+# build-fuzz/corpus/ is kept from run to run (delete it to start from the seeds alone).
+#
+# TETHER_FUZZ_ROUNDTRIP=0 fuzzes the readers alone (no write and read back of what was read).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
@@ -29,7 +33,14 @@ cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro > /dev/null
 
 # Seed corpora.
 datasets="$root/../shared/datasets"
-for t in g2o toro; do mkdir -p "$work/corpus/$t" "$work/findings/$t"; done
+stamp=$(date +%Y%m%d-%H%M%S)
+for t in g2o toro; do
+  mkdir -p "$work/corpus/$t" "$work/findings/$t"
+  if [ -n "$(ls -A "$work/findings/$t")" ]; then
+    mkdir -p "$work/findings/$t.$stamp"
+    mv "$work/findings/$t"/* "$work/findings/$t.$stamp/"
+  fi
+done
 if [ -d "$datasets" ]; then
   while IFS= read -r f; do
     case "$f" in *.graph) t=toro ;; *) t=g2o ;; esac
@@ -68,9 +79,14 @@ cat > "$work/tags.dict" << 'DICT'
 "1e308"
 "-0"
 "18446744073709551615"
+"18446744073709551616"
+"1e-320"
+"+"
+"#"
 DICT
 
 status=0
+echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
 for t in g2o toro; do
   log="$work/fuzz_$t.log"
@@ -89,6 +105,13 @@ for t in g2o toro; do
     status=1
     echo "fuzz_$t: findings in $work/findings/$t (log: $log):"
     grep -E 'ERROR|finding:|runtime error' "$log" | head -5
+    for f in "$work/findings/$t"/*; do
+      case "$(basename "$f")" in crash-* | leak-* | timeout-* | oom-*) ;; *) continue ;; esac
+      ( cd "$work/findings/$t" && "$work/build/tests/fuzz/fuzz_$t" -minimize_crash=1 -max_total_time=60 -timeout=10 \
+          -rss_limit_mb=2048 -exact_artifact_path="$work/findings/$t/min-$(basename "$f")" "$f" \
+          > "$work/findings/$t/min-$(basename "$f").log" 2>&1 ) || true
+      echo "  $(basename "$f") minimised: $work/findings/$t/min-$(basename "$f")"
+    done
   fi
 done
 exit "$status"
