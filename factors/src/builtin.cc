@@ -7,6 +7,7 @@
 #include "tether/factors/between_se3.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
+#include "tether/factors/range_bearing.h"
 #include "tether/factors/switchable.h"
 
 namespace tether {
@@ -31,6 +32,19 @@ void RegisterBuiltinFactors(Registry& r) {
   r.Register(DescribeFactor<PosePoint2>("EDGE_SE2_XY", 2, [](std::vector<Key> k, const double* m, SqrtInformation n) {
     return std::make_unique<PosePoint2>(k[0], k[1], Eigen::Vector2d(m[0], m[1]), std::move(n));
   }));
+  {
+    FactorType t = DescribeFactor<RangeBearing2>(
+        "EDGE_RANGE_BEARING_SE2_XY", 2, [](std::vector<Key> k, const double* m, SqrtInformation n) {
+          // The field numbers are those of the line (pose point range bearing I11 I12 I22).
+          if (!(m[0] >= 0)) {
+            throw InvalidArgument("the range (field 3) is " + FormatDouble(m[0]) +
+                                  "; a range is a distance, finite and not negative");
+          }
+          return std::make_unique<RangeBearing2>(k[0], k[1], m[0], m[1], std::move(n));
+        });
+    t.measurement_layout = "range bearing";
+    r.Register(std::move(t));
+  }
   r.Register(DescribeFactor<PriorSE2>("EDGE_PRIOR_SE2", 3, [](std::vector<Key> k, const double* m, SqrtInformation n) {
     return std::make_unique<PriorSE2>(k[0], SE2d(m[0], m[1], m[2]), std::move(n));
   }));
