@@ -110,7 +110,9 @@ bool VariableTraits<SE2d>::Canonicalize(double* x) {
 }
 
 bool VariableTraits<SE3d>::Canonicalize(double* x) {
-  const double norm = std::sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5] + x[6] * x[6]);
+  // stableNorm scales before squaring, so an entry above about 1e154 does not overflow the norm
+  // to infinity (which would divide the quaternion to zeros).
+  const double norm = Eigen::Map<const Eigen::Vector4d>(x + 3).stableNorm();
   if (!(norm > 1e-12)) {
     throw InvalidArgument("quaternion (qx qy qz qw) is zero; a rotation needs a unit quaternion");
   }

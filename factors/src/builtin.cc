@@ -15,9 +15,12 @@ namespace tether {
 namespace {
 
 SE3d SE3FromMeasurement(const double* m) {
-  const Eigen::Quaterniond q(m[6], m[3], m[4], m[5]);
-  if (!(q.norm() > 1e-12)) throw InvalidArgument("quaternion of the measurement is zero; it must have unit length");
-  return SE3d::FromParams(m);
+  // stableNorm, and dividing before the rotation normalises, keep a quaternion with entries
+  // above about 1e154 from overflowing its norm to infinity and becoming all zeros.
+  const double norm = Eigen::Vector4d(m[3], m[4], m[5], m[6]).stableNorm();
+  if (!(norm > 1e-12)) throw InvalidArgument("quaternion of the measurement is zero; it must have unit length");
+  const Eigen::Quaterniond q(m[6] / norm, m[3] / norm, m[4] / norm, m[5] / norm);
+  return SE3d(q, Eigen::Vector3d(m[0], m[1], m[2]));
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 // including angles near +-pi and rotations near pi.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "tether/core/se2.h"
@@ -150,6 +152,19 @@ TEST(SE2Test, AnglesWrapToHalfOpenInterval) {
   // Composition across the cut stays wrapped.
   const SE2d a(0, 0, kPi - 0.1), b(0, 0, 0.3);
   EXPECT_NEAR((a * b).theta(), -kPi + 0.2, 1e-12);
+}
+
+// Above about 1e16 one reduction is not enough (2 pi floor(...) has lost the digits); any
+// finite angle still ends in (-pi, pi], and wrapping it again gives it back.
+TEST(SE2Test, HugeAnglesWrapIntoRangeAndStay) {
+  for (double a : {1e16, -3e17, 1e77, -1e200, 1.7e308, -1.7976931348623157e308}) {
+    const double w = WrapAngle(a);
+    EXPECT_GT(w, -kPi) << a;
+    EXPECT_LE(w, kPi) << a;
+    EXPECT_EQ(WrapAngle(w), w) << a;
+  }
+  EXPECT_TRUE(std::isnan(WrapAngle(std::numeric_limits<double>::infinity())));
+  EXPECT_TRUE(std::isnan(WrapAngle(std::nan(""))));
 }
 
 TEST(SO3Test, LogNearPiIsAccurate) {
