@@ -31,6 +31,8 @@ constexpr std::string_view kFix = "FIX";
 constexpr std::string_view kToroVertex = "VERTEX2";
 constexpr std::string_view kToroEdge = "EDGE2";
 constexpr std::string_view kToroEquiv = "EQUIV";
+// g2o's sensor offset on a 3D pose, referred to by EDGE_SE3_TRACKXYZ and EDGE_SE3_PRIOR.
+constexpr std::string_view kSe3Offset = "PARAMS_SE3OFFSET";
 
 // At most this many pieces are described in the "disconnected" message.
 constexpr std::size_t kPiecesListed = 5;
@@ -83,6 +85,8 @@ class Reader {
     } else if (tag == kFix) {
       if (f.size() < 2) f.Fail("FIX needs at least one id after the tag (FIX id [id ...]); fix or remove the line");
       for (std::size_t i = 1; i < f.size(); ++i) fixes_.push_back({f.Id(i), number});
+    } else if (tag == kSe3Offset) {
+      ReadSe3Offset(f);
     } else if (IsToroTag(tag)) {
       ToroLine(f);
     } else if (const FactorType* type = registry_.FindByTag(std::string(tag))) {
@@ -197,6 +201,27 @@ class Reader {
     Vertex(f, v.tag, v.type, params_.data());
   }
 
+  // PARAMS_SE3OFFSET id x y z qx qy qz qw: kept in the read context for the edges below it.
+  void ReadSe3Offset(const Fields& f) {
+    f.ExpectCount(8, "id x y z qx qy qz qw");
+    const Key id = f.Id(1);
+    std::vector<double> p(7);
+    for (std::size_t i = 0; i < 7; ++i) p[i] = f.Double(2 + i);
+    const double norm = Eigen::Map<const Eigen::Vector4d>(p.data() + 3).stableNorm();
+    if (!(norm > 1e-12)) {
+      f.Fail(std::string(kSe3Offset) +
+             " quaternion (qx qy qz qw, fields 5 to 8) is zero; an offset needs a unit "
+             "quaternion (0 0 0 1 for none), fix the line");
+    }
+    for (std::size_t i = 3; i < 7; ++i) p[i] /= norm;
+    const auto [it, inserted] = ctx_.parameters.try_emplace(id);
+    if (!inserted) {
+      f.Fail("duplicate parameter id " + std::to_string(id) + ": line " + std::to_string(it->second.line) +
+             " defines it already (" + it->second.tag + "); remove one of the two lines or renumber one");
+    }
+    it->second = ReadContext::Parameter{std::string(kSe3Offset), std::move(p), f.line_number()};
+  }
+
   bool IsToroTag(std::string_view tag) const {
     if (tag != kToroVertex && tag != kToroEdge && tag != kToroEquiv) return false;
     if (options_.format == FileFormat::kG2o) return false;
@@ -237,7 +262,7 @@ class Reader {
   void UnknownTag(const Fields& f) const {
     std::string known;
     for (const VertexTag& v : vertex_tags_) known += v.tag + " ";
-    known += std::string(kFix);
+    known += std::string(kFix) + " " + std::string(kSe3Offset);
     for (const auto& [name, type] : registry_.types())
       if (!type.tag.empty()) known += " " + type.tag;
     if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV";
@@ -441,6 +466,22 @@ void WriteG2o(std::ostream& out, const Values& values, const FactorGraph& graph,
       buf.clear();
     }
   };
+  // Parameter lines the edges refer to come first, each once, in the order first needed.
+  std::vector<const std::string*> preambles;
+  std::string last_type;  // consecutive factors are mostly of one type: one lookup for them
+  for (const auto& f : graph.factors()) {
+    std::string name = f->type_name();
+    if (name == last_type) continue;
+    last_type = std::move(name);
+    const FactorType* type = registry.FindByName(last_type);
+    if (type == nullptr || type->preamble.empty()) continue;
+    const auto same = [&](const std::string* p) { return *p == type->preamble; };
+    if (std::none_of(preambles.begin(), preambles.end(), same)) preambles.push_back(&type->preamble);
+  }
+  for (const std::string* p : preambles) {
+    buf.append(*p);
+    buf.push_back('\n');
+  }
   for (Key k : values.keys()) {
     AppendVertex(&buf, k, values.TypeOf(k), values.Params(k));
     flush(false);

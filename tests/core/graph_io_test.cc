@@ -252,27 +252,12 @@ TEST(GraphIoTest, ReadsPoint2Landmarks) {
   EXPECT_EQ(g.graph.at(1).type_name(), "PriorSE2");
 }
 
-// A registry where a plugin gives PosePoint3 a file form, to read VERTEX_TRACKXYZ graphs.
-Registry WithTrackXyz() {
-  Registry r;
-  RegisterBuiltinFactors(r);
-  // PosePoint3 has no g2o tag of its own; the test gives it one (the name stays, as the probe
-  // factor made by `make` checks it).
-  FactorType t = *r.FindByName("PosePoint3");
-  r.Remove("PosePoint3");
-  t.tag = "EDGE_SE3_TRACKXYZ";
-  t.owner = "test";
-  r.Register(t);
-  return r;
-}
-
 TEST(GraphIoTest, ReadsPoint3Vertices) {
-  const Registry r = WithTrackXyz();
   const GraphFile g = Read(
+      "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n"
       "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
       "VERTEX_TRACKXYZ 5 1 2 3\n"
-      "EDGE_SE3_TRACKXYZ 0 5 1 2 3 1 0 0 1 0 1\n",
-      "t.g2o", {}, r);
+      "EDGE_SE3_TRACKXYZ 0 5 0 1 2 3 1 0 0 1 0 1\n");
   EXPECT_EQ(g.values.TypeOf(5), VarType::kPoint3);
   EXPECT_EQ(g.values.At<Eigen::Vector3d>(5), Eigen::Vector3d(1, 2, 3));
   EXPECT_EQ(g.graph.size(), 1u);
@@ -621,12 +606,22 @@ TEST(GraphIoTest, WritesVerticesThenFixThenEdges) {
 }
 
 TEST(GraphIoTest, WritingATaglessFactorNamesIt) {
+  // A registry in which PosePoint3 has no file form.
+  Registry r;
+  RegisterBuiltinFactors(r);
+  FactorType t = *r.FindByName("PosePoint3");
+  r.Remove("PosePoint3");
+  t.tag.clear();
+  t.read = nullptr;
+  t.write = nullptr;
+  t.preamble.clear();
+  r.Register(t);
   Values values;
   FactorGraph graph;
   graph.Add(std::make_unique<PosePoint2>(3, 1, Eigen::Vector2d(0.5, 0.25), SqrtInformation::Identity(2)));
   graph.Add(std::make_unique<PosePoint3>(3, 1, Eigen::Vector3d(0.5, 0.25, 1), SqrtInformation::Identity(3)));
   std::ostringstream out;
-  EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { WriteG2o(out, values, graph, DefaultRegistry()); }),
+  EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { WriteG2o(out, values, graph, r); }),
                   "factor #1: cannot write a factor of type 'PosePoint3': it has no g2o tag");
 }
 

@@ -111,8 +111,10 @@ TEST(RegistryTest, BuiltinsAreFoundByTagAndName) {
   EXPECT_EQ(r.FindByTag("EDGE_SE3:QUAT")->name, "BetweenSE3");
   EXPECT_EQ(r.FindByTag("EDGE_SE2_XY")->name, "PosePoint2");
   EXPECT_EQ(r.FindByTag("EDGE_PRIOR_SE2")->name, "PriorSE2");
-  ASSERT_NE(r.FindByName("PosePoint3"), nullptr);
-  EXPECT_EQ(r.FindByName("PosePoint3")->tag, "");
+  EXPECT_EQ(r.FindByTag("EDGE_RANGE_BEARING_SE2_XY")->name, "RangeBearing2");
+  EXPECT_EQ(r.FindByTag("EDGE_SE3_TRACKXYZ")->name, "PosePoint3");
+  EXPECT_EQ(r.FindByTag("EDGE_SE3_PRIOR")->name, "PriorSE3");
+  EXPECT_EQ(r.FindByTag("EDGE_SE3_PRIOR")->preamble, "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1");
   EXPECT_EQ(r.FindByTag(""), nullptr);  // tagless types have no file form
   EXPECT_EQ(r.FindByTag("EDGE_NOPE"), nullptr);
   EXPECT_EQ(r.FindByName("Nope"), nullptr);
@@ -123,7 +125,7 @@ TEST(RegistryTest, BuiltinsAreFoundByTagAndName) {
   VarType sw;
   ASSERT_TRUE(r.FindVariableByTag("VERTEX_SWITCH", &sw));
   EXPECT_EQ(ToString(sw), "Switch");
-  EXPECT_EQ(r.types().size(), 9u);
+  EXPECT_EQ(r.types().size(), 10u);
 }
 
 TEST(RegistryTest, DuplicateNameNamesBothOwners) {
@@ -481,10 +483,11 @@ TEST(RegistryTest, WriteThenReadGivesTheSameFactor) {
 }
 
 TEST(RegistryTest, WriteRejectsTaglessAndUnregisteredTypes) {
-  const Registry r = Builtins();
-  const PosePoint3 f(1, 2, Eigen::Vector3d(1, 2, 3), SqrtInformation::Identity(3));
+  Registry r = Builtins();
+  r.Register(StandardPointPriorType("TaglessPointPrior", "", "test"));
+  const PointPrior f(1, Eigen::Vector2d(1, 2), SqrtInformation::Identity(2), "TaglessPointPrior");
   EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { r.Write(f); }),
-                  "cannot write a factor of type 'PosePoint3': it has no g2o tag");
+                  "cannot write a factor of type 'TaglessPointPrior': it has no g2o tag");
   const PointPrior p(5, Eigen::Vector2d(1, 2), SqrtInformation::Identity(2));
   EXPECT_CONTAINS(ErrorOf<InvalidArgument>([&] { r.Write(p); }),
                   "type 'TestPointPrior': the type is not registered; load the plugin that defines it");

@@ -8,6 +8,7 @@
 //   TAG id_1 .. id_k  measurement[measurement_size]  information upper triangle, row by row
 // and types that follow that layout only need `make`; others give their own read/write.
 #include <Eigen/Core>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -30,6 +31,15 @@ struct ReadContext {
   int canonicalized_measurements = 0;
   long first_canonicalized_line = 0;
   std::string canonicalize_note;
+  /// A g2o parameter line (`PARAMS_SE3OFFSET id x y z qx qy qz qw`): its tag, its numbers as
+  /// read (the quaternion normalised, as g2o does) and its line, for the edges that refer to it.
+  struct Parameter {
+    std::string tag;
+    std::vector<double> values;
+    long line = 0;
+  };
+  /// The parameter lines read so far, by id (an edge refers to one defined above it).
+  std::map<std::uint64_t, Parameter> parameters;
   /// Parses an information matrix stored as its upper triangle (row by row) starting at
   /// field `first`, applies the repair policy, and returns its square root. Throws a
   /// ParseError naming the line if it is not positive definite and repair is off.
@@ -58,6 +68,10 @@ struct FactorType {
   /// Optional custom reader/writer replacing the standard layout.
   std::function<std::unique_ptr<Factor>(const Fields&, ReadContext&)> read;
   std::function<std::string(const Factor&)> write;
+  /// A line the g2o writer puts once, before the vertices, into a file that holds factors of
+  /// this type: the parameter line its written edges refer to (g2o's EDGE_SE3_TRACKXYZ and
+  /// EDGE_SE3_PRIOR are written with "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1"). Empty: none.
+  std::string preamble;
 
   /// Fields after the tag in the standard layout.
   std::size_t StandardFieldCount() const { return variable_types.size() + measurement_size + dim * (dim + 1) / 2; }
