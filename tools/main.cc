@@ -5,6 +5,7 @@
 
 #include "tether/tools/bench.h"
 #include "tether/tools/commands.h"
+#include "tether/tools/ekf_demo.h"
 #include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
@@ -170,6 +171,23 @@ int main(int argc, char** argv) {
                    "(SmootherOptions::wildfire_threshold)")
       ->capture_default_str();
 
+  tether::EkfDemoCommand ec;
+  CLI::App* ekf_demo = app.add_subcommand(
+      "ekf-demo", "Dead reckoning, EKF-SLAM, UKF-SLAM and the pose graph they seed, on simulated landmark worlds");
+  ekf_demo->add_option("--seeds", ec.seeds, "Number of seeds (worlds) per experiment")->capture_default_str();
+  ekf_demo->add_option("--first-seed", ec.first_seed, "The first seed")->capture_default_str();
+  ekf_demo
+      ->add_option("--experiments", ec.experiments, "1 (control noise std 0.1 m/s, pi/18 rad/s), 2 (doubled), or 1,2")
+      ->capture_default_str();
+  ekf_demo
+      ->add_option("--association", ec.association, "known, nn (nearest neighbour with a Mahalanobis gate), or both")
+      ->capture_default_str();
+  ekf_demo->add_option("--steps", ec.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
+  ekf_demo->add_option("-o,--output", ec.output, "Also write the table (markdown) here");
+  ekf_demo->add_option("--plot", ec.plot,
+                       "Draw truth, dead reckoning, EKF, UKF and the optimised graph of the first seed (SVG)");
+  ekf_demo->add_flag("-q,--quiet", ec.quiet, "Only the table");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -185,7 +203,8 @@ int main(int argc, char** argv) {
         {"--ground-truth", &opt.ground_truth}}},
       {simulate, {{"-o", &sim.output}, {"--ground-truth", &sim.ground_truth}}},
       {bench, {{"-o", &bc.output}}},
-      {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}}};
+      {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}},
+      {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}}};
   for (const auto& [sub, options] : paths) {
     if (!sub->parsed()) continue;
     for (const auto& [name, value] : options) {
@@ -202,6 +221,7 @@ int main(int argc, char** argv) {
     if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
     if (bench->parsed()) return tether::RunBench(bc, std::cout, std::cerr);
     if (replay->parsed()) return tether::RunReplay(rc, std::cout, std::cerr);
+    if (ekf_demo->parsed()) return tether::RunEkfDemo(ec, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
     std::cerr << "error: " << e.what() << "\n";

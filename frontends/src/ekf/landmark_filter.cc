@@ -1,0 +1,119 @@
+#include "tether/frontends/ekf/landmark_filter.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "tether/core/error.h"
+
+namespace tether {
+namespace ekf {
+
+namespace {
+
+bool IsCovariance(const Eigen::Matrix2d& m) {
+  return m.allFinite() && m.isApprox(m.transpose()) && m.llt().info() == Eigen::Success;
+}
+
+}  // namespace
+
+bool FilterOptions::IsValid(std::string* why) const {
+  const auto fail = [&](const std::string& w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  if (!control_cov.allFinite() || !control_cov.isApprox(control_cov.transpose()) ||
+      control_cov.ldlt().info() != Eigen::Success || (control_cov.diagonal().array() < 0).any()) {
+    return fail("control_cov must be symmetric, finite and positive semi-definite");
+  }
+  if (!IsCovariance(measurement_cov)) return fail("measurement_cov must be symmetric, finite and positive definite");
+  if (!(gate > 0 && new_landmark >= gate && std::isfinite(new_landmark))) {
+    return fail("nearest neighbour needs 0 < gate <= new_landmark (both finite)");
+  }
+  std::string u;
+  if (!unscented.IsValid(&u)) return fail("unscented: " + u);
+  return true;
+}
+
+LandmarkFilter::LandmarkFilter(const SE2d& start, const Eigen::Matrix3d& start_cov, const FilterOptions& options)
+    : options_(options), mean_(3), cov_(start_cov) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw InvalidArgument("landmark filter: " + why);
+  if (!start_cov.allFinite() || !start_cov.isApprox(start_cov.transpose(), 1e-12)) {
+    throw InvalidArgument("landmark filter: the start covariance must be symmetric and finite");
+  }
+  mean_ << start.x(), start.y(), start.theta();
+}
+
+std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observations) {
+  std::vector<int> taken(observations.size(), -1);
+  std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
+  for (std::size_t k = 0; k < observations.size(); ++k) {
+    const Observation& o = observations[k];
+    if (!(std::isfinite(o.range) && std::isfinite(o.bearing) && o.range > 0)) {
+      throw InvalidArgument("landmark filter: observation " + std::to_string(k) +
+                            " needs a positive, finite range and a finite bearing");
+    }
+    const Eigen::Vector2d z(o.range, o.bearing);
+    int chosen = -1;
+    bool add = false;
+    if (options_.association == DataAssociation::kKnown) {
+      if (o.id < 0) throw InvalidArgument("known data association needs every observation's id");
+      const auto it = std::find(creator_id_.begin(), creator_id_.end(), o.id);
+      if (it == creator_id_.end()) {
+        add = true;
+      } else {
+        chosen = static_cast<int>(it - creator_id_.begin());
+      }
+    } else {
+      const std::vector<double> d = Distances(z);
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < d.size(); ++i) {
+        if (i < used.size() && used[i]) continue;  // one observation per landmark and step
+        if (d[i] < best) {
+          best = d[i];
+          chosen = static_cast<int>(i);
+        }
+      }
+      if (best >= options_.new_landmark) {
+        add = true;
+        chosen = -1;
+      } else if (!(best < options_.gate)) {
+        chosen = -1;
+        ++dropped_;
+      }
+    }
+    if (add) {
+      AddLandmark(z);
+      creator_id_.push_back(o.id);
+      chosen = landmark_count() - 1;
+    } else if (chosen >= 0) {
+      if (o.id >= 0 && creator_id_[static_cast<std::size_t>(chosen)] != o.id) ++wrong_;
+      Correct(chosen, z);
+    }
+    Tidy();
+    taken[k] = chosen;
+    if (chosen >= 0) {
+      used.resize(static_cast<std::size_t>(landmark_count()), false);
+      used[static_cast<std::size_t>(chosen)] = true;
+    }
+  }
+  return taken;
+}
+
+void LandmarkFilter::Tidy() {
+  mean_[2] = WrapAngle(mean_[2]);
+  cov_ = 0.5 * (cov_ + cov_.transpose()).eval();
+}
+
+Difference AngleDifference(int angle) {
+  return [angle](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    Eigen::VectorXd d = a - b;
+    d[angle] = WrapAngle(d[angle]);
+    return d;
+  };
+}
+
+}  // namespace ekf
+}  // namespace tether

@@ -1,0 +1,200 @@
+// The two-wheel motion model, its Jacobians, the covariance of accumulated odometry and the
+// odometry front-end fed to the incremental smoother.
+#include "tether/frontends/odometry/diff_drive.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "tether/core/error.h"
+#include "tether/factors/between_se2.h"
+#include "tether/frontends/odometry/odometry_front_end.h"
+#include "tether/solvers/incremental_smoother.h"
+
+namespace tether {
+namespace odometry {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Eigen::Vector3d Params(const SE2d& p) { return Eigen::Vector3d(p.x(), p.y(), p.theta()); }
+
+// The closed form (w != 0).
+Eigen::Vector3d ClosedForm(const Eigen::Vector3d& x, double v, double w, double dt) {
+  const double r = v / w;
+  return Eigen::Vector3d(x.x() - r * std::sin(x.z()) + r * std::sin(x.z() + w * dt),
+                         x.y() + r * std::cos(x.z()) - r * std::cos(x.z() + w * dt), x.z() + w * dt);
+}
+
+// Central differences of f (a function of a vector) with the output's angle entry wrapped.
+Eigen::MatrixXd Numeric(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& x,
+                        int angle_row) {
+  const Eigen::VectorXd y0 = f(x);
+  Eigen::MatrixXd j(y0.size(), x.size());
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const double h = 1e-6;
+    Eigen::VectorXd a = x, b = x;
+    a[i] += h;
+    b[i] -= h;
+    Eigen::VectorXd d = f(a) - f(b);
+    if (angle_row >= 0) d[angle_row] = WrapAngle(d[angle_row]);
+    j.col(i) = d / (2 * h);
+  }
+  return j;
+}
+
+TEST(DiffDriveTest, ArcMatchesTheClosedForm) {
+  for (double w : {0.3, -1.7, kPi / 10, 2.5}) {
+    for (double theta : {0.0, 1.0, -2.9, 3.1}) {
+      const Eigen::Vector3d x(1.5, -2.0, theta);
+      const SE2d moved = Move(SE2d(x.x(), x.y(), x.z()), Control{0.8, w}, 1.3);
+      const Eigen::Vector3d expect = ClosedForm(x, 0.8, w, 1.3);
+      EXPECT_NEAR(moved.x(), expect.x(), 1e-12) << "w " << w << " theta " << theta;
+      EXPECT_NEAR(moved.y(), expect.y(), 1e-12);
+      EXPECT_NEAR(WrapAngle(moved.theta() - expect.z()), 0.0, 1e-12);
+    }
+  }
+}
+
+TEST(DiffDriveTest, StraightLineIsTheSmoothLimit) {
+  const SE2d start(1, 2, 0.7);
+  const SE2d straight = Move(start, Control{2.0, 0.0}, 0.5);
+  EXPECT_DOUBLE_EQ(straight.x(), 1 + 1.0 * std::cos(0.7));
+  EXPECT_DOUBLE_EQ(straight.y(), 2 + 1.0 * std::sin(0.7));
+  EXPECT_DOUBLE_EQ(straight.theta(), 0.7);
+  const SE2d tiny = Move(start, Control{2.0, 1e-12}, 0.5);
+  EXPECT_TRUE(Params(tiny).allFinite());
+  // The arc bends off the line by v dt a / 2 = 2.5e-13 m (a = w dt): no more.
+  EXPECT_NEAR(tiny.x(), straight.x(), 1e-12);
+  EXPECT_NEAR(tiny.y(), straight.y(), 1e-12);
+  EXPECT_NEAR(tiny.theta(), 0.7, 1e-12);
+  // Across the series' threshold (a = 1e-3) the two branches agree to rounding.
+  for (double a : {1e-3 * (1 - 1e-12), 1e-3 * (1 + 1e-12)}) {
+    const Eigen::Vector3d d = RelativeMotion(Control{1.0, a}, 1.0);
+    EXPECT_NEAR(d.x(), std::sin(1e-3) / 1e-3, 1e-13);
+    EXPECT_NEAR(d.y(), (1 - std::cos(1e-3)) / 1e-3, 1e-13);
+  }
+}
+
+TEST(DiffDriveTest, JacobiansMatchNumericOnesAlsoAtZeroTurnRate) {
+  for (double w : {0.0, 1e-12, 9.99e-4, 1.01e-3, 0.4, -2.0}) {
+    const Eigen::Vector3d x(0.3, -0.2, 2.8);
+    const double v = 1.2, dt = 0.9;
+    Eigen::Matrix3d a;
+    Eigen::Matrix<double, 3, 2> b;
+    Move(SE2d(x.x(), x.y(), x.z()), Control{v, w}, dt, &a, &b);
+    const auto by_pose = [&](const Eigen::VectorXd& p) {
+      return Eigen::VectorXd(Params(Move(SE2d(p[0], p[1], p[2]), Control{v, w}, dt)));
+    };
+    const auto by_control = [&](const Eigen::VectorXd& u) {
+      return Eigen::VectorXd(Params(Move(SE2d(x.x(), x.y(), x.z()), Control{u[0], u[1]}, dt)));
+    };
+    EXPECT_LT((a - Numeric(by_pose, x, 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+    EXPECT_LT((b - Numeric(by_control, Eigen::Vector2d(v, w), 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+    Eigen::Matrix<double, 3, 2> g;
+    RelativeMotion(Control{v, w}, dt, &g);
+    const auto rel = [&](const Eigen::VectorXd& u) { return Eigen::VectorXd(RelativeMotion(Control{u[0], u[1]}, dt)); };
+    EXPECT_LT((g - Numeric(rel, Eigen::Vector2d(v, w), -1)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+  }
+}
+
+TEST(DiffDriveTest, WheelSpeedsTicksAndTheirNoise) {
+  const Control c = FromWheelSpeeds(0.9, 1.1, 0.5);
+  EXPECT_DOUBLE_EQ(c.v, 1.0);
+  EXPECT_DOUBLE_EQ(c.w, 0.4);
+  const Control t = FromTicks(900, 1100, 0.001, 0.5, 1.0);
+  EXPECT_NEAR(t.v, 1.0, 1e-15);
+  EXPECT_NEAR(t.w, 0.4, 1e-15);
+  const Eigen::Matrix2d s = ControlCovarianceFromWheels(0.1, 0.1, 0.5);
+  EXPECT_NEAR(s(0, 0), 0.01 / 2, 1e-15);
+  EXPECT_NEAR(s(1, 1), 2 * 0.01 / 0.25, 1e-15);
+  EXPECT_NEAR(s(0, 1), 0.0, 1e-15);
+  EXPECT_THROW(FromWheelSpeeds(1, 1, 0), InvalidArgument);
+  EXPECT_THROW(FromTicks(1, 1, 0.001, 0.5, 0), InvalidArgument);
+  EXPECT_THROW(FromTicks(1, 1, -1, 0.5, 1), InvalidArgument);
+}
+
+// The accumulated covariance equals the covariance of the composed relative pose linearised
+// with respect to all the controls at once (an independent computation).
+TEST(DiffDriveTest, AccumulatedCovarianceIsTheLinearisedOneOfAllControls) {
+  OdometryNoise noise;
+  noise.control << 0.02, 0.001, 0.001, 0.01;
+  MotionIntegrator integrator(noise);
+  const std::vector<Control> us{{1.0, 0.3}, {0.5, -0.2}, {1.2, 0.0}, {0.8, 1.0}};
+  const double dt = 0.7;
+  for (const Control& u : us) integrator.Add(u, dt);
+  EXPECT_EQ(integrator.steps(), 4);
+  const auto composed = [&](const Eigen::VectorXd& all) {
+    SE2d p;
+    for (std::size_t k = 0; k < us.size(); ++k) p = Move(p, Control{all[2 * k], all[2 * k + 1]}, dt);
+    return Eigen::VectorXd(Params(p));
+  };
+  Eigen::VectorXd all(8);
+  Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(8, 8);
+  for (std::size_t k = 0; k < us.size(); ++k) {
+    all[2 * k] = us[k].v;
+    all[2 * k + 1] = us[k].w;
+    sigma.block<2, 2>(2 * k, 2 * k) = noise.control;
+  }
+  const Eigen::MatrixXd j = Numeric(composed, all, 2);
+  const Eigen::Matrix3d expect = j * sigma * j.transpose();
+  EXPECT_LT((integrator.covariance() - expect).cwiseAbs().maxCoeff(), 1e-8);
+  EXPECT_LT((Params(integrator.relative()) - composed(all)).cwiseAbs().maxCoeff(), 1e-14);
+  // One step has rank 2: the floor makes the information finite and is its only addition.
+  MotionIntegrator one(noise);
+  one.Add(us[0], dt);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(one.covariance());
+  EXPECT_LT(std::abs(eig.eigenvalues()[0]), 1e-15);
+  const Eigen::Matrix3d with_floor = one.covariance() + 0.03 * 0.03 * Eigen::Matrix3d::Identity();
+  EXPECT_LT((one.Information() * with_floor - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_THROW(one.Add(Control{1, 0}, 0), InvalidArgument);
+  EXPECT_THROW(one.Add(Control{std::nan(""), 0}, 1), InvalidArgument);
+  OdometryNoise bad;
+  bad.floor_sigma = 0;
+  EXPECT_THROW(MotionIntegrator{bad}, InvalidArgument);
+}
+
+TEST(OdometryFrontEndTest, EmitsPosesAndFactorsTheSmootherTakes) {
+  OdometryFrontEndOptions o;
+  o.controls_per_pose = 3;
+  o.start = SE2d(1, 1, 0.5);
+  OdometryFrontEnd odo(o);
+  IncrementalSmoother smoother;
+  int poses = 0;
+  std::vector<FactorId> handles;
+  for (int k = 0; k < 30; ++k) {
+    const Control u = FromWheelSpeeds(0.9 + 0.01 * k, 1.0, 0.5);
+    if (!odo.Add(u, 0.2)) continue;
+    ++poses;
+    FactorGraph f;
+    Values v;
+    odo.TakeNew(&f, &v);
+    EXPECT_EQ(f.size(), poses == 1 ? 2u : 1u);  // the first also carries the start's prior
+    const SmootherUpdate s = smoother.Update(std::move(f), std::move(v));
+    EXPECT_TRUE(s.solved);
+  }
+  EXPECT_EQ(poses, 10);
+  ASSERT_EQ(odo.trajectory().size(), 11u);
+  // Odometry alone: the estimate is the dead-reckoned trajectory.
+  for (int i = 0; i <= 10; ++i) {
+    const SE2d e = smoother.Estimate().At<SE2d>(odo.PoseKey(i));
+    EXPECT_NEAR(e.x(), odo.trajectory()[static_cast<std::size_t>(i)].x(), 1e-9);
+    EXPECT_NEAR(e.y(), odo.trajectory()[static_cast<std::size_t>(i)].y(), 1e-9);
+  }
+  // Each factor's measurement is three controls composed.
+  SE2d p;
+  for (int k = 3; k < 6; ++k) p = Move(p, FromWheelSpeeds(0.9 + 0.01 * k, 1.0, 0.5), 0.2);
+  const auto& between = dynamic_cast<const BetweenSE2&>(smoother.graph().at(2));
+  EXPECT_NEAR(between.Measurement()[0], p.x(), 1e-14);
+  EXPECT_NEAR(between.Measurement()[2], p.theta(), 1e-14);
+  OdometryFrontEndOptions bad;
+  bad.controls_per_pose = 0;
+  EXPECT_THROW(OdometryFrontEnd{bad}, InvalidArgument);
+}
+
+}  // namespace
+}  // namespace odometry
+}  // namespace tether

@@ -1,0 +1,53 @@
+#pragma once
+// `tether ekf-demo`: the filter experiment of the thesis's chapters 3 and 4.2 on simulated
+// worlds (frontends/ekf/landmark_simulator.h). For each experiment (1: control noise std
+// (0.1 m/s, pi/18 rad/s); 2: doubled), each data association (known, nearest neighbour) and
+// each seed, it runs dead reckoning, EKF-SLAM and UKF-SLAM, builds the pose graph from the same
+// odometry and observations, seeds it with each filter's run, feeds it to the incremental
+// smoother step by step and solves it; it reports, over the seeds, mean +- std of the robot
+// trajectory RMSE and the landmark RMSE of each, the wrong associations, and the time.
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace tether {
+
+struct EkfDemoCommand {
+  int seeds = 20;
+  std::uint64_t first_seed = 1;
+  std::string experiments = "1,2";
+  std::string association = "known,nn";
+  int steps = 200;
+  std::string output;  ///< also write the table (markdown) here
+  std::string plot;    ///< an SVG of the first seed of the first experiment and association
+  bool quiet = false;
+};
+
+/// One method's figures over the seeds.
+struct EkfDemoRow {
+  std::string method;
+  std::vector<double> trajectory_rmse;
+  std::vector<double> landmark_rmse;
+  std::vector<double> wrong_associations;
+  std::vector<double> seconds;
+  int failures = 0;          ///< runs that threw (a filter whose covariance broke down)
+  std::string failure_note;  ///< the first failure's message
+};
+
+struct EkfDemoConfig {
+  int experiment = 1;
+  bool nearest_neighbour = false;
+  std::vector<EkfDemoRow> rows;
+};
+
+/// Runs one experiment and association over the seeds (no output).
+EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed, int steps);
+
+/// The markdown table of the configurations.
+std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs);
+
+/// Exit codes: 0 done; 2 bad usage; 4 an output could not be written.
+int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err);
+
+}  // namespace tether

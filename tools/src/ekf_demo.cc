@@ -1,0 +1,343 @@
+#include "tether/tools/ekf_demo.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <ostream>
+#include <sstream>
+
+#include "svg_writer.h"
+#include "tether/core/error.h"
+#include "tether/core/output_file.h"
+#include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/landmark_graph.h"
+#include "tether/frontends/ekf/ukf_slam.h"
+#include "tether/tools/commands.h"
+
+namespace tether {
+
+namespace {
+
+using ekf::Track;
+
+double SecondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+ekf::LandmarkWorldOptions WorldOptions(int experiment, std::uint64_t seed, int steps) {
+  ekf::LandmarkWorldOptions o;
+  o.seed = seed;
+  o.steps = steps;
+  if (experiment == 2) o.control_sigma *= 2;
+  return o;
+}
+
+ekf::FilterOptions FilterOptionsFor(const ekf::LandmarkWorldOptions& w, bool nn) {
+  ekf::FilterOptions f;
+  f.control_cov = w.control_sigma.cwiseAbs2().asDiagonal();
+  f.measurement_cov = w.measurement_sigma.cwiseAbs2().asDiagonal();
+  f.association = nn ? ekf::DataAssociation::kNearestNeighbour : ekf::DataAssociation::kKnown;
+  return f;
+}
+
+ekf::LandmarkGraphOptions GraphOptionsFor(const ekf::FilterOptions& f) {
+  ekf::LandmarkGraphOptions g;
+  g.odometry.control = f.control_cov;
+  g.measurement_cov = f.measurement_cov;
+  return g;
+}
+
+// Every track of one seed: the filters' and the graphs they seed.
+struct SeedRun {
+  ekf::LandmarkWorld world;
+  std::vector<std::pair<std::string, Track>> tracks;
+  std::vector<double> seconds;
+};
+
+SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, int steps, std::vector<EkfDemoRow>* rows) {
+  const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, steps);
+  SeedRun run;
+  run.world = ekf::SimulateLandmarkWorld(wo);
+  const ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
+  const ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
+  const auto record = [&](const std::string& name, const std::function<Track()>& make) {
+    EkfDemoRow* row = nullptr;
+    for (EkfDemoRow& r : *rows) {
+      if (r.method == name) row = &r;
+    }
+    if (row == nullptr) {
+      rows->push_back(EkfDemoRow{});
+      row = &rows->back();
+      row->method = name;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      Track t = make();
+      row->seconds.push_back(SecondsSince(t0));
+      row->trajectory_rmse.push_back(ekf::TrajectoryRmse(t.poses, run.world.truth));
+      row->landmark_rmse.push_back(ekf::LandmarkRmse(t, run.world.landmarks));
+      row->wrong_associations.push_back(t.wrong_associations);
+      run.tracks.emplace_back(name, std::move(t));
+    } catch (const Error& e) {
+      if (row->failures++ == 0) row->failure_note = "seed " + std::to_string(seed) + ": " + e.what();
+    }
+  };
+  const auto track_of = [&](const std::string& name) -> const Track* {
+    for (const auto& [n, t] : run.tracks) {
+      if (n == name) return &t;
+    }
+    return nullptr;
+  };
+  const auto smoothed = [&](const Track& seed_track) {
+    ekf::SmoothedTrack s = ekf::SmoothLandmarkRun(run.world, seed_track, go);
+    s.track.wrong_associations = seed_track.wrong_associations;
+    return s.track;
+  };
+  record("dead reckoning", [&] { return ekf::DeadReckoningTrack(run.world); });
+  record("EKF", [&] {
+    ekf::EkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), fo);
+    return ekf::RunFilter(&f, run.world);
+  });
+  record("UKF", [&] {
+    ekf::UkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), fo);
+    return ekf::RunFilter(&f, run.world);
+  });
+  for (const char* seeded : {"EKF", "UKF", "dead reckoning"}) {
+    if (nn && std::string(seeded) == "dead reckoning") continue;  // dead reckoning associates nothing
+    const Track* t = track_of(seeded);
+    if (t == nullptr) continue;  // that filter failed on this seed
+    const Track copy = *t;
+    record(std::string("graph (") + seeded + " seed)", [&] { return smoothed(copy); });
+  }
+  return run;
+}
+
+std::string MeanStd(const std::vector<double>& v, int digits) {
+  if (v.empty()) return "-";
+  double mean = 0;
+  for (double x : v) mean += x;
+  mean /= static_cast<double>(v.size());
+  double var = 0;
+  for (double x : v) var += (x - mean) * (x - mean);
+  const double sd = v.size() > 1 ? std::sqrt(var / static_cast<double>(v.size() - 1)) : 0.0;
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << mean << " ± " << sd;
+  return s.str();
+}
+
+// ---- the picture ----
+
+struct Frame {
+  double min_x, max_y, scale;
+  svg::Pt operator()(const Eigen::Vector2d& p) const {
+    return {40 + (p.x() - min_x) * scale, 40 + (max_y - p.y()) * scale};
+  }
+};
+
+std::string Ellipse(const Frame& f, const Eigen::Vector2d& c, const Eigen::Matrix2d& cov, const char* colour) {
+  // 2-sigma: the points c + 2 L (cos t, sin t), L L^T = cov.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  const Eigen::Vector2d ev = eig.eigenvalues().cwiseMax(0.0);
+  svg::PathData d;
+  for (int k = 0; k <= 36; ++k) {
+    const double t = 2 * 3.14159265358979323846 * k / 36;
+    const Eigen::Vector2d p =
+        c + 2 * eig.eigenvectors() * Eigen::Vector2d(std::sqrt(ev[0]) * std::cos(t), std::sqrt(ev[1]) * std::sin(t));
+    if (k == 0) {
+      d.MoveTo(f(p));
+    } else {
+      d.LineTo(f(p));
+    }
+  }
+  return "<path d=\"" + d.str() + "\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"1\"/>\n";
+}
+
+std::string DemoSvg(const SeedRun& run, const std::string& title) {
+  const std::vector<std::pair<std::string, const char*>> colours = {{"truth", "#2ca02c"},
+                                                                    {"dead reckoning", "#999999"},
+                                                                    {"EKF", "#d62728"},
+                                                                    {"UKF", "#ff7f0e"},
+                                                                    {"graph (EKF seed)", "#1f77b4"}};
+  std::vector<std::pair<std::string, const Track*>> shown;
+  Track truth;
+  truth.poses = run.world.truth;
+  shown.emplace_back("truth", &truth);
+  for (const auto& [name, t] : run.tracks) {
+    for (const auto& c : colours) {
+      if (c.first == name) shown.emplace_back(name, &t);
+    }
+  }
+  Eigen::Vector2d lo = run.world.truth.front().translation(), hi = lo;
+  const auto grow = [&](const Eigen::Vector2d& p) {
+    if (!p.allFinite() || p.norm() > 1e4) return;
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  };
+  for (const auto& l : run.world.landmarks) grow(l);
+  for (const auto& [name, t] : shown) {
+    for (const SE2d& p : t->poses) grow(p.translation());
+  }
+  const double size = 800;
+  const double span = std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 1e-9;
+  const Frame f{lo.x(), hi.y(), size / span};
+  const double w = 80 + (hi.x() - lo.x()) * f.scale + 220, h = 80 + (hi.y() - lo.y()) * f.scale;
+  std::string s = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + svg::Num(w) + "\" height=\"" + svg::Num(h) +
+                  "\" font-family=\"sans-serif\" font-size=\"13\">\n<rect width=\"100%\" height=\"100%\" "
+                  "fill=\"white\"/>\n<text x=\"40\" y=\"24\">" +
+                  svg::Escape(title) + "</text>\n";
+  double legend_y = 60;
+  const double legend_x = 60 + (hi.x() - lo.x()) * f.scale;
+  for (const auto& [name, t] : shown) {
+    const char* colour = "#000";
+    for (const auto& c : colours) {
+      if (c.first == name) colour = c.second;
+    }
+    svg::PathData d;
+    for (std::size_t i = 0; i < t->poses.size(); ++i) {
+      const Eigen::Vector2d p = t->poses[i].translation();
+      if (i == 0) {
+        d.MoveTo(f(p));
+      } else {
+        d.LineTo(f(p));
+      }
+    }
+    const bool wide = name == "truth";
+    s += "<path d=\"" + d.str() + "\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"" + (wide ? "4" : "1.3") +
+         "\" stroke-opacity=\"" + (wide ? "0.5" : "0.9") + "\"/>\n";
+    // Landmarks and their 2-sigma ellipses (filters), estimates (graph).
+    for (std::size_t j = 0; j < t->landmarks.size(); ++j) {
+      if (!t->landmarks[j].allFinite()) continue;
+      const svg::Pt p = f(t->landmarks[j]);
+      s += "<circle cx=\"" + svg::Num(p.x) + "\" cy=\"" + svg::Num(p.y) + "\" r=\"2.5\" fill=\"" + colour + "\"/>\n";
+      if (j < t->landmark_cov.size()) s += Ellipse(f, t->landmarks[j], t->landmark_cov[j], colour);
+    }
+    if (!t->pose_cov.empty()) {
+      s += Ellipse(f, t->poses.back().translation(), t->pose_cov.back().topLeftCorner<2, 2>(), colour);
+    }
+    s += "<line x1=\"" + svg::Num(legend_x) + "\" y1=\"" + svg::Num(legend_y - 4) + "\" x2=\"" +
+         svg::Num(legend_x + 24) + "\" y2=\"" + svg::Num(legend_y - 4) + "\" stroke=\"" + colour +
+         "\" stroke-width=\"3\"/>\n<text x=\"" + svg::Num(legend_x + 30) + "\" y=\"" + svg::Num(legend_y) + "\">" +
+         svg::Escape(name) + " (RMSE " + svg::Label(ekf::TrajectoryRmse(t->poses, run.world.truth), 3) + " m)</text>\n";
+    legend_y += 20;
+  }
+  for (const Eigen::Vector2d& l : run.world.landmarks) {
+    const svg::Pt p = f(l);
+    s += "<path d=\"M" + svg::Num(p.x - 5) + " " + svg::Num(p.y - 5) +
+         "l10 10m0 -10l-10 10\" stroke=\"#000\" "
+         "stroke-width=\"1.5\"/>\n";
+  }
+  s += "<text x=\"" + svg::Num(legend_x) + "\" y=\"" + svg::Num(legend_y) +
+       "\">x true landmarks; ellipses: 2 sigma</text>\n</svg>\n";
+  return s;
+}
+
+bool ParseList(const std::string& text, const std::vector<std::string>& allowed, std::vector<std::string>* out) {
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (std::find(allowed.begin(), allowed.end(), item) == allowed.end()) return false;
+    out->push_back(item);
+  }
+  return !out->empty();
+}
+
+}  // namespace
+
+EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed, int steps) {
+  EkfDemoConfig c;
+  c.experiment = experiment;
+  c.nearest_neighbour = nearest_neighbour;
+  for (int k = 0; k < seeds; ++k)
+    RunSeed(experiment, nearest_neighbour, first_seed + static_cast<std::uint64_t>(k), steps, &c.rows);
+  return c;
+}
+
+std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs) {
+  std::ostringstream s;
+  s << "| experiment | association | method | trajectory RMSE [m] | landmark RMSE [m] | wrong associations | "
+       "time [ms] | failed runs |\n|---|---|---|---|---|---|---|---|\n";
+  for (const EkfDemoConfig& c : configs) {
+    for (const EkfDemoRow& r : c.rows) {
+      std::vector<double> ms;
+      for (double t : r.seconds) ms.push_back(1e3 * t);
+      s << "| " << c.experiment << " | " << (c.nearest_neighbour ? "nearest neighbour" : "known") << " | " << r.method
+        << " | " << MeanStd(r.trajectory_rmse, 3) << " | " << MeanStd(r.landmark_rmse, 3) << " | "
+        << MeanStd(r.wrong_associations, 1) << " | " << MeanStd(ms, 1) << " | " << r.failures << " |\n";
+    }
+  }
+  return s.str();
+}
+
+int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> experiments, associations;
+  if (!ParseList(cmd.experiments, {"1", "2"}, &experiments)) {
+    err << "tether ekf-demo: --experiments takes 1, 2 or 1,2 (got '" << cmd.experiments << "')\n";
+    return 2;
+  }
+  if (!ParseList(cmd.association, {"known", "nn"}, &associations)) {
+    err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
+    return 2;
+  }
+  if (cmd.seeds < 1 || cmd.steps < 1) {
+    err << "tether ekf-demo: --seeds and --steps must be at least 1\n";
+    return 2;
+  }
+  OutputSet outputs;
+  OutputFile* table_file = nullptr;
+  OutputFile* plot_file = nullptr;
+  const int rc = CheckOutputs(
+      "ekf-demo", outputs,
+      [&] {
+        if (!cmd.output.empty()) table_file = &outputs.Add(cmd.output, "table");
+        if (!cmd.plot.empty()) plot_file = &outputs.Add(cmd.plot, "plot");
+      },
+      err);
+  if (rc != 0) return rc;
+  std::vector<EkfDemoConfig> configs;
+  for (const std::string& e : experiments) {
+    for (const std::string& a : associations) {
+      const int experiment = std::stoi(e);
+      const bool nn = a == "nn";
+      if (!cmd.quiet) {
+        out << "experiment " << experiment << " (control noise std "
+            << (experiment == 2 ? "0.2 m/s, pi/9" : "0.1 m/s, pi/18") << " rad/s), "
+            << (nn ? "nearest-neighbour" : "known") << " association, " << cmd.seeds << " seeds\n";
+      }
+      configs.push_back(RunEkfExperiment(experiment, nn, cmd.seeds, cmd.first_seed, cmd.steps));
+    }
+  }
+  const std::string table = EkfDemoTable(configs);
+  out << table;
+  for (const EkfDemoConfig& c : configs) {
+    for (const EkfDemoRow& r : c.rows) {
+      if (r.failures > 0)
+        out << "note: " << r.method << " failed on " << r.failures << " runs (first: " << r.failure_note << ")\n";
+    }
+  }
+  try {
+    if (table_file != nullptr) table_file->Stage(table);
+    if (plot_file != nullptr) {
+      std::vector<EkfDemoRow> rows;
+      const int experiment = std::stoi(experiments.front());
+      const bool nn = associations.front() == "nn";
+      const SeedRun run = RunSeed(experiment, nn, cmd.first_seed, cmd.steps, &rows);
+      plot_file->Stage(DemoSvg(run, "experiment " + std::to_string(experiment) + ", " +
+                                        (nn ? "nearest-neighbour" : "known") + " association, seed " +
+                                        std::to_string(cmd.first_seed)));
+    }
+    outputs.CommitAll();
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
+  }
+  if (table_file != nullptr) out << "wrote " << cmd.output << "\n";
+  if (plot_file != nullptr) out << "wrote " << cmd.plot << "\n";
+  return 0;
+}
+
+}  // namespace tether
