@@ -4,7 +4,7 @@
 #   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
 #
 # Seeds: the first 40 lines of every public dataset in ../shared/datasets (g2o files for fuzz_g2o,
-# TORO .graph files for fuzz_toro), files written by `tether simulate` where that folder is
+# TORO .graph files, BR lines included, for fuzz_toro, iSAM landmark files for fuzz_isam), files written by `tether simulate` where that folder is
 # absent, and the regression inputs in tests/fuzz/regressions. Prints per target: executions,
 # coverage (cov, ft), corpus size and findings; exits non-zero where a target found something
 # (the input is left in build-fuzz/findings/TARGET/, with a minimised copy min-*; the findings of
@@ -29,12 +29,12 @@ bash scripts/install_deps.sh > /dev/null
 
 CC=clang CXX=clang++ cmake -S . -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETHER_BUILD_FUZZERS=ON \
   -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_TOOLS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DBUILD_SHARED_LIBS=OFF > /dev/null
-cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro > /dev/null
+cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam > /dev/null
 
 # Seed corpora.
 datasets="$root/../shared/datasets"
 stamp=$(date +%Y%m%d-%H%M%S)
-for t in g2o toro; do
+for t in g2o toro isam; do
   mkdir -p "$work/corpus/$t" "$work/findings/$t"
   if [ -n "$(ls -A "$work/findings/$t")" ]; then
     mkdir -p "$work/findings/$t.$stamp"
@@ -43,9 +43,14 @@ for t in g2o toro; do
 done
 if [ -d "$datasets" ]; then
   while IFS= read -r f; do
-    case "$f" in *.graph) t=toro ;; *) t=g2o ;; esac
+    case "$f" in *.graph) t=toro ;; *.txt) t=isam ;; *) t=g2o ;; esac
     { printf '\000'; head -n 40 "$f"; } > "$work/corpus/$t/seed_$(basename "$f")"
-  done < <(find "$datasets" -type f \( -name '*.g2o' -o -name '*.graph' \))
+  done < <(find "$datasets" -type f \( -name '*.g2o' -o -name '*.graph' -o -path '*/landmarks/*.txt' \))
+  # BR lines start after the poses in example.graph: seed them from the middle too.
+  if [ -f "$datasets/landmarks/example.graph" ]; then
+    { printf '\000'; grep -m 20 -E '^(VERTEX2|EDGE2)' "$datasets/landmarks/example.graph";
+      grep -m 20 '^BR' "$datasets/landmarks/example.graph"; } > "$work/corpus/toro/seed_example_br"
+  fi
 else
   echo "fuzz: $datasets is absent; seeding from small written graphs only"
 fi
@@ -53,9 +58,13 @@ printf '\000VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 500 0 0 5
 printf '\000VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_XY 5 1 2\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nFIX 0\n' > "$work/corpus/g2o/seed_se3"
 printf '\004VERTEX_SWITCH 7 1\nEDGE_SWITCH_PRIOR 7 1 1\nEDGE_SE2_SWITCHABLE 0 1 7 1 0 0 1 0 0 1 0 1\n' > "$work/corpus/g2o/seed_switch"
 printf '\000VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 1 0 1 1 0 0\nEQUIV 0 1\n' > "$work/corpus/toro/seed_toro"
+printf '\000VERTEX2 0 0 0 0\nBR 0 4 0.5 2 0.05 0.1\nBR 0 5 -2 3 0.05 0.1\n' > "$work/corpus/toro/seed_br"
+printf '\000ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2 3 2 1 3\nEDGE2 1 2 1 0 0 1 0 0 1 0 1\n' > "$work/corpus/isam/seed_isam"
+printf '\100ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\nLANDMARK 1 5 2 3 0.4 0.1 0.4\n' > "$work/corpus/isam/seed_isam_cov"
+printf '\000PARAMS_SE3OFFSET 1 0.1 0 0.2 0 0 0.3 0.95\nVERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 7 1 1 2 3 1 0 0 1 0 1\nEDGE_SE3_PRIOR 0 1 0 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nEDGE_RANGE_BEARING_SE2_XY 3 4 2 0.5 1 0 1\n' > "$work/corpus/g2o/seed_landmarks"
 for f in "$root"/tests/fuzz/regressions/*; do
   [ -e "$f" ] || continue
-  case "$f" in *toro*) cp "$f" "$work/corpus/toro/" ;; *) cp "$f" "$work/corpus/g2o/" ;; esac
+  case "$f" in *toro*) cp "$f" "$work/corpus/toro/" ;; *isam*) cp "$f" "$work/corpus/isam/" ;; *) cp "$f" "$work/corpus/g2o/" ;; esac
 done
 cat > "$work/tags.dict" << 'DICT'
 "VERTEX_SE2"
@@ -74,6 +83,13 @@ cat > "$work/tags.dict" << 'DICT'
 "VERTEX2"
 "EDGE2"
 "EQUIV"
+"BR"
+"ODOMETRY"
+"LANDMARK"
+"PARAMS_SE3OFFSET"
+"EDGE_SE3_TRACKXYZ"
+"EDGE_SE3_PRIOR"
+"EDGE_RANGE_BEARING_SE2_XY"
 "nan"
 "inf"
 "1e308"
@@ -88,7 +104,7 @@ DICT
 status=0
 echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
-for t in g2o toro; do
+for t in g2o toro isam; do
   log="$work/fuzz_$t.log"
   ( cd "$work/findings/$t" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
       "$work/build/tests/fuzz/fuzz_$t" "$work/corpus/$t" -dict="$work/tags.dict" -max_total_time="$seconds" \

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <istream>
+#include <limits>
 #include <ostream>
 #include <sstream>
 #include <string_view>
@@ -31,6 +33,10 @@ constexpr std::string_view kFix = "FIX";
 constexpr std::string_view kToroVertex = "VERTEX2";
 constexpr std::string_view kToroEdge = "EDGE2";
 constexpr std::string_view kToroEquiv = "EQUIV";
+constexpr std::string_view kToroBearingRange = "BR";
+// iSAM's text format (EDGE2 shared with TORO, with another information layout).
+constexpr std::string_view kIsamOdometry = "ODOMETRY";
+constexpr std::string_view kIsamLandmark = "LANDMARK";
 // g2o's sensor offset on a 3D pose, referred to by EDGE_SE3_TRACKXYZ and EDGE_SE3_PRIOR.
 constexpr std::string_view kSe3Offset = "PARAMS_SE3OFFSET";
 
@@ -53,6 +59,7 @@ struct IdInfo {
   long vertex_line = 0;       // 0: no vertex line (yet)
   long first_edge_line = 0;   // 0: no edge uses it (yet)
   std::string_view first_edge_tag;
+  bool landmark = false;  // named by a LANDMARK or BR line: needs no vertex line
 };
 
 class Reader {
@@ -62,6 +69,7 @@ class Reader {
     ctx_.repair = options.repair;
     toro_by_name_ =
         options.format == FileFormat::kToro || (options.format == FileFormat::kAuto && EndsWith(name, ".graph"));
+    isam_ = options.format == FileFormat::kIsam;
     for (const auto& [vname, type] : registry.variable_types()) {
       const VariableType& d = Describe(type);
       if (d.tag.empty()) continue;
@@ -87,12 +95,36 @@ class Reader {
       for (std::size_t i = 1; i < f.size(); ++i) fixes_.push_back({f.Id(i), number});
     } else if (tag == kSe3Offset) {
       ReadSe3Offset(f);
+    } else if (IsIsamTag(tag)) {
+      IsamLine(f);
     } else if (IsToroTag(tag)) {
       ToroLine(f);
     } else if (const FactorType* type = registry_.FindByTag(std::string(tag))) {
       Edge(f, type->tag, registry_.Read(*type, f, ctx_));
     } else {
       UnknownTag(f);
+    }
+  }
+
+  // kAuto, a name that does not say TORO: an ODOMETRY or LANDMARK line in the file's first
+  // block makes it iSAM, so that its EDGE2 lines (often all before the first LANDMARK) are read
+  // with iSAM's information layout.
+  void Sniff(std::string_view block) {
+    if (options_.format != FileFormat::kAuto || toro_by_name_) return;
+    while (!block.empty()) {
+      const std::size_t nl = block.find('\n');
+      std::string_view line = block.substr(0, nl);
+      const std::size_t start = line.find_first_not_of(" \t\r");
+      if (start != std::string_view::npos) {
+        line.remove_prefix(start);
+        const std::string_view tag = line.substr(0, line.find_first_of(" \t\r"));
+        if ((tag == kIsamOdometry || tag == kIsamLandmark) && IsIsamTag(tag)) {
+          isam_ = true;
+          return;
+        }
+      }
+      if (nl == std::string_view::npos) break;
+      block.remove_prefix(nl + 1);
     }
   }
 
@@ -156,7 +188,12 @@ class Reader {
   // GNC or switchable constraints do not wrap it again).
   int MarkLoopClosures() {
     int marked = 0;
+    std::size_t next_odometry = 0;  // odometry_factors_ is ascending
     for (std::size_t i = 0; i < graph_.size(); ++i) {
+      if (next_odometry < odometry_factors_.size() && odometry_factors_[next_odometry] == i) {
+        ++next_odometry;
+        continue;
+      }
       Factor& f = graph_.at(i);
       if (f.keys().size() != 2) continue;
       const Key a = f.keys()[0], b = f.keys()[1];
@@ -222,8 +259,143 @@ class Reader {
     it->second = ReadContext::Parameter{std::string(kSe3Offset), std::move(p), f.line_number()};
   }
 
+  bool IsIsamTag(std::string_view tag) const {
+    if (tag != kIsamOdometry && tag != kIsamLandmark) return false;
+    if (options_.format == FileFormat::kG2o) return false;
+    return options_.format == FileFormat::kIsam || registry_.FindByTag(std::string(tag)) == nullptr;
+  }
+
+  // The key of a landmark id in field `field` (iSAM LANDMARK, TORO BR).
+  Key LandmarkKey(const Fields& f, std::size_t field) {
+    const Key id = f.Id(field);
+    const Key offset = options_.landmark_key_offset;
+    if (id > std::numeric_limits<Key>::max() - offset) {
+      f.Fail(std::string(f.tag()) + " field " + std::to_string(field) + ": landmark id " + std::to_string(id) +
+             " plus the landmark key offset " + std::to_string(offset) +
+             " passes the largest key; renumber the landmarks or read with a smaller "
+             "ReadOptions::landmark_key_offset");
+    }
+    ++landmark_lines_;
+    return id + offset;
+  }
+
+  // Adds a pose-landmark factor and marks its landmark as needing no vertex line.
+  void LandmarkEdge(const Fields& f, std::string_view stable_tag, std::unique_ptr<Factor> factor) {
+    const Key landmark = factor->keys()[1];
+    Edge(f, stable_tag, std::move(factor));
+    ids_.at(landmark).landmark = true;
+  }
+
+  const FactorType& BuiltinType(const Fields& f, const char* name) const {
+    const FactorType* type = registry_.FindByName(name);
+    if (!type || !type->make) {
+      f.Fail(std::string(f.tag()) + " needs the factor type '" + name +
+             "', which is not registered; call RegisterBuiltinFactors");
+    }
+    return *type;
+  }
+
+  // iSAM's noise, starting at field `first`: the upper triangle, row by row, of the square-root
+  // information R (information R^T R) or, with IsamNoise::kCovariance, of the covariance.
+  SqrtInformation IsamNoise(const Fields& f, std::size_t first, int dim) {
+    Eigen::MatrixXd r = Eigen::MatrixXd::Zero(dim, dim);
+    std::size_t k = first;
+    for (int i = 0; i < dim; ++i)
+      for (int j = i; j < dim; ++j) r(i, j) = f.Double(k++);
+    if (options_.isam_noise == IsamNoise::kCovariance) {
+      const Eigen::MatrixXd cov = r.selfadjointView<Eigen::Upper>();
+      SqrtInformation check;
+      std::string why;
+      if (!SqrtInformation::TryFromInformation(cov, &check, &why)) {
+        f.Fail(std::string(f.tag()) + ": the covariance (fields " + std::to_string(first) + " to " +
+               std::to_string(k - 1) + ", read as a covariance: IsamNoise::kCovariance) is not usable: " + why +
+               "; fix or remove the line");
+      }
+      const Eigen::MatrixXd omega = cov.llt().solve(Eigen::MatrixXd::Identity(dim, dim));
+      return ctx_.FromInformation(f, 0.5 * (omega + omega.transpose()));
+    }
+    k = first;
+    for (int i = 0; i < dim; ++i) {
+      if (r(i, i) == 0) {
+        f.Fail(std::string(f.tag()) + " field " + std::to_string(k) + " (R" + std::to_string(i + 1) +
+               std::to_string(i + 1) +
+               ", a diagonal entry of the square-root information) is 0, so the information R^T R is singular; "
+               "fix or remove the line");
+      }
+      k += static_cast<std::size_t>(dim - i);
+    }
+    return ctx_.FromInformation(f, r.transpose() * r);
+  }
+
+  void IsamLine(const Fields& f) {
+    // A file named or declared TORO keeps TORO's EDGE2 and reads the iSAM lines beside it.
+    if (!isam_ && !toro_by_name_) {
+      if (toro_edge2_line_ != 0) {
+        f.Fail(std::string(f.tag()) +
+               " is a tag of iSAM's format, whose EDGE2 lists the information otherwise than "
+               "TORO's, but line " +
+               std::to_string(toro_edge2_line_) +
+               " was read as a TORO EDGE2 (no ODOMETRY or LANDMARK line in the first 64 KiB said the file is iSAM); "
+               "read the file as iSAM (ReadOptions::format = FileFormat::kIsam), or move an iSAM line to its start");
+      }
+      isam_ = true;
+    }
+    if (f.tag() == kIsamOdometry) {
+      IsamEdge(f, kIsamOdometry);
+      return;
+    }
+    f.ExpectCount(7, "pose landmark dx dy R11 R12 R22 (square-root information, upper triangle row by row)");
+    const Key pose = f.Id(1);
+    const Key landmark = LandmarkKey(f, 2);
+    const double z[2] = {f.Double(3), f.Double(4)};
+    const SqrtInformation noise = IsamNoise(f, 5, 2);
+    LandmarkEdge(f, kIsamLandmark, BuiltinType(f, "PosePoint2").make({pose, landmark}, z, noise));
+  }
+
+  // ODOMETRY, and EDGE2 of an iSAM file: id1 id2 dx dy dtheta R11 R12 R13 R22 R23 R33.
+  void IsamEdge(const Fields& f, std::string_view stable_tag) {
+    f.ExpectCount(11,
+                  "id1 id2 dx dy dtheta R11 R12 R13 R22 R23 R33 (square-root information, upper triangle row "
+                  "by row, iSAM's layout)");
+    const std::vector<Key> keys = {f.Id(1), f.Id(2)};
+    const double z[3] = {f.Double(3), f.Double(4), f.Double(5)};
+    const SqrtInformation noise = IsamNoise(f, 6, 3);
+    const FactorType& type = BuiltinType(f, "BetweenSE2");
+    Edge(f, stable_tag, type.make(keys, z, noise));
+    // iSAM's ODOMETRY says what the edge is; its pose ids may skip the numbers landmarks use.
+    if (stable_tag == kIsamOdometry) odometry_factors_.push_back(graph_.size() - 1);
+  }
+
+  // BR pose landmark bearing range sigma_bearing sigma_range (TORO's landmark observation).
+  void ToroBearingRange(const Fields& f) {
+    f.ExpectCount(6, "pose landmark bearing range sigma_bearing sigma_range");
+    const Key pose = f.Id(1);
+    const Key landmark = LandmarkKey(f, 2);
+    const double bearing = f.Double(3), range = f.Double(4);
+    if (range < 0) {
+      f.Fail("BR range (field 4) is " + FormatDouble(range) +
+             "; a range is a distance, not negative; fix or remove the line");
+    }
+    const char* names[2] = {"sigma_bearing (field 5)", "sigma_range (field 6)"};
+    double sigma[2];
+    for (std::size_t i = 0; i < 2; ++i) {
+      sigma[i] = f.Double(5 + i);
+      if (!(sigma[i] > 0)) {
+        f.Fail(std::string("BR ") + names[i] + " is " + FormatDouble(sigma[i]) +
+               "; a standard deviation must be positive; fix or remove the line");
+      }
+    }
+    // The factor's residual is (range, bearing).
+    Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(2, 2);
+    omega(0, 0) = 1.0 / (sigma[1] * sigma[1]);
+    omega(1, 1) = 1.0 / (sigma[0] * sigma[0]);
+    const SqrtInformation noise = ctx_.FromInformation(f, std::move(omega));
+    const double z[2] = {range, bearing};
+    LandmarkEdge(f, kToroBearingRange, BuiltinType(f, "RangeBearing2").make({pose, landmark}, z, noise));
+  }
+
   bool IsToroTag(std::string_view tag) const {
-    if (tag != kToroVertex && tag != kToroEdge && tag != kToroEquiv) return false;
+    if (tag != kToroVertex && tag != kToroEdge && tag != kToroEquiv && tag != kToroBearingRange) return false;
     if (options_.format == FileFormat::kG2o) return false;
     // A plugin may define a g2o edge with a TORO name; in auto mode only a .graph name
     // gives the TORO meaning precedence.
@@ -236,7 +408,12 @@ class Reader {
       f.ExpectCount(4, "id x y theta");
       const double p[3] = {f.Double(2), f.Double(3), SE2d(0, 0, f.Double(4)).theta()};
       Vertex(f, kToroVertex, VarType::kSE2, p);
+    } else if (tag == kToroBearingRange) {
+      ToroBearingRange(f);
+    } else if (tag == kToroEdge && isam_) {
+      IsamEdge(f, kToroEdge);
     } else if (tag == kToroEdge) {
+      if (toro_edge2_line_ == 0) toro_edge2_line_ = f.line_number();
       f.ExpectCount(11, "id1 id2 dx dy dtheta I11 I12 I22 I33 I13 I23, TORO's order");
       const FactorType* type = registry_.FindByName("BetweenSE2");
       if (!type || !type->make) {
@@ -265,11 +442,15 @@ class Reader {
     known += std::string(kFix) + " " + std::string(kSe3Offset);
     for (const auto& [name, type] : registry_.types())
       if (!type.tag.empty()) known += " " + type.tag;
-    if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV";
+    if (options_.format != FileFormat::kG2o) known += " VERTEX2 EDGE2 EQUIV BR ODOMETRY LANDMARK";
     std::string hint = "if it is a factor type, load the plugin that defines it";
     const std::string_view tag = f.tag();
-    if (options_.format == FileFormat::kG2o && (tag == kToroVertex || tag == kToroEdge || tag == kToroEquiv)) {
+    if (options_.format == FileFormat::kG2o &&
+        (tag == kToroVertex || tag == kToroEdge || tag == kToroEquiv || tag == kToroBearingRange)) {
       hint = "it is a TORO tag: read the file as TORO (a .graph name or FileFormat::kToro)";
+    }
+    if (options_.format == FileFormat::kG2o && (tag == kIsamOdometry || tag == kIsamLandmark)) {
+      hint = "it is an iSAM tag: read the file as iSAM (FileFormat::kIsam or FileFormat::kAuto)";
     }
     f.Fail("unknown tag " + QuoteToken(tag) + "; known tags: " + known + "; " + hint + ", or remove the line");
   }
@@ -287,7 +468,11 @@ class Reader {
       f.Fail("id " + std::to_string(key) + " is used here as " + std::string(ToString(t)) + " (" +
              std::string(stable_tag) + "), but line " + std::to_string(info.type_line) + " (" +
              std::string(info.type_tag) + ") made it " + std::string(ToString(info.type)) +
-             "; one id names one variable of one type, renumber one of them");
+             "; one id names one variable of one type, renumber one of them" +
+             (landmark_lines_ > 0
+                  ? " (the ids of LANDMARK and BR landmarks are offset by " +
+                        std::to_string(options_.landmark_key_offset) + ": ReadOptions::landmark_key_offset)"
+                  : std::string()));
     }
     return info;
   }
@@ -335,7 +520,7 @@ class Reader {
     std::size_t missing = 0;
     const std::pair<const Key, IdInfo>* first = nullptr;
     for (const auto& kv : ids_) {
-      if (kv.second.vertex_line != 0) continue;
+      if (kv.second.vertex_line != 0 || kv.second.landmark) continue;
       ++missing;
       if (!first || kv.second.first_edge_line < first->second.first_edge_line) first = &kv;
     }
@@ -375,6 +560,10 @@ class Reader {
   const ReadOptions& options_;
   Fields fields_{name_, 0, {}};
   bool toro_by_name_ = false;
+  bool isam_ = false;         // EDGE2 in iSAM's layout
+  long toro_edge2_line_ = 0;  // first EDGE2 read in TORO's layout (0: none)
+  std::size_t landmark_lines_ = 0;
+  std::vector<std::size_t> odometry_factors_;  // graph indices of ODOMETRY edges
   ReadContext ctx_;
   Values out_values_;
   FactorGraph graph_;
@@ -434,6 +623,7 @@ GraphFile ReadGraph(std::istream& in, const std::string& name, const Registry& r
     in.read(&buf[old], kBlock);
     buf.resize(old + static_cast<std::size_t>(in.gcount()));
     const bool end = in.gcount() == 0;
+    if (number == 0 && old == 0) reader.Sniff(buf);
     std::size_t nl;
     while ((nl = buf.find('\n', begin)) != std::string::npos) {
       line(std::string_view(buf.data() + begin, nl - begin));

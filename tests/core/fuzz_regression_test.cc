@@ -30,8 +30,9 @@ TEST(FuzzRegressionTest, EveryKeptInputReadsOrIsRefusedCleanly) {
     std::stringstream s;
     s << in.rdbuf();
     SCOPED_TRACE(e.path().filename().string());
-    const bool toro = e.path().filename().string().find("toro") != std::string::npos;
-    Replay(s.str(), toro ? FileFormat::kToro : FileFormat::kG2o);
+    const std::string name = e.path().filename().string();
+    const bool toro = name.find("toro") != std::string::npos, isam = name.find("isam") != std::string::npos;
+    Replay(s.str(), toro ? FileFormat::kToro : isam ? FileFormat::kIsam : FileFormat::kG2o);
     ++replayed;
   }
   EXPECT_GT(replayed, 0) << "no regression inputs in " << dir;
@@ -48,11 +49,18 @@ TEST(FuzzRegressionTest, HostileInputsAreRefusedCleanly) {
       "\1EDGE_SE2 0 1 1 0 0 1 0 0 -1 0 1\n"s,
       "\2EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 0 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n"s,
       "\0VERTEX_SWITCH 3 2\nEDGE_SWITCH_PRIOR 3 1 1\n"s,
+      "\0ODOMETRY 0 1 1 0 0 1e200 0 0 1e200 0 1e200\nLANDMARK 1 0 1 1 1e-200 0 1e-200\n"s,
+      "\100LANDMARK 1 0 1 1 1e-300 0 1e-300\nODOMETRY 0 1 1 0 0 1e308 1e308 0 1e308 0 1e308\n"s,
+      "\200ODOMETRY 0 5 1 0 0 1 0 0 1 0 1\nLANDMARK 5 0 1 1 1 0 1\n"s,
+      "\0VERTEX2 0 0 0 0\nBR 0 18446744073709551615 1 1 1 1\nBR 0 1 1e308 1e308 1e-200 1e200\n"s,
+      "\0PARAMS_SE3OFFSET 0 1e300 0 0 1e200 0 0 1\nEDGE_SE3_TRACKXYZ 0 1 0 1e300 0 0 1 0 0 1 0 1\n"s,
+      "\0EDGE_RANGE_BEARING_SE2_XY 0 1 1e308 1e308 1 0 1\n"s,
   };
   for (const std::string& in : inputs) {
     SCOPED_TRACE(in.substr(1, 60));
     Replay(in, FileFormat::kG2o);
     Replay(in, FileFormat::kToro);
+    Replay(in, FileFormat::kIsam);
   }
 }
 

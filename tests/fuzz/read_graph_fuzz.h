@@ -8,6 +8,8 @@
 //   bit 3     loop closures: set kNone, clear kNonConsecutive
 //   bit 4     FileFormat::kAuto instead of the target's format
 //   bit 5     the stream's name ends in ".graph" (what kAuto takes for TORO), else ".g2o"
+//   bit 6     iSAM noise read as a covariance (IsamNoise::kCovariance)
+//   bit 7     landmark_key_offset 5 instead of 1e9 (landmark keys meet pose ids)
 // A file that reads must also be written and read back as the same graph ("whatever tether
 // writes, it reads"): the same variables (keys, types, parameters), the same factors (types,
 // keys, measurements, information) in the same order, the same fixed ids. Anything but a
@@ -41,6 +43,8 @@ inline ReadOptions OptionsFromByte(std::uint8_t b, FileFormat format) {
                             : InformationRepair::kNone;
   o.allow_partial_vertices = (b & 4) != 0;
   o.loop_closures = (b & 8) != 0 ? LoopClosureRule::kNone : LoopClosureRule::kNonConsecutive;
+  o.isam_noise = (b & 64) != 0 ? IsamNoise::kCovariance : IsamNoise::kSquareRootInformation;
+  if ((b & 128) != 0) o.landmark_key_offset = 5;
   return o;
 }
 

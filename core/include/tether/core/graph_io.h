@@ -1,9 +1,13 @@
 #pragma once
-// Reading and writing graph files: g2o and TORO 2D.
+// Reading and writing graph files: g2o, TORO 2D and iSAM's 2D text format.
 //
-// g2o: VERTEX_SE2, VERTEX_SE3:QUAT, VERTEX_XY, FIX, comments (#), and every edge tag in the
-// registry. TORO 2D: VERTEX2, EDGE2 (information in TORO's order I11 I12 I22 I33 I13 I23),
-// EQUIV ignored with a warning. Errors are ParseErrors starting with "file:line:".
+// g2o: VERTEX_SE2, VERTEX_SE3:QUAT, VERTEX_XY, VERTEX_TRACKXYZ, FIX, PARAMS_SE3OFFSET, comments
+// (#), and every edge tag in the registry. TORO 2D: VERTEX2, EDGE2 (information in TORO's order
+// I11 I12 I22 I33 I13 I23), BR (bearing-range landmark observations), EQUIV ignored with a
+// warning. iSAM: ODOMETRY and EDGE2 (pose-pose) and LANDMARK (a point in the pose's frame), each
+// with the upper triangle of its square-root information matrix R, row by row (information
+// R^T R). Landmark ids of LANDMARK and BR lines are kept apart from pose ids by
+// ReadOptions::landmark_key_offset. Errors are ParseErrors starting with "file:line:".
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -15,7 +19,8 @@
 
 namespace tether {
 
-enum class FileFormat { kAuto, kG2o, kToro };
+/// How EDGE2 (and the other TORO and iSAM tags) are read; see docs/file-formats.md.
+enum class FileFormat { kAuto, kG2o, kToro, kIsam };
 
 /// Which edges of a file are marked as loop closures (Factor::loop_closure).
 enum class LoopClosureRule {
@@ -23,8 +28,17 @@ enum class LoopClosureRule {
   kNonConsecutive,  ///< an edge between two poses whose ids are not consecutive (|i - j| != 1)
 };
 
+/// What the noise numbers of iSAM's ODOMETRY, EDGE2 and LANDMARK lines are (the upper triangle
+/// of a symmetric or triangular matrix, row by row: 6 numbers for a pose edge, 3 for a landmark).
+enum class IsamNoise {
+  kSquareRootInformation,  ///< iSAM's own reading: the upper-triangular square root R; information R^T R
+  kCovariance,             ///< the covariance (GTSAM reads victoria_park.txt so); information its inverse
+};
+
 struct ReadOptions {
-  FileFormat format = FileFormat::kAuto;  ///< kAuto: ".graph" (or VERTEX2/EDGE2 lines) is TORO
+  /// kAuto: a ".graph" name is TORO; otherwise an ODOMETRY or LANDMARK line in the first 64 KiB
+  /// makes the file iSAM (EDGE2 with iSAM's square-root information), else EDGE2 is TORO's.
+  FileFormat format = FileFormat::kAuto;
   InformationRepair repair = InformationRepair::kNone;
   /// Give vertices that have no VERTEX line initial values by composing edges along a
   /// spanning tree from the lowest id (only allowed where the file has no vertex lines at all
@@ -33,6 +47,14 @@ struct ReadOptions {
   /// Default: edges between poses with non-consecutive ids are loop closures. The mark alone
   /// changes nothing in a solve; robust rules ("loop=huber:1") select by it.
   LoopClosureRule loop_closures = LoopClosureRule::kNonConsecutive;
+  /// Landmark ids of iSAM LANDMARK and TORO BR lines name landmarks apart from poses (iSAM's
+  /// cityTrees10000 numbers landmarks 0..99 beside poses 0..9999): landmark id l becomes key
+  /// l + landmark_key_offset. The default keeps the keys of files with fewer than 1e9 poses and
+  /// 1.1e9 landmarks apart and below 2^31, so the graph written as g2o keeps ids g2o can read
+  /// (its ids are int). Ids of g2o lines (VERTEX_XY, EDGE_SE2_XY, ...) are never offset.
+  Key landmark_key_offset = 1000000000;
+  /// How the noise numbers of iSAM lines are read (default: as iSAM itself reads them).
+  IsamNoise isam_noise = IsamNoise::kSquareRootInformation;
 };
 
 struct GraphFile {
