@@ -1,0 +1,94 @@
+// tether ekf-demo: the table, the picture, usage errors and outputs that cannot be written.
+#include "tether/tools/ekf_demo.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "testing/cli.h"
+
+namespace tether {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+const EkfDemoRow* Row(const EkfDemoConfig& c, const std::string& method) {
+  for (const EkfDemoRow& r : c.rows) {
+    if (r.method == method) return &r;
+  }
+  return nullptr;
+}
+
+double Mean(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m += x / static_cast<double>(v.size());
+  return m;
+}
+
+// The figures over a few seeds: every method ran on every seed, the filters and the graph are
+// far closer to the truth than dead reckoning, known association makes no wrong association,
+// and the graphs seeded by EKF and UKF end at the same optimum.
+TEST(EkfDemoTest, KnownAssociationFigures) {
+  const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, 60);
+  for (const char* m :
+       {"dead reckoning", "EKF", "UKF", "graph (EKF seed)", "graph (UKF seed)", "graph (dead reckoning seed)"}) {
+    const EkfDemoRow* r = Row(c, m);
+    ASSERT_NE(r, nullptr) << m;
+    EXPECT_EQ(r->trajectory_rmse.size(), 3u) << m;
+    EXPECT_EQ(r->failures, 0) << m << ": " << r->failure_note;
+    EXPECT_EQ(Mean(r->wrong_associations), 0.0) << m;
+  }
+  const double dr = Mean(Row(c, "dead reckoning")->trajectory_rmse);
+  for (const char* m : {"EKF", "UKF", "graph (EKF seed)"}) EXPECT_LT(Mean(Row(c, m)->trajectory_rmse), 0.5 * dr) << m;
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(Row(c, "graph (EKF seed)")->trajectory_rmse[k], Row(c, "graph (UKF seed)")->trajectory_rmse[k], 1e-4);
+  }
+}
+
+TEST(EkfDemoTest, NearestNeighbourCountsWrongAssociations) {
+  const EkfDemoConfig c = RunEkfExperiment(1, true, 2, 1, 40);
+  EXPECT_EQ(Row(c, "graph (dead reckoning seed)"), nullptr);  // dead reckoning associates nothing
+  ASSERT_NE(Row(c, "EKF"), nullptr);
+  // The thesis's landmarks lie about as far apart as the range noise: some wrong associations
+  // are expected, and counted.
+  EXPECT_GT(Mean(Row(c, "EKF")->wrong_associations), 0.0);
+}
+
+TEST(EkfDemoCliTest, WritesTableAndPlot) {
+  const fs::path dir = fs::temp_directory_path() / ("tether_ekf_demo_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path table = dir / "table.md", plot = dir / "demo.svg";
+  const auto run = testing::Tether("ekf-demo --seeds 2 --steps 30 --experiments 2 --association known -o " +
+                                   table.string() + " --plot " + plot.string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("| 2 | known | UKF |"), std::string::npos) << run.output;
+  const std::string t = Slurp(table);
+  EXPECT_NE(t.find("| 2 | known | graph (EKF seed) |"), std::string::npos) << t;
+  const std::string svg = Slurp(plot);
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  for (const char* name : {"truth", "dead reckoning", "EKF", "UKF", "graph (EKF seed)", "2 sigma"}) {
+    EXPECT_NE(svg.find(name), std::string::npos) << name;
+  }
+  // Usage errors (exit 2) and an output in a folder that does not exist (exit 4, nothing run).
+  EXPECT_EQ(testing::Tether("ekf-demo --experiments 3").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --association maybe").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --seeds 0").code, 2);
+  const auto missing = testing::Tether("ekf-demo --seeds 1 -o " + (dir / "no" / "t.md").string());
+  EXPECT_EQ(missing.code, 4) << missing.output;
+  EXPECT_EQ(missing.output.find("| experiment"), std::string::npos) << missing.output;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tether
