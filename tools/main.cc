@@ -182,7 +182,9 @@ int main(int argc, char** argv) {
   ekf_demo
       ->add_option("--association", ec.association, "known, nn (nearest neighbour with a Mahalanobis gate), or both")
       ->capture_default_str();
-  ekf_demo->add_option("--steps", ec.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
+  ekf_demo->add_option("--steps", ec.setup.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
+  ekf_demo->add_option("--range-sigma", ec.setup.range_sigma, "Range noise std [m]")->capture_default_str();
+  ekf_demo->add_option("--bearing-sigma", ec.setup.bearing_sigma, "Bearing noise std [rad]")->capture_default_str();
   ekf_demo->add_option("-o,--output", ec.output, "Also write the table (markdown) here");
   ekf_demo->add_option("--plot", ec.plot,
                        "Draw truth, dead reckoning, EKF, UKF and the optimised graph of the first seed (SVG)");

@@ -40,7 +40,7 @@ double Mean(const std::vector<double>& v) {
 // far closer to the truth than dead reckoning, known association makes no wrong association,
 // and the graphs seeded by EKF and UKF end at the same optimum.
 TEST(EkfDemoTest, KnownAssociationFigures) {
-  const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, 60);
+  const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, EkfDemoSetup{60, 2.0, 0.17453292519943295});
   for (const char* m :
        {"dead reckoning", "EKF", "UKF", "graph (EKF seed)", "graph (UKF seed)", "graph (dead reckoning seed)"}) {
     const EkfDemoRow* r = Row(c, m);
@@ -57,7 +57,7 @@ TEST(EkfDemoTest, KnownAssociationFigures) {
 }
 
 TEST(EkfDemoTest, NearestNeighbourCountsWrongAssociations) {
-  const EkfDemoConfig c = RunEkfExperiment(1, true, 2, 1, 40);
+  const EkfDemoConfig c = RunEkfExperiment(1, true, 2, 1, EkfDemoSetup{40, 2.0, 0.17453292519943295});
   EXPECT_EQ(Row(c, "graph (dead reckoning seed)"), nullptr);  // dead reckoning associates nothing
   ASSERT_NE(Row(c, "EKF"), nullptr);
   // The thesis's landmarks lie about as far apart as the range noise: some wrong associations

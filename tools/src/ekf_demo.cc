@@ -27,10 +27,11 @@ double SecondsSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-ekf::LandmarkWorldOptions WorldOptions(int experiment, std::uint64_t seed, int steps) {
+ekf::LandmarkWorldOptions WorldOptions(int experiment, std::uint64_t seed, const EkfDemoSetup& setup) {
   ekf::LandmarkWorldOptions o;
   o.seed = seed;
-  o.steps = steps;
+  o.steps = setup.steps;
+  o.measurement_sigma = Eigen::Vector2d(setup.range_sigma, setup.bearing_sigma);
   if (experiment == 2) o.control_sigma *= 2;
   return o;
 }
@@ -57,8 +58,8 @@ struct SeedRun {
   std::vector<double> seconds;
 };
 
-SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, int steps, std::vector<EkfDemoRow>* rows) {
-  const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, steps);
+SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup& setup, std::vector<EkfDemoRow>* rows) {
+  const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
   SeedRun run;
   run.world = ekf::SimulateLandmarkWorld(wo);
   const ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
@@ -181,11 +182,16 @@ std::string DemoSvg(const SeedRun& run, const std::string& title) {
   for (const auto& l : run.world.landmarks) grow(l);
   for (const auto& [name, t] : shown) {
     for (const SE2d& p : t->poses) grow(p.translation());
+    for (std::size_t j = 0; j < t->landmarks.size(); ++j) {
+      const double r = j < t->landmark_cov.size() ? 2 * std::sqrt(t->landmark_cov[j].trace()) : 0.0;
+      grow(t->landmarks[j] + Eigen::Vector2d(r, r));
+      grow(t->landmarks[j] - Eigen::Vector2d(r, r));
+    }
   }
   const double size = 800;
   const double span = std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 1e-9;
   const Frame f{lo.x(), hi.y(), size / span};
-  const double w = 80 + (hi.x() - lo.x()) * f.scale + 220, h = 80 + (hi.y() - lo.y()) * f.scale;
+  const double w = 80 + (hi.x() - lo.x()) * f.scale + 320, h = 80 + (hi.y() - lo.y()) * f.scale;
   std::string s = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + svg::Num(w) + "\" height=\"" + svg::Num(h) +
                   "\" font-family=\"sans-serif\" font-size=\"13\">\n<rect width=\"100%\" height=\"100%\" "
                   "fill=\"white\"/>\n<text x=\"40\" y=\"24\">" +
@@ -248,26 +254,32 @@ bool ParseList(const std::string& text, const std::vector<std::string>& allowed,
 
 }  // namespace
 
-EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed, int steps) {
+EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed,
+                               const EkfDemoSetup& setup) {
   EkfDemoConfig c;
   c.experiment = experiment;
   c.nearest_neighbour = nearest_neighbour;
-  for (int k = 0; k < seeds; ++k)
-    RunSeed(experiment, nearest_neighbour, first_seed + static_cast<std::uint64_t>(k), steps, &c.rows);
+  c.setup = setup;
+  for (int k = 0; k < seeds; ++k) {
+    const SeedRun run =
+        RunSeed(experiment, nearest_neighbour, first_seed + static_cast<std::uint64_t>(k), setup, &c.rows);
+    for (const auto& step : run.world.observations) c.observations += static_cast<double>(step.size()) / seeds;
+  }
   return c;
 }
 
 std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs) {
   std::ostringstream s;
-  s << "| experiment | association | method | trajectory RMSE [m] | landmark RMSE [m] | wrong associations | "
-       "time [ms] | failed runs |\n|---|---|---|---|---|---|---|---|\n";
+  s << "| experiment | association | method | trajectory RMSE [m] | landmark RMSE [m] | wrong associations (of "
+       "observations) | time [ms] | failed runs |\n|---|---|---|---|---|---|---|---|\n";
   for (const EkfDemoConfig& c : configs) {
     for (const EkfDemoRow& r : c.rows) {
       std::vector<double> ms;
       for (double t : r.seconds) ms.push_back(1e3 * t);
       s << "| " << c.experiment << " | " << (c.nearest_neighbour ? "nearest neighbour" : "known") << " | " << r.method
         << " | " << MeanStd(r.trajectory_rmse, 3) << " | " << MeanStd(r.landmark_rmse, 3) << " | "
-        << MeanStd(r.wrong_associations, 1) << " | " << MeanStd(ms, 1) << " | " << r.failures << " |\n";
+        << MeanStd(r.wrong_associations, 1) << " (of " << std::lround(c.observations) << ") | " << MeanStd(ms, 1)
+        << " | " << r.failures << " |\n";
     }
   }
   return s.str();
@@ -283,8 +295,13 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
     err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
     return 2;
   }
-  if (cmd.seeds < 1 || cmd.steps < 1) {
+  if (cmd.seeds < 1 || cmd.setup.steps < 1) {
     err << "tether ekf-demo: --seeds and --steps must be at least 1\n";
+    return 2;
+  }
+  if (!(cmd.setup.range_sigma > 0 && cmd.setup.bearing_sigma > 0 && std::isfinite(cmd.setup.range_sigma) &&
+        std::isfinite(cmd.setup.bearing_sigma))) {
+    err << "tether ekf-demo: --range-sigma and --bearing-sigma must be positive and finite\n";
     return 2;
   }
   OutputSet outputs;
@@ -308,10 +325,14 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
             << (experiment == 2 ? "0.2 m/s, pi/9" : "0.1 m/s, pi/18") << " rad/s), "
             << (nn ? "nearest-neighbour" : "known") << " association, " << cmd.seeds << " seeds\n";
       }
-      configs.push_back(RunEkfExperiment(experiment, nn, cmd.seeds, cmd.first_seed, cmd.steps));
+      configs.push_back(RunEkfExperiment(experiment, nn, cmd.seeds, cmd.first_seed, cmd.setup));
     }
   }
-  const std::string table = EkfDemoTable(configs);
+  std::ostringstream head;
+  head << "measurement noise std " << svg::Label(cmd.setup.range_sigma, 4) << " m, "
+       << svg::Label(cmd.setup.bearing_sigma, 4) << " rad; " << cmd.setup.steps << " steps; seeds " << cmd.first_seed
+       << ".." << cmd.first_seed + static_cast<std::uint64_t>(cmd.seeds) - 1 << "\n\n";
+  const std::string table = head.str() + EkfDemoTable(configs);
   out << table;
   for (const EkfDemoConfig& c : configs) {
     for (const EkfDemoRow& r : c.rows) {
@@ -325,7 +346,7 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
       std::vector<EkfDemoRow> rows;
       const int experiment = std::stoi(experiments.front());
       const bool nn = associations.front() == "nn";
-      const SeedRun run = RunSeed(experiment, nn, cmd.first_seed, cmd.steps, &rows);
+      const SeedRun run = RunSeed(experiment, nn, cmd.first_seed, cmd.setup, &rows);
       plot_file->Stage(DemoSvg(run, "experiment " + std::to_string(experiment) + ", " +
                                         (nn ? "nearest-neighbour" : "known") + " association, seed " +
                                         std::to_string(cmd.first_seed)));

@@ -13,12 +13,20 @@
 
 namespace tether {
 
+/// The world: steps and the measurement noise (std of range [m] and bearing [rad]; the thesis's
+/// 2 m and pi/18 by default).
+struct EkfDemoSetup {
+  int steps = 200;
+  double range_sigma = 2.0;
+  double bearing_sigma = 0.17453292519943295;
+};
+
 struct EkfDemoCommand {
   int seeds = 20;
   std::uint64_t first_seed = 1;
   std::string experiments = "1,2";
   std::string association = "known,nn";
-  int steps = 200;
+  EkfDemoSetup setup;
   std::string output;  ///< also write the table (markdown) here
   std::string plot;    ///< an SVG of the first seed of the first experiment and association
   bool quiet = false;
@@ -38,11 +46,14 @@ struct EkfDemoRow {
 struct EkfDemoConfig {
   int experiment = 1;
   bool nearest_neighbour = false;
+  EkfDemoSetup setup;
+  double observations = 0;  ///< per run, the mean over the seeds
   std::vector<EkfDemoRow> rows;
 };
 
 /// Runs one experiment and association over the seeds (no output).
-EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed, int steps);
+EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed,
+                               const EkfDemoSetup& setup = {});
 
 /// The markdown table of the configurations.
 std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs);
