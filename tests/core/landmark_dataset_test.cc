@@ -95,6 +95,10 @@ TEST(LandmarkDatasetTest, VictoriaParkAsCovarianceLmGnAndCeresAgree) {
   Print("victoria_park (covariance) gn from lm", s_gn);
   EXPECT_TRUE(s_gn.status == SolverStatus::kConverged) << s_gn.FullReport();
   EXPECT_NEAR(s_gn.final_chi2, s_lm.final_chi2, 1e-6 * s_lm.final_chi2);
+  // Gauss-Newton from the chordal start does not settle (its steps overshoot; printed for
+  // benchmarks/RESULTS.md, not asserted).
+  Values gn_chordal = f.values;
+  Print("victoria_park (covariance) gn from chordal", Optimize(f.graph, &gn_chordal, Gn()));
   const SolverSummary s_c = OptimizeWithCeres(f.graph, &ceres);
   Print("victoria_park (covariance) ceres", s_c);
   ASSERT_EQ(s_c.status, SolverStatus::kConverged) << s_c.FullReport();
