@@ -1,0 +1,83 @@
+#pragma once
+// Shared pieces of the Python module: conversions between NumPy arrays and tether's types,
+// the error a Python callable raised inside a C++ call, and the Bind* functions each
+// translation unit defines.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <exception>
+#include <mutex>
+#include <string>
+#include <utility>
+
+#include "tether/core/error.h"
+#include "tether/core/values.h"
+#include "tether/core/variable.h"
+
+namespace tether {
+namespace python {
+
+namespace py = pybind11;
+
+/// A C-contiguous float64 array (NumPy converts other dtypes and layouts on the way in).
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+/// A C-contiguous uint64 array, for keys.
+using KeyArray = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>;
+
+/// A 1-D float64 array holding a copy of n doubles.
+DoubleArray CopyToArray(const double* p, int n);
+/// The variable of type `t` with parameters `p` as Python sees it: SE2, SE3, a (2,) or (3,)
+/// array for points, the (ambient,) parameter array for other (registered) types.
+py::object ToPython(VarType t, const double* p);
+/// The parameters of `obj` as a variable of type `t` (throws InvalidArgument naming `what`).
+void FromPython(VarType t, const py::handle& obj, double* out, const std::string& what);
+/// The variable type of that name; throws InvalidArgument listing the known names.
+VarType VarTypeByName(const std::string& name);
+
+/// The first Python exception raised by a callable that C++ code called (a Python factor, an
+/// iteration callback). The C++ code sees a tether::Error and unwinds; the binding that made
+/// the C++ call raises the original Python exception with Rethrow().
+class PendingPythonError {
+ public:
+  /// Keeps the exception being handled (call inside a catch block, with the GIL held).
+  static void Keep();
+  static void Clear();
+  /// Rethrows the kept exception, if any (with the GIL held).
+  static void RethrowIfAny();
+
+ private:
+  static std::mutex mutex_;
+  static std::exception_ptr error_;
+};
+
+/// Runs f (a C++ call that may call Python callables) and raises the first Python exception
+/// those raised, in preference to the C++ error it caused.
+template <class F>
+auto Guarded(F&& f) -> decltype(f()) {
+  PendingPythonError::Clear();
+  try {
+    if constexpr (std::is_void_v<decltype(f())>) {
+      f();
+      PendingPythonError::RethrowIfAny();
+    } else {
+      auto result = f();
+      PendingPythonError::RethrowIfAny();
+      return result;
+    }
+  } catch (...) {
+    PendingPythonError::RethrowIfAny();
+    throw;
+  }
+}
+
+void BindErrors(py::module_& m);
+void BindGeometry(py::module_& m);
+void BindGraph(py::module_& m);
+void BindPythonFactor(py::module_& m);
+void BindSolve(py::module_& m);
+void BindFrontends(py::module_& m);
+
+}  // namespace python
+}  // namespace tether

@@ -1,0 +1,229 @@
+// The front-ends as thin wrappers: tether.odometry (the two-wheel motion model, the odometry
+// front-end), tether.ekf (EKF-SLAM, UKF-SLAM, the landmark world simulator), and
+// tether.simulate (the CLI's pose-graph simulator).
+#include "common.h"
+#include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/landmark_simulator.h"
+#include "tether/frontends/ekf/ukf_slam.h"
+#include "tether/frontends/odometry/diff_drive.h"
+#include "tether/frontends/odometry/odometry_front_end.h"
+#ifdef TETHER_PYTHON_HAVE_TOOLS
+#include "tether/tools/simulate.h"
+#endif
+
+namespace tether {
+namespace python {
+
+namespace {
+
+using odometry::Control;
+
+Eigen::MatrixXd PosesArray(const std::vector<SE2d>& poses) {
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(poses.size()), 3);
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    a.row(static_cast<Eigen::Index>(i)) << poses[i].x(), poses[i].y(), poses[i].theta();
+  return a;
+}
+
+Eigen::MatrixXd PointsArray(const std::vector<Eigen::Vector2d>& points) {
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(points.size()), 2);
+  for (std::size_t i = 0; i < points.size(); ++i) a.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+  return a;
+}
+
+void BindOdometry(py::module_& od) {
+  py::class_<Control>(od, "Control", "A two-wheel robot's control: forward speed v [m/s], turn rate w [rad/s].")
+      .def(py::init([](double v, double w) {
+             return Control{v, w};
+           }),
+           py::arg("v") = 0.0, py::arg("w") = 0.0)
+      .def_readwrite("v", &Control::v)
+      .def_readwrite("w", &Control::w)
+      .def("__repr__",
+           [](const Control& u) { return "Control(v=" + std::to_string(u.v) + ", w=" + std::to_string(u.w) + ")"; });
+  od.def("from_wheel_speeds", &odometry::FromWheelSpeeds, py::arg("v_left"), py::arg("v_right"), py::arg("wheel_base"));
+  od.def("from_ticks", &odometry::FromTicks, py::arg("ticks_left"), py::arg("ticks_right"), py::arg("meters_per_tick"),
+         py::arg("wheel_base"), py::arg("dt"));
+  od.def("control_covariance_from_wheels", &odometry::ControlCovarianceFromWheels, py::arg("sigma_left"),
+         py::arg("sigma_right"), py::arg("wheel_base"), "(2, 2) covariance of (v, w).");
+  od.def(
+      "relative_motion", [](const Control& u, double dt) { return odometry::RelativeMotion(u, dt); }, py::arg("u"),
+      py::arg("dt"), "(3,) = (dx, dy, dtheta) in the start frame: the exact arc.");
+  od.def(
+      "move",
+      [](const SE2d& pose, const Control& u, double dt, bool jacobians) -> py::object {
+        Eigen::Matrix3d dp;
+        Eigen::Matrix<double, 3, 2> du;
+        const SE2d next = odometry::Move(pose, u, dt, jacobians ? &dp : nullptr, jacobians ? &du : nullptr);
+        if (!jacobians) return py::cast(next);
+        return py::make_tuple(next, dp, du);
+      },
+      py::arg("pose"), py::arg("u"), py::arg("dt"), py::arg("jacobians") = false,
+      "The pose after driving u for dt; with jacobians=True (pose, d/dpose (3, 3), d/du (3, 2)).");
+  py::class_<odometry::OdometryNoise>(od, "OdometryNoise")
+      .def(py::init<>())
+      .def_readwrite("control", &odometry::OdometryNoise::control, "(2, 2) covariance of (v, w) per second")
+      .def_readwrite("floor_sigma", &odometry::OdometryNoise::floor_sigma);
+  py::class_<odometry::MotionIntegrator>(od, "MotionIntegrator",
+                                         "Composes controls into one relative motion with its covariance.")
+      .def(py::init<const odometry::OdometryNoise&>(), py::arg("noise") = odometry::OdometryNoise())
+      .def("add", &odometry::MotionIntegrator::Add, py::arg("u"), py::arg("dt"))
+      .def_property_readonly("relative", &odometry::MotionIntegrator::relative)
+      .def_property_readonly("covariance", &odometry::MotionIntegrator::covariance)
+      .def("information", &odometry::MotionIntegrator::Information)
+      .def_property_readonly("steps", &odometry::MotionIntegrator::steps)
+      .def("reset", &odometry::MotionIntegrator::Reset);
+  py::class_<odometry::OdometryFrontEndOptions>(od, "OdometryFrontEndOptions")
+      .def(py::init<>())
+      .def_readwrite("noise", &odometry::OdometryFrontEndOptions::noise)
+      .def_readwrite("controls_per_pose", &odometry::OdometryFrontEndOptions::controls_per_pose)
+      .def_readwrite("letter", &odometry::OdometryFrontEndOptions::letter)
+      .def_readwrite("start", &odometry::OdometryFrontEndOptions::start)
+      .def_readwrite("prior_sigma", &odometry::OdometryFrontEndOptions::prior_sigma);
+  py::class_<odometry::OdometryFrontEnd>(od, "OdometryFrontEnd",
+                                         "Turns controls into poses and BetweenSE2 factors for the smoother.")
+      .def(py::init<const odometry::OdometryFrontEndOptions&>(),
+           py::arg("options") = odometry::OdometryFrontEndOptions())
+      .def("add", &odometry::OdometryFrontEnd::Add, py::arg("u"), py::arg("dt"), "True where a new pose was made.")
+      .def(
+          "take_new",
+          [](odometry::OdometryFrontEnd& f) {
+            FactorGraph g;
+            Values v;
+            f.TakeNew(&g, &v);
+            return py::make_tuple(std::move(g), std::move(v));
+          },
+          "(factors, values) made since the last call, for IncrementalSmoother.update.")
+      .def_property_readonly("trajectory", &odometry::OdometryFrontEnd::trajectory)
+      .def("pose_key", &odometry::OdometryFrontEnd::PoseKey, py::arg("i"));
+}
+
+template <class Filter>
+void BindFilter(py::module_& ek, const char* name, const char* doc) {
+  py::class_<Filter>(ek, name, doc)
+      .def(py::init<const SE2d&, const Eigen::Matrix3d&, const ekf::FilterOptions&>(), py::arg("start"),
+           py::arg("start_cov"), py::arg("options") = ekf::FilterOptions())
+      .def("predict", &Filter::Predict, py::arg("u"), py::arg("dt"))
+      .def("update", &Filter::Update, py::arg("observations"),
+           "Per observation the landmark index it was associated with (-1: dropped).")
+      .def_property_readonly("pose", &Filter::pose)
+      .def_property_readonly("pose_cov", &Filter::pose_cov)
+      .def_property_readonly("landmark_count", &Filter::landmark_count)
+      .def("landmark", &Filter::landmark, py::arg("i"))
+      .def("landmark_cov", &Filter::landmark_cov, py::arg("i"))
+      .def("creator_id", &Filter::creator_id, py::arg("i"))
+      .def(
+          "landmarks",
+          [](const Filter& f) {
+            std::vector<Eigen::Vector2d> p;
+            for (int i = 0; i < f.landmark_count(); ++i) p.push_back(f.landmark(i));
+            return PointsArray(p);
+          },
+          "(N, 2)")
+      .def_property_readonly("mean", &Filter::mean, "(3 + 2N,) = pose, then landmarks")
+      .def_property_readonly("cov", &Filter::cov)
+      .def_property_readonly("wrong_associations", &Filter::wrong_associations)
+      .def_property_readonly("dropped_observations", &Filter::dropped_observations);
+}
+
+void BindEkf(py::module_& ek) {
+  py::class_<ekf::Observation>(ek, "Observation", "A range [m] and bearing [rad] to a landmark; id -1 where unknown.")
+      .def(py::init([](double r, double b, int id) {
+             return ekf::Observation{r, b, id};
+           }),
+           py::arg("range"), py::arg("bearing"), py::arg("id") = -1)
+      .def_readwrite("range", &ekf::Observation::range)
+      .def_readwrite("bearing", &ekf::Observation::bearing)
+      .def_readwrite("id", &ekf::Observation::id);
+  py::class_<ekf::FilterOptions>(ek, "FilterOptions")
+      .def(py::init<>())
+      .def_readwrite("control_cov", &ekf::FilterOptions::control_cov)
+      .def_readwrite("measurement_cov", &ekf::FilterOptions::measurement_cov)
+      .def_property(
+          "association",
+          [](const ekf::FilterOptions& o) {
+            return std::string(o.association == ekf::DataAssociation::kKnown ? "known" : "nearest");
+          },
+          [](ekf::FilterOptions& o, const std::string& s) {
+            if (s == "known") {
+              o.association = ekf::DataAssociation::kKnown;
+            } else if (s == "nearest") {
+              o.association = ekf::DataAssociation::kNearestNeighbour;
+            } else {
+              throw InvalidArgument("unknown association '" + s + "'; use known or nearest");
+            }
+          })
+      .def_readwrite("gate", &ekf::FilterOptions::gate)
+      .def_readwrite("new_landmark", &ekf::FilterOptions::new_landmark);
+  BindFilter<ekf::EkfSlam>(ek, "EkfSlam", "EKF-SLAM with range-bearing landmarks.");
+  BindFilter<ekf::UkfSlam>(ek, "UkfSlam", "UKF-SLAM with range-bearing landmarks.");
+
+  py::class_<ekf::LandmarkWorldOptions>(ek, "LandmarkWorldOptions")
+      .def(py::init<>())
+      .def_readwrite("steps", &ekf::LandmarkWorldOptions::steps)
+      .def_readwrite("dt", &ekf::LandmarkWorldOptions::dt)
+      .def_readwrite("command", &ekf::LandmarkWorldOptions::command)
+      .def_readwrite("landmarks", &ekf::LandmarkWorldOptions::landmarks)
+      .def_readwrite("map_size", &ekf::LandmarkWorldOptions::map_size)
+      .def_readwrite("max_range", &ekf::LandmarkWorldOptions::max_range)
+      .def_readwrite("control_sigma", &ekf::LandmarkWorldOptions::control_sigma)
+      .def_readwrite("measurement_sigma", &ekf::LandmarkWorldOptions::measurement_sigma)
+      .def_readwrite("seed", &ekf::LandmarkWorldOptions::seed);
+  py::class_<ekf::LandmarkWorld>(ek, "LandmarkWorld")
+      .def_readonly("dt", &ekf::LandmarkWorld::dt)
+      .def_readonly("truth", &ekf::LandmarkWorld::truth, "steps + 1 true poses")
+      .def(
+          "truth_array", [](const ekf::LandmarkWorld& w) { return PosesArray(w.truth); }, "(steps + 1, 3)")
+      .def(
+          "landmarks", [](const ekf::LandmarkWorld& w) { return PointsArray(w.landmarks); }, "(L, 2) true positions")
+      .def_readonly("odometry", &ekf::LandmarkWorld::odometry, "the controls as measured")
+      .def_readonly("observations", &ekf::LandmarkWorld::observations, "per step, the observations");
+  ek.def(
+      "simulate_landmark_world",
+      [](const ekf::LandmarkWorldOptions& o) {
+        std::string why;
+        if (!o.IsValid(&why)) throw InvalidArgument("LandmarkWorldOptions: " + why);
+        return ekf::SimulateLandmarkWorld(o);
+      },
+      py::arg("options") = ekf::LandmarkWorldOptions());
+  ek.def("dead_reckoning", &ekf::DeadReckoning, py::arg("world"));
+}
+
+}  // namespace
+
+void BindFrontends(py::module_& m) {
+  py::module_ od = m.def_submodule("odometry", "The two-wheel motion model and the odometry front-end.");
+  BindOdometry(od);
+  py::module_ ek = m.def_submodule("ekf", "EKF-SLAM and UKF-SLAM with range-bearing landmarks.");
+  BindEkf(ek);
+#ifdef TETHER_PYTHON_HAVE_TOOLS
+  m.def(
+      "simulate",
+      [](const std::string& world, int poses, std::uint64_t seed, double translation_sigma, double rotation_sigma,
+         double loop_closure_probability, int landmarks, double landmark_range) {
+        SimulateOptions o;
+        if (!FromString(world, &o.world)) {
+          throw InvalidArgument("unknown world '" + world + "'; use manhattan, sphere or landmarks");
+        }
+        o.poses = poses;
+        o.seed = seed;
+        o.translation_sigma = translation_sigma;
+        o.rotation_sigma = rotation_sigma;
+        o.loop_closure_probability = loop_closure_probability;
+        o.landmarks = landmarks;
+        o.landmark_range = landmark_range;
+        std::string why;
+        if (!o.IsValid(&why)) throw InvalidArgument("simulate: " + why);
+        SimulatedGraph s = Simulate(o);
+        return py::make_tuple(std::move(s.graph), std::move(s.initial), std::move(s.ground_truth));
+      },
+      py::arg("world") = "manhattan", py::arg("poses") = 500, py::arg("seed") = 1, py::arg("translation_sigma") = 0.05,
+      py::arg("rotation_sigma") = 0.01, py::arg("loop_closure_probability") = 0.3, py::arg("landmarks") = 100,
+      py::arg("landmark_range") = 4.0,
+      "(graph, initial, ground_truth) of a simulated world, as `tether simulate` makes it: 'manhattan' (SE2 "
+      "grid walk), 'sphere' (SE3), 'landmarks' (SE2 poses and 2D points).");
+#endif
+}
+
+}  // namespace python
+}  // namespace tether
