@@ -65,6 +65,8 @@ struct CallbackState {
   py::object fn;
   std::vector<IterationSummary> log;
   bool stopped = false;
+  const Values* values = nullptr;  // the solver's state, which the callback sees
+  Values at_stop;                  // its copy when the callback stopped the solve
 };
 
 void CallPython(CallbackState* state, const IterationSummary& it) {
@@ -81,6 +83,9 @@ void CallPython(CallbackState* state, const IterationSummary& it) {
     throw InvalidArgument("the iteration callback must return None, True or False");
   }
   if (!go_on) {
+    // The solvers take back the step in progress when they unwind: keep the state the
+    // callback saw, which is the one this iteration accepted.
+    state->at_stop = *state->values;
     state->stopped = true;
     throw StopRequested();
   }
@@ -88,13 +93,13 @@ void CallPython(CallbackState* state, const IterationSummary& it) {
 
 // The summary of a solve the callback stopped: the solvers report "stopped on an exception";
 // this puts back what the log knows (iterations, chi2 at the start and the end) and says what
-// happened. The values are the solver's last good ones (LM: the last accepted step).
+// happened. The values are those the callback saw.
 SolverSummary StoppedSummary(SolverSummary s, const CallbackState& state, const FactorGraph& graph,
                              const Values& values, double start_chi2, double seconds) {
   s.status = SolverStatus::kMaxIterations;
   const int last = state.log.empty() ? 0 : state.log.back().iteration;
   s.message = "stopped by the iteration callback after iteration " + std::to_string(last) +
-              " (reported as max_iterations); the values are the last accepted ones";
+              " (reported as max-iterations); the values are those of that iteration";
   s.log = state.log;
   s.iterations = last;
   s.accepted_iterations = 0;
@@ -114,6 +119,7 @@ SolverSummary OptimizeFromPython(const FactorGraph& graph, Values& values, Solve
   if (!callback.is_none()) {
     if (!PyCallable_Check(callback.ptr())) throw InvalidArgument("optimize: callback must be callable or None");
     state.fn = callback;
+    state.values = &values;
     options.callback = [&state](const IterationSummary& it) { CallPython(&state, it); };
     if (graph.HasLoss()) start_chi2 = Guarded([&] { return graph.Chi2(values); });
   }
@@ -123,6 +129,7 @@ SolverSummary OptimizeFromPython(const FactorGraph& graph, Values& values, Solve
     return Optimize(graph, &values, options);
   });
   if (state.stopped) {
+    values = std::move(state.at_stop);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     s = StoppedSummary(std::move(s), state, graph, values, start_chi2, seconds);
   }
@@ -209,7 +216,7 @@ void BindOptions(py::module_& m) {
   py::class_<SolverSummary>(m, "SolverSummary", "What a solve did; str() is the C++ BriefReport line.")
       .def_property_readonly(
           "status", [](const SolverSummary& s) { return std::string(ToString(s.status)); },
-          "'converged', 'max_iterations', 'time_limit', 'diverged', 'rank_deficient', 'invalid_input'")
+          "'converged', 'max-iterations', 'time-limit', 'diverged', 'rank-deficient', 'invalid-input'")
       .def_readonly("message", &SolverSummary::message)
       .def_property_readonly("algorithm", [](const SolverSummary& s) { return s.algorithm.name(); })
       .def_property_readonly("linear_solver", [](const SolverSummary& s) { return s.linear_solver.name(); })
@@ -251,7 +258,7 @@ void BindOptions(py::module_& m) {
         py::arg("callback") = py::none(),
         "Optimises values in place and returns the SolverSummary. The GIL is released while it runs. "
         "callback(IterationSummary), where given, is called after every iteration (and for iteration 0); "
-        "returning False stops the solve with the last accepted values (status 'max_iterations', the message "
+        "returning False stops the solve with the values of that iteration (status 'max-iterations', the message "
         "says so). Exceptions raised by Python factors or the callback are raised again here.");
 }
 

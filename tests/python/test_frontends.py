@@ -1,0 +1,52 @@
+"""The front-ends through Python: the motion model, the odometry front-end, EKF/UKF-SLAM."""
+import math
+
+import numpy as np
+import pytest
+
+import tether
+from tether import ekf, odometry
+
+
+def test_motion_model():
+    u = odometry.from_wheel_speeds(0.9, 1.1, 0.5)
+    assert u.v == pytest.approx(1.0) and u.w == pytest.approx(0.4)
+    p, dp, du = odometry.move(tether.SE2(), u, 2.0, jacobians=True)
+    assert dp.shape == (3, 3) and du.shape == (3, 2)
+    r = 1.0 / 0.4  # an arc of radius v / w
+    assert p.x == pytest.approx(r * math.sin(0.8)) and p.theta == pytest.approx(0.8)
+    np.testing.assert_allclose(odometry.relative_motion(u, 2.0), p.params(), atol=1e-12)
+
+
+def test_odometry_front_end_feeds_the_smoother():
+    fe = odometry.OdometryFrontEnd()
+    smoother = tether.IncrementalSmoother()
+    for _ in range(10):
+        assert fe.add(odometry.Control(1.0, 0.1), 1.0)
+        factors, values = fe.take_new()
+        smoother.update(factors, values)
+    est = smoother.estimate()
+    assert len(fe.trajectory) == 11
+    last = est.at(fe.pose_key(10))
+    np.testing.assert_allclose(last.params(), fe.trajectory[10].params(), atol=1e-6)
+
+
+@pytest.mark.parametrize("filter_class", [ekf.EkfSlam, ekf.UkfSlam])
+def test_filters_track_the_simulated_world(filter_class):
+    opts = ekf.LandmarkWorldOptions()
+    opts.steps = 60
+    world = ekf.simulate_landmark_world(opts)
+    truth = world.truth_array()
+    assert truth.shape == (61, 3) and world.landmarks().shape == (opts.landmarks, 2)
+    f = filter_class(world.truth[0], np.eye(3) * 1e-6)
+    for k in range(opts.steps):
+        f.predict(world.odometry[k], world.dt)
+        f.update(world.observations[k])
+    dead = ekf.dead_reckoning(world)
+    err = np.linalg.norm(f.pose.translation() - truth[-1, :2])
+    dead_err = np.linalg.norm(dead[-1].translation() - truth[-1, :2])
+    assert f.landmark_count > 0 and f.landmarks().shape == (f.landmark_count, 2)
+    assert f.cov.shape == (3 + 2 * f.landmark_count,) * 2
+    assert err < max(dead_err, 1.0)
+    with pytest.raises(tether.InvalidArgument, match="use known or nearest"):
+        ekf.FilterOptions().association = "best"
