@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
 
   tether::OptimizeCommand opt;
   CLI::App* optimize = app.add_subcommand("optimize", "Optimise a g2o or TORO graph file");
-  optimize->add_option("input", opt.input, "Graph file (.g2o, or TORO .graph)")->required();
+  optimize->add_option("input", opt.input, "Graph file (.g2o, TORO .graph, or iSAM landmark text; see --format)")
+      ->required();
   optimize->add_option("-o,--output", opt.output, "Write the optimised graph (g2o)");
   optimize->add_option("--solver", opt.solver, "gn | lm | dogleg | ceres (Ceres' Levenberg-Marquardt)")
       ->capture_default_str();
@@ -37,6 +38,15 @@ int main(int argc, char** argv) {
       ->add_option("--max-reuse-iterations", opt.max_reuse_iterations,
                    "Conjugate-gradient iterations a step may take with an earlier factorisation before H is "
                    "factorised afresh (0: factorise every step)")
+      ->capture_default_str();
+  optimize
+      ->add_option("--format", opt.format,
+                   "auto (by name and content), g2o, toro or isam (iSAM's ODOMETRY/EDGE2/LANDMARK lines; "
+                   "docs/landmarks.md)")
+      ->capture_default_str();
+  optimize
+      ->add_option("--isam-noise", opt.isam_noise,
+                   "iSAM files: sqrt-information (iSAM's reading of the numbers) or covariance (GTSAM's)")
       ->capture_default_str();
   optimize
       ->add_option("--repair-information", opt.repair_information,
@@ -98,7 +108,7 @@ int main(int argc, char** argv) {
   tether::BenchCommand bc;
   CLI::App* bench = app.add_subcommand(
       "bench", "Time solver configurations on graph files, or replays (--replay) (docs/benchmarking.md)");
-  bench->add_option("files", bc.files, "Graph files (.g2o, or TORO .graph)");
+  bench->add_option("files", bc.files, "Graph files (.g2o, TORO .graph, or iSAM landmark text)");
   bench->add_option("--solvers", bc.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
   bench->add_option("--linear", bc.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
   bench->add_option("--init", bc.init, "Comma-separated: file, spanning-tree, chordal")->capture_default_str();
@@ -124,7 +134,7 @@ int main(int argc, char** argv) {
   tether::ReplayCommand rc;
   CLI::App* replay =
       app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
-  replay->add_option("input", rc.input, "Graph file (.g2o, or TORO .graph)")->required();
+  replay->add_option("input", rc.input, "Graph file (.g2o, TORO .graph, or iSAM landmark text)")->required();
   replay->add_option("--every", rc.options.every, "Update the estimate every N-th pose")->capture_default_str();
   replay
       ->add_option("--check", rc.options.check,

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <ostream>
 #include <sstream>
 
@@ -128,6 +129,22 @@ bool FillPipelineOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::o
     return false;
   }
   po->read.allow_partial_vertices = cmd.allow_partial_vertices;
+  const std::map<std::string, FileFormat> formats = {
+      {"auto", FileFormat::kAuto}, {"g2o", FileFormat::kG2o}, {"toro", FileFormat::kToro}, {"isam", FileFormat::kIsam}};
+  const auto format = formats.find(cmd.format);
+  if (format == formats.end()) {
+    err << "tether optimize: unknown --format '" << cmd.format << "'; use auto, g2o, toro or isam\n";
+    return false;
+  }
+  po->read.format = format->second;
+  if (cmd.isam_noise == "sqrt-information") {
+    po->read.isam_noise = IsamNoise::kSquareRootInformation;
+  } else if (cmd.isam_noise == "covariance") {
+    po->read.isam_noise = IsamNoise::kCovariance;
+  } else {
+    err << "tether optimize: unknown --isam-noise '" << cmd.isam_noise << "'; use sqrt-information or covariance\n";
+    return false;
+  }
   if (cmd.gnc) {
     po->gnc = true;
     po->gnc_options.inner = po->solver;

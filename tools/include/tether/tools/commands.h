@@ -39,7 +39,10 @@ struct OptimizeCommand {
   int threads = 1;                                                         ///< SolverOptions::num_threads (1 to 256)
   int max_reuse_iterations = SolverOptions().linear.max_reuse_iterations;  ///< 0: factorise every step
   std::string repair_information = "none";                                 ///< none | nearest-pd | isotropic
-  bool quiet = false;                                                      ///< no iteration table
+  std::string format = "auto";  ///< auto | g2o | toro | isam (ReadOptions::format)
+  /// iSAM files: sqrt-information (iSAM's reading) | covariance (ReadOptions::isam_noise).
+  std::string isam_noise = "sqrt-information";
+  bool quiet = false;                   ///< no iteration table
   bool allow_partial_vertices = false;  ///< compose missing vertices from edges instead of failing
   /// Robust loss rules, SELECTOR=KERNEL:SCALE (loop=huber:1.0, all=cauchy:2, EDGE_SE2=dcs:1;
   /// tether/core/robust_rules.h), applied in order after reading.
