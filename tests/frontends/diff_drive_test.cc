@@ -148,8 +148,23 @@ TEST(DiffDriveTest, AccumulatedCovarianceIsTheLinearisedOneOfAllControls) {
   one.Add(us[0], dt);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(one.covariance());
   EXPECT_LT(std::abs(eig.eigenvalues()[0]), 1e-15);
+  // The information is that of BetweenSE2's error: with pose i at the origin, the error as a
+  // function of pose j's parameters has Jacobian J_e at the measurement, and the error's
+  // covariance is J_e (C + floor^2 I) J_e^T.
   const Eigen::Matrix3d with_floor = one.covariance() + 0.03 * 0.03 * Eigen::Matrix3d::Identity();
-  EXPECT_LT((one.Information() * with_floor - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+  const BetweenSE2 factor(0, 1, one.relative(), SqrtInformation::Identity(3));
+  const auto error = [&](const Eigen::VectorXd& pj) {
+    const double pi[3] = {0, 0, 0};
+    const double* params[2] = {pi, pj.data()};
+    Eigen::Vector3d e;
+    factor.Evaluate(params, e.data(), nullptr);
+    return Eigen::VectorXd(e);
+  };
+  const Eigen::MatrixXd je = Numeric(error, Params(one.relative()), 2);
+  const Eigen::Matrix3d expect_info = (je * with_floor * je.transpose()).inverse();
+  EXPECT_LT((one.Information() - expect_info).cwiseAbs().maxCoeff(), 1e-6 * expect_info.cwiseAbs().maxCoeff());
+  // ... which is not the inverse of the parameters' covariance where the motion turns.
+  EXPECT_GT((one.Information() - with_floor.inverse()).cwiseAbs().maxCoeff(), 1e-3 * expect_info.cwiseAbs().maxCoeff());
   EXPECT_THROW(one.Add(Control{1, 0}, 0), InvalidArgument);
   EXPECT_THROW(one.Add(Control{std::nan(""), 0}, 1), InvalidArgument);
   OdometryNoise bad;

@@ -5,6 +5,7 @@
 #include <Eigen/LU>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <random>
 
@@ -245,6 +246,36 @@ TEST(LandmarkFilterTest, NearestNeighbourTakesAddsAndDrops) {
 
 TEST(LandmarkFilterTest, BadInputIsRefused) {
   EkfSlam ekf(SE2d(), Eigen::Matrix3d::Zero());
+  ekf.Update({Observation{4.0, 0.3, 0}});
+  const Eigen::VectorXd mean = ekf.mean();
+  const Eigen::MatrixXd cov = ekf.cov();
+  // A bad observation after good ones in the same step: nothing of the step is applied.
+  EXPECT_THROW(ekf.Update({Observation{4.1, 0.3, 0}, Observation{5.0, 1.0, 1}, Observation{-2.0, 0.0, 2}}),
+               InvalidArgument);
+  EXPECT_EQ(ekf.mean(), mean);
+  EXPECT_EQ(ekf.cov(), cov);
+  EXPECT_EQ(ekf.landmark_count(), 1);
+  // Predictions with a control or dt that cannot be used change nothing either.
+  UkfSlam ukf(SE2d(), Eigen::Matrix3d::Zero());
+  for (LandmarkFilter* f : std::vector<LandmarkFilter*>{&ekf, &ukf}) {
+    const Eigen::VectorXd before = f->mean();
+    EXPECT_THROW(f->Predict(odometry::Control{std::nan(""), 0.1}, 1.0), InvalidArgument);
+    EXPECT_THROW(f->Predict(odometry::Control{1.0, 0.1}, 0.0), InvalidArgument);
+    EXPECT_THROW(f->Predict(odometry::Control{1.0, 0.1}, std::numeric_limits<double>::infinity()), InvalidArgument);
+    EXPECT_EQ(f->mean(), before);
+  }
+  // An indefinite start covariance is refused; a semi-definite one (a known start) is not.
+  EXPECT_THROW(EkfSlam(SE2d(), Eigen::Vector3d(1, -1, 1).asDiagonal().toDenseMatrix()), InvalidArgument);
+  EXPECT_NO_THROW(EkfSlam(SE2d(), Eigen::Vector3d(1, 0, 1).asDiagonal().toDenseMatrix()));
+  // A control noise on v alone (semi-definite) is accepted by the filters and the integrator alike.
+  FilterOptions v_only;
+  v_only.control_cov = Eigen::Vector2d(0.01, 0.0).asDiagonal();
+  EXPECT_TRUE(v_only.IsValid(nullptr));
+  odometry::OdometryNoise noise;
+  noise.control = v_only.control_cov;
+  EXPECT_NO_THROW(odometry::MotionIntegrator{noise});
+  noise.control(0, 0) = -0.01;
+  EXPECT_THROW(odometry::MotionIntegrator{noise}, InvalidArgument);
   EXPECT_THROW(ekf.Update({Observation{-1.0, 0.0, 0}}), InvalidArgument);
   EXPECT_THROW(ekf.Update({Observation{std::nan(""), 0.0, 0}}), InvalidArgument);
   EXPECT_THROW(ekf.Update({Observation{1.0, 0.0, -1}}), InvalidArgument);  // known association needs ids

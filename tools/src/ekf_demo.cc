@@ -79,7 +79,8 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
       Track t = make();
       row->seconds.push_back(SecondsSince(t0));
       row->trajectory_rmse.push_back(ekf::TrajectoryRmse(t.poses, run.world.truth));
-      row->landmark_rmse.push_back(ekf::LandmarkRmse(t, run.world.landmarks));
+      const double landmark_rmse = ekf::LandmarkRmse(t, run.world.landmarks);
+      if (std::isfinite(landmark_rmse)) row->landmark_rmse.push_back(landmark_rmse);  // none seen: no figure
       row->wrong_associations.push_back(t.wrong_associations);
       run.tracks.emplace_back(name, std::move(t));
     } catch (const Error& e) {
@@ -97,7 +98,9 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     s.track.wrong_associations = seed_track.wrong_associations;
     return s.track;
   };
-  record("dead reckoning", [&] { return ekf::DeadReckoningTrack(run.world); });
+  // Dead reckoning places its landmarks by the known association, whichever the filters use.
+  record(nn ? "dead reckoning (known association)" : "dead reckoning",
+         [&] { return ekf::DeadReckoningTrack(run.world); });
   record("EKF", [&] {
     ekf::EkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), fo);
     return ekf::RunFilter(&f, run.world);

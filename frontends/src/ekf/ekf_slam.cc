@@ -1,13 +1,14 @@
 #include "tether/frontends/ekf/ekf_slam.h"
 
 #include <Eigen/Cholesky>
+#include <limits>
 
 #include "tether/core/error.h"
 
 namespace tether {
 namespace ekf {
 
-void EkfSlam::Predict(const odometry::Control& u, double dt) {
+void EkfSlam::PredictChecked(const odometry::Control& u, double dt) {
   Eigen::Matrix3d a;
   Eigen::Matrix<double, 3, 2> b;
   const SE2d moved = odometry::Move(pose(), u, dt, &a, &b);
@@ -68,7 +69,9 @@ std::vector<double> EkfSlam::Distances(const Eigen::Vector2d& z) const {
     Eigen::Matrix2d s;
     Eigen::MatrixXd pht;
     Innovation(i, z, &nu, &s, &pht);
-    d[static_cast<std::size_t>(i)] = nu.dot(s.llt().solve(nu));
+    const Eigen::LLT<Eigen::Matrix2d> llt(s);
+    d[static_cast<std::size_t>(i)] =
+        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
   }
   return d;
 }

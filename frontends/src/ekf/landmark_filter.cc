@@ -1,6 +1,7 @@
 #include "tether/frontends/ekf/landmark_filter.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -23,8 +24,7 @@ bool FilterOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = w;
     return false;
   };
-  if (!control_cov.allFinite() || !control_cov.isApprox(control_cov.transpose()) ||
-      control_cov.ldlt().info() != Eigen::Success || (control_cov.diagonal().array() < 0).any()) {
+  if (!odometry::IsControlCovariance(control_cov)) {
     return fail("control_cov must be symmetric, finite and positive semi-definite");
   }
   if (!IsCovariance(measurement_cov)) return fail("measurement_cov must be symmetric, finite and positive definite");
@@ -40,26 +40,46 @@ LandmarkFilter::LandmarkFilter(const SE2d& start, const Eigen::Matrix3d& start_c
     : options_(options), mean_(3), cov_(start_cov) {
   std::string why;
   if (!options_.IsValid(&why)) throw InvalidArgument("landmark filter: " + why);
-  if (!start_cov.allFinite() || !start_cov.isApprox(start_cov.transpose(), 1e-12)) {
-    throw InvalidArgument("landmark filter: the start covariance must be symmetric and finite");
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(start_cov, Eigen::EigenvaluesOnly);
+  if (!start_cov.allFinite() || !start_cov.isApprox(start_cov.transpose(), 1e-12) ||
+      eig.eigenvalues()[0] < -1e-12 * std::max(1.0, start_cov.cwiseAbs().maxCoeff())) {
+    throw InvalidArgument("landmark filter: the start covariance must be symmetric, finite and positive semi-definite");
+  }
+  if (!std::isfinite(start.x()) || !std::isfinite(start.y()) || !std::isfinite(start.theta())) {
+    throw InvalidArgument("landmark filter: the start pose must be finite");
   }
   mean_ << start.x(), start.y(), start.theta();
 }
 
+void LandmarkFilter::Predict(const odometry::Control& u, double dt) {
+  if (!std::isfinite(u.v) || !std::isfinite(u.w) || !(std::isfinite(dt) && dt > 0)) {
+    throw InvalidArgument("landmark filter: a prediction needs finite v and w and a positive, finite dt (got v " +
+                          std::to_string(u.v) + ", w " + std::to_string(u.w) + ", dt " + std::to_string(dt) + ")");
+  }
+  PredictChecked(u, dt);
+}
+
 std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observations) {
-  std::vector<int> taken(observations.size(), -1);
-  std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
+  // Every observation is checked before any is applied: a refused step changes nothing.
   for (std::size_t k = 0; k < observations.size(); ++k) {
     const Observation& o = observations[k];
     if (!(std::isfinite(o.range) && std::isfinite(o.bearing) && o.range > 0)) {
       throw InvalidArgument("landmark filter: observation " + std::to_string(k) +
-                            " needs a positive, finite range and a finite bearing");
+                            " needs a positive, finite range and a finite bearing; nothing of this step was applied");
     }
+    if (options_.association == DataAssociation::kKnown && o.id < 0) {
+      throw InvalidArgument("landmark filter: known data association needs every observation's id (observation " +
+                            std::to_string(k) + " has none); nothing of this step was applied");
+    }
+  }
+  std::vector<int> taken(observations.size(), -1);
+  std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
+  for (std::size_t k = 0; k < observations.size(); ++k) {
+    const Observation& o = observations[k];
     const Eigen::Vector2d z(o.range, o.bearing);
     int chosen = -1;
     bool add = false;
     if (options_.association == DataAssociation::kKnown) {
-      if (o.id < 0) throw InvalidArgument("known data association needs every observation's id");
       const auto it = std::find(creator_id_.begin(), creator_id_.end(), o.id);
       if (it == creator_id_.end()) {
         add = true;

@@ -1,5 +1,6 @@
 #include "tether/frontends/ekf/landmark_graph.h"
 
+#include <Eigen/Cholesky>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -55,7 +56,12 @@ void CheckTrack(const LandmarkWorld& world, const Track& seed) {
 }
 
 SqrtInformation MeasurementNoise(const LandmarkGraphOptions& o) {
-  return SqrtInformation::FromInformation(o.measurement_cov.inverse());
+  const Eigen::LLT<Eigen::Matrix2d> llt(o.measurement_cov);
+  if (!o.measurement_cov.allFinite() || o.measurement_cov(0, 1) != o.measurement_cov(1, 0) ||
+      llt.info() != Eigen::Success) {
+    throw InvalidArgument("landmark graph: measurement_cov must be symmetric, finite and positive definite");
+  }
+  return SqrtInformation::FromInformation(llt.solve(Eigen::Matrix2d::Identity()));
 }
 
 // The factors of step k (the odometry from pose k to k + 1, the observations at k + 1).
@@ -228,7 +234,7 @@ double LandmarkRmse(const Track& track, const std::vector<Eigen::Vector2d>& trut
     sum += (track.landmarks[j] - truth[static_cast<std::size_t>(id)]).squaredNorm();
     ++n;
   }
-  return n == 0 ? 0.0 : std::sqrt(sum / n);
+  return n == 0 ? std::nan("") : std::sqrt(sum / n);
 }
 
 }  // namespace ekf

@@ -11,6 +11,9 @@ Eigen::Vector2d Observe(const SE2d& pose, const Eigen::Vector2d& landmark, Eigen
                         Eigen::Matrix2d* d_landmark) {
   const Eigen::Vector2d d = landmark - pose.translation();
   const double q = d.squaredNorm();
+  if (!std::isfinite(q) || !std::isfinite(pose.theta())) {
+    throw InvalidArgument("range-bearing observation of a pose or landmark that is not finite");
+  }
   if (!(q > 0)) throw InvalidArgument("a landmark on the robot's position has no bearing (range 0)");
   const double r = std::sqrt(q);
   if (d_landmark != nullptr) *d_landmark << d.x() / r, d.y() / r, -d.y() / q, d.x() / q;

@@ -1,6 +1,7 @@
 #include "tether/frontends/ekf/ukf_slam.h"
 
 #include <Eigen/Cholesky>
+#include <limits>
 
 namespace tether {
 namespace ekf {
@@ -22,7 +23,7 @@ SE2d PoseOf(const Eigen::VectorXd& x) { return SE2d(x[0], x[1], x[2]); }
 
 }  // namespace
 
-void UkfSlam::Predict(const odometry::Control& u, double dt) {
+void UkfSlam::PredictChecked(const odometry::Control& u, double dt) {
   const Eigen::Index n = mean_.size();
   Eigen::VectorXd am;
   Eigen::MatrixXd ac;
@@ -81,7 +82,9 @@ std::vector<double> UkfSlam::Distances(const Eigen::Vector2d& z) const {
   for (int i = 0; i < m; ++i) {
     const Eigen::Matrix2d s = t.cov.block<2, 2>(2 * i, 2 * i) + options_.measurement_cov;
     const Eigen::Vector2d nu = MeasurementDifference(z, t.mean.segment<2>(2 * i));
-    d[static_cast<std::size_t>(i)] = nu.dot(s.llt().solve(nu));
+    const Eigen::LLT<Eigen::Matrix2d> llt(s);
+    d[static_cast<std::size_t>(i)] =
+        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
   }
   return d;
 }

@@ -12,6 +12,16 @@ namespace {
 
 bool PositiveFinite(double x) { return std::isfinite(x) && x > 0; }
 
+}  // namespace
+
+bool IsControlCovariance(const Eigen::Matrix2d& c) {
+  if (!c.allFinite() || c(0, 1) != c(1, 0)) return false;
+  // Semi-definite: both diagonal entries and the determinant not negative.
+  return c(0, 0) >= 0 && c(1, 1) >= 0 && c(0, 0) * c(1, 1) - c(0, 1) * c(1, 0) >= 0;
+}
+
+namespace {
+
 // sin(a)/a, (1 - cos a)/a and their derivatives; Taylor series near 0 (the next terms are
 // below 1e-20 there, far under a double's resolution of the leading 1).
 struct ArcCoefficients {
@@ -28,10 +38,11 @@ ArcCoefficients Arc(double a) {
     c.df2 = 0.5 - a2 / 8 + a2 * a2 / 144;
   } else {
     const double s = std::sin(a), co = std::cos(a);
+    const double h = std::sin(a / 2), one_minus_cos = 2 * h * h;  // 1 - cos a without cancellation
     c.f1 = s / a;
-    c.f2 = (1 - co) / a;
+    c.f2 = one_minus_cos / a;
     c.df1 = (a * co - s) / (a * a);
-    c.df2 = (a * s - (1 - co)) / (a * a);
+    c.df2 = (a * s - one_minus_cos) / (a * a);
   }
   return c;
 }
@@ -97,10 +108,8 @@ SE2d Move(const SE2d& pose, const Control& u, double dt, Eigen::Matrix3d* d_pose
 }
 
 MotionIntegrator::MotionIntegrator(const OdometryNoise& noise) : noise_(noise) {
-  Eigen::LLT<Eigen::Matrix2d> llt(noise_.control);
-  if (!noise_.control.allFinite() || !noise_.control.isApprox(noise_.control.transpose()) ||
-      (noise_.control.squaredNorm() > 0 && llt.info() != Eigen::Success)) {
-    throw InvalidArgument("the control covariance must be symmetric, finite and positive (semi-)definite");
+  if (!IsControlCovariance(noise_.control)) {
+    throw InvalidArgument("the control covariance must be symmetric, finite and positive semi-definite");
   }
   if (!PositiveFinite(noise_.floor_sigma)) {
     throw InvalidArgument("floor_sigma must be positive and finite, got " + std::to_string(noise_.floor_sigma));
@@ -120,9 +129,16 @@ void MotionIntegrator::Add(const Control& u, double dt) {
 }
 
 Eigen::Matrix3d MotionIntegrator::Information() const {
+  // BetweenSE2's error holds the translation in the measured relative pose's frame,
+  // e = (R_z^T (t - t_z), theta - theta_z): its covariance is J C J^T with J = diag(R_z^T, 1),
+  // and J is orthogonal, so the information is J C^-1 J^T.
   const Eigen::Matrix3d c = covariance_ + noise_.floor_sigma * noise_.floor_sigma * Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d info = c.llt().solve(Eigen::Matrix3d::Identity());
-  return 0.5 * (info + info.transpose());
+  const Eigen::Matrix3d info = c.llt().solve(Eigen::Matrix3d::Identity());
+  const double co = std::cos(relative_.theta()), si = std::sin(relative_.theta());
+  Eigen::Matrix3d j = Eigen::Matrix3d::Identity();
+  j.topLeftCorner<2, 2>() << co, si, -si, co;
+  const Eigen::Matrix3d rotated = j * info * j.transpose();
+  return 0.5 * (rotated + rotated.transpose());
 }
 
 void MotionIntegrator::Reset() {

@@ -50,10 +50,13 @@ class LandmarkFilter {
   LandmarkFilter(const SE2d& start, const Eigen::Matrix3d& start_cov, const FilterOptions& options);
   virtual ~LandmarkFilter() = default;
 
-  /// Moves the robot by the control over dt seconds.
-  virtual void Predict(const odometry::Control& u, double dt) = 0;
+  /// Moves the robot by the control over dt seconds. Throws InvalidArgument, changing nothing,
+  /// for a non-finite control or a dt that is not positive and finite.
+  void Predict(const odometry::Control& u, double dt);
   /// Corrects with the observations of one time step; returns, per observation, the index of
-  /// the landmark (in the state) it was taken for, or -1 where it was dropped.
+  /// the landmark (in the state) it was taken for, or -1 where it was dropped. Throws
+  /// InvalidArgument, applying nothing, where an observation's range is not positive and finite,
+  /// its bearing not finite, or (known association) it has no id.
   std::vector<int> Update(const std::vector<Observation>& observations);
 
   SE2d pose() const { return SE2d(mean_[0], mean_[1], mean_[2]); }
@@ -72,11 +75,14 @@ class LandmarkFilter {
   const FilterOptions& options() const { return options_; }
 
  protected:
+  /// The prediction, with checked input.
+  virtual void PredictChecked(const odometry::Control& u, double dt) = 0;
   /// Corrects with observation z of landmark i.
   virtual void Correct(int i, const Eigen::Vector2d& z) = 0;
   /// Appends a landmark initialised from z (mean, covariance and cross-covariances).
   virtual void AddLandmark(const Eigen::Vector2d& z) = 0;
-  /// The Mahalanobis distance d^2 of z to every landmark's predicted observation.
+  /// The Mahalanobis distance d^2 of z to every landmark's predicted observation (infinity where
+  /// the innovation covariance is not positive definite).
   virtual std::vector<double> Distances(const Eigen::Vector2d& z) const = 0;
 
   /// Wraps theta; symmetrises the covariance.

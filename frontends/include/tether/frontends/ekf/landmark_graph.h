@@ -79,7 +79,7 @@ SmoothedTrack SmoothLandmarkRun(const LandmarkWorld& world, const Track& seed,
 /// Position RMSE of a trajectory against the truth (same frame: the start is known).
 double TrajectoryRmse(const std::vector<SE2d>& poses, const std::vector<SE2d>& truth);
 /// RMSE of the landmarks against the true ones they were created from (landmarks without a true
-/// id left out); 0 where there is none.
+/// id left out); NaN where there is none.
 double LandmarkRmse(const Track& track, const std::vector<Eigen::Vector2d>& truth);
 
 }  // namespace ekf

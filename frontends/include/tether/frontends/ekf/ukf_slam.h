@@ -22,9 +22,9 @@ class UkfSlam : public LandmarkFilter {
  public:
   UkfSlam(const SE2d& start, const Eigen::Matrix3d& start_cov, const FilterOptions& options = {})
       : LandmarkFilter(start, start_cov, options) {}
-  void Predict(const odometry::Control& u, double dt) override;
 
  protected:
+  void PredictChecked(const odometry::Control& u, double dt) override;
   void Correct(int i, const Eigen::Vector2d& z) override;
   void AddLandmark(const Eigen::Vector2d& z) override;
   std::vector<double> Distances(const Eigen::Vector2d& z) const override;

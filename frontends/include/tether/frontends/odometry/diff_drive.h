@@ -57,6 +57,9 @@ Eigen::Vector3d RelativeMotion(const Control& u, double dt, Eigen::Matrix<double
 SE2d Move(const SE2d& pose, const Control& u, double dt, Eigen::Matrix3d* d_pose = nullptr,
           Eigen::Matrix<double, 3, 2>* d_control = nullptr);
 
+/// True for a symmetric, finite, positive semi-definite covariance of (v, w).
+bool IsControlCovariance(const Eigen::Matrix2d& c);
+
 /// Control noise and the floor of a relative pose's covariance.
 struct OdometryNoise {
   /// Covariance of (v, w). Default: the standard deviations 0.1 m/s and pi/18 rad/s.
@@ -83,7 +86,10 @@ class MotionIntegrator {
   const SE2d& relative() const { return relative_; }
   /// Its covariance (rank 2 after one step, without the floor).
   const Eigen::Matrix3d& covariance() const { return covariance_; }
-  /// The information of the pose-pose factor: (covariance + floor^2 I)^-1.
+  /// The information of the pose-pose factor (BetweenSE2) whose measurement is relative():
+  /// the inverse of (covariance + floor^2 I), turned into the factor's error coordinates (its
+  /// translation is expressed in the measured relative pose's frame: J C^-1 J^T with
+  /// J = diag(R(theta)^T, 1).
   Eigen::Matrix3d Information() const;
   int steps() const { return steps_; }
   void Reset();
