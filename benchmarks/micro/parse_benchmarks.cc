@@ -6,7 +6,7 @@
 
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

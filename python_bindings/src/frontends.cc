@@ -7,9 +7,7 @@
 #include "tether/frontends/ekf/ukf_slam.h"
 #include "tether/frontends/odometry/diff_drive.h"
 #include "tether/frontends/odometry/odometry_front_end.h"
-#ifdef TETHER_PYTHON_HAVE_TOOLS
-#include "tether/tools/simulate.h"
-#endif
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace python {
@@ -196,7 +194,6 @@ void BindFrontends(py::module_& m) {
   BindOdometry(od);
   py::module_ ek = m.def_submodule("ekf", "EKF-SLAM and UKF-SLAM with range-bearing landmarks.");
   BindEkf(ek);
-#ifdef TETHER_PYTHON_HAVE_TOOLS
   m.def(
       "simulate",
       [](const std::string& world, int poses, std::uint64_t seed, double translation_sigma, double rotation_sigma,
@@ -222,7 +219,6 @@ void BindFrontends(py::module_& m) {
       py::arg("landmark_range") = 4.0,
       "(graph, initial, ground_truth) of a simulated world, as `tether simulate` makes it: 'manhattan' (SE2 "
       "grid walk), 'sphere' (SE3), 'landmarks' (SE2 poses and 2D points).");
-#endif
 }
 
 }  // namespace python

@@ -14,7 +14,7 @@
 
 #include "problem.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace {
 std::atomic<long> g_news{0};

@@ -11,7 +11,7 @@
 #include "tether/core/graph_io.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -18,7 +18,7 @@
 #include "tether/factors/prior.h"
 #include "tether/solvers/ceres_problem.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -13,7 +13,7 @@
 #include "tether/factors/between_se3.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "testing/simulated.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -9,7 +9,7 @@
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -20,7 +20,7 @@
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
 #include "tether/factors/prior.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -10,7 +10,7 @@
 #include "testing/simulated.h"
 #include "tether/factors/between_se2.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

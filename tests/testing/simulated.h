@@ -2,7 +2,7 @@
 // Shared test helper: a simulated world with the simulator's default noise.
 #include <cstdint>
 
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace testing {

@@ -27,7 +27,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/tools/replay.h"
 #include "tether/tools/replay_bench.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

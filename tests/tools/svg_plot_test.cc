@@ -16,7 +16,7 @@
 
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

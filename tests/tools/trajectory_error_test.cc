@@ -15,7 +15,7 @@
 
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/tools/svg_plot.h"
 
 namespace tether {

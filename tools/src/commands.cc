@@ -15,7 +15,7 @@
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/pipeline.h"
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/tools/svg_plot.h"
 #include "tether/tools/trajectory_error.h"
 

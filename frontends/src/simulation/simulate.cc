@@ -1,4 +1,4 @@
-#include "tether/tools/simulate.h"
+#include "tether/frontends/simulation/simulate.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
