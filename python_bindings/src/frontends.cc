@@ -3,6 +3,7 @@
 // tether.simulate (the CLI's pose-graph simulator).
 #include "common.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/landmark_simulator.h"
 #include "tether/frontends/ekf/ukf_slam.h"
 #include "tether/frontends/odometry/diff_drive.h"
@@ -124,6 +125,67 @@ void BindFilter(py::module_& ek, const char* name, const char* doc) {
       .def_property_readonly("dropped_observations", &Filter::dropped_observations);
 }
 
+// The graph the filters seed (tether/frontends/ekf/landmark_graph.h).
+void BindLandmarkGraph(py::module_& ek) {
+  py::class_<ekf::Track>(ek, "Track",
+                         "A run over a world: poses (steps + 1), per step and observation the landmark index it was "
+                         "taken for (-1: dropped), per landmark the true id it was created from and its estimates.")
+      .def_readonly("poses", &ekf::Track::poses)
+      .def(
+          "poses_array", [](const ekf::Track& t) { return PosesArray(t.poses); }, "(steps + 1, 3)")
+      .def_readonly("association", &ekf::Track::association)
+      .def_readonly("creator_id", &ekf::Track::creator_id)
+      .def(
+          "first_seen", [](const ekf::Track& t) { return PointsArray(t.first_seen); }, "(N, 2) initial values")
+      .def(
+          "landmarks", [](const ekf::Track& t) { return PointsArray(t.landmarks); }, "(N, 2) final estimates")
+      .def_readonly("wrong_associations", &ekf::Track::wrong_associations)
+      .def_readonly("dropped_observations", &ekf::Track::dropped_observations);
+  ek.def(
+      "run_filter", [](ekf::EkfSlam& f, const ekf::LandmarkWorld& w) { return ekf::RunFilter(&f, w); },
+      py::arg("filter"), py::arg("world"));
+  ek.def(
+      "run_filter", [](ekf::UkfSlam& f, const ekf::LandmarkWorld& w) { return ekf::RunFilter(&f, w); },
+      py::arg("filter"), py::arg("world"), "Runs the filter over the world (predict, update per step); its Track.");
+  ek.def("truth_track", &ekf::TruthTrack, py::arg("world"));
+  ek.def("dead_reckoning_track", &ekf::DeadReckoningTrack, py::arg("world"));
+  py::class_<ekf::LandmarkGraphOptions>(ek, "LandmarkGraphOptions")
+      .def(py::init<>())
+      .def_property(
+          "control_cov", [](const ekf::LandmarkGraphOptions& o) { return Eigen::Matrix2d(o.odometry.control); },
+          [](ekf::LandmarkGraphOptions& o, const Eigen::Matrix2d& c) { o.odometry.control = c; })
+      .def_property(
+          "floor_sigma", [](const ekf::LandmarkGraphOptions& o) { return o.odometry.floor_sigma; },
+          [](ekf::LandmarkGraphOptions& o, double f) { o.odometry.floor_sigma = f; })
+      .def_readwrite("measurement_cov", &ekf::LandmarkGraphOptions::measurement_cov)
+      .def_readwrite("prior_sigma", &ekf::LandmarkGraphOptions::prior_sigma);
+  ek.def("build_landmark_graph", &ekf::BuildLandmarkGraph, py::arg("world"), py::arg("association"),
+         py::arg("options") = ekf::LandmarkGraphOptions(),
+         "The graph from the world's odometry and the associated observations (keys x_i, l_j).");
+  ek.def("seed_values", &ekf::SeedValues, py::arg("track"));
+  py::class_<ekf::SmoothedTrack>(ek, "SmoothedTrack")
+      .def_readonly("track", &ekf::SmoothedTrack::track)
+      .def_readonly("chi2", &ekf::SmoothedTrack::chi2)
+      .def_readonly("online_seconds", &ekf::SmoothedTrack::online_seconds)
+      .def_readonly("finish_seconds", &ekf::SmoothedTrack::finish_seconds)
+      .def_readonly("updates", &ekf::SmoothedTrack::updates)
+      .def_readonly("finish", &ekf::SmoothedTrack::finish);
+  ek.def(
+      "smooth_landmark_run",
+      [](const ekf::LandmarkWorld& w, const ekf::Track& seed, const ekf::LandmarkGraphOptions& o) {
+        py::gil_scoped_release release;
+        return ekf::SmoothLandmarkRun(w, seed, o);
+      },
+      py::arg("world"), py::arg("seed"), py::arg("options") = ekf::LandmarkGraphOptions(),
+      "Feeds the graph to the incremental smoother step by step from the seed's values, then solves it to the batch "
+      "optimum.");
+  ek.def("trajectory_rmse", &ekf::TrajectoryRmse, py::arg("poses"), py::arg("truth"));
+  ek.def("landmark_rmse", &ekf::LandmarkRmse, py::arg("track"), py::arg("truth"),
+         "NaN where no landmark has a true id");
+  ek.def("pose_key", &ekf::PoseKey, py::arg("i"));
+  ek.def("landmark_key", &ekf::LandmarkKey, py::arg("j"));
+}
+
 void BindEkf(py::module_& ek) {
   py::class_<ekf::Observation>(ek, "Observation", "A range [m] and bearing [rad] to a landmark; id -1 where unknown.")
       .def(py::init([](double r, double b, int id) {
@@ -185,6 +247,7 @@ void BindEkf(py::module_& ek) {
       },
       py::arg("options") = ekf::LandmarkWorldOptions());
   ek.def("dead_reckoning", &ekf::DeadReckoning, py::arg("world"));
+  BindLandmarkGraph(ek);
 }
 
 }  // namespace

@@ -50,3 +50,26 @@ def test_filters_track_the_simulated_world(filter_class):
     assert err < max(dead_err, 1.0)
     with pytest.raises(tether.InvalidArgument, match="use known or nearest"):
         ekf.FilterOptions().association = "best"
+
+
+def test_filter_seeds_the_graph_and_the_smoother_solves_it():
+    opts = ekf.LandmarkWorldOptions()
+    opts.steps = 60
+    opts.seed = 3
+    world = ekf.simulate_landmark_world(opts)
+    f = ekf.EkfSlam(world.truth[0], np.zeros((3, 3)))
+    track = ekf.run_filter(f, world)
+    assert track.poses_array().shape == (61, 3)
+    assert len(track.association) == 60 and track.wrong_associations == 0
+    solved = ekf.smooth_landmark_run(world, track)
+    assert solved.updates == 61
+    # The same optimum from the truth (batch) and from the filter (online, then finished).
+    truth = ekf.truth_track(world)
+    graph = ekf.build_landmark_graph(world, truth.association)
+    values = ekf.seed_values(truth)
+    tether.optimize(graph, values)
+    assert graph.chi2(values) == pytest.approx(solved.chi2, rel=1e-6)
+    gt = world.truth
+    assert ekf.trajectory_rmse(solved.track.poses, gt) < ekf.trajectory_rmse(ekf.dead_reckoning(world), gt)
+    assert ekf.landmark_rmse(solved.track, world.landmarks()) < 5.0
+    assert values.at(ekf.pose_key(60)).params().shape == (3,)
