@@ -1,7 +1,6 @@
 // Solving: SolverOptions / SolverSummary, optimize() (GIL released, a Python iteration
 // callback that can stop the solve), marginal covariances, the incremental smoother, the
 // pipeline (read, initialise, optimise, write) and plugins.
-#include <chrono>
 #include <optional>
 #include <sstream>
 
@@ -19,12 +18,6 @@ namespace tether {
 namespace python {
 
 namespace {
-
-// Thrown by the iteration callback to stop the solve (the solvers catch it, keep the last good
-// values and return).
-struct StopRequested : Error {
-  StopRequested() : Error("the iteration callback returned False") {}
-};
 
 template <class E>
 E EnumFrom(const std::string& s, const char* what, const std::string& names) {
@@ -59,81 +52,32 @@ SmootherFactorization FactorizationFrom(const std::string& s) {
   throw InvalidArgument("unknown factorization '" + s + "'; use auto, left-looking or multifrontal");
 }
 
-// What optimize() adds to a Python iteration callback: the GIL, the log it keeps for a stop,
-// and the stop itself.
-struct CallbackState {
-  py::object fn;
-  std::vector<IterationSummary> log;
-  bool stopped = false;
-  const Values* values = nullptr;  // the solver's state, which the callback sees
-  Values at_stop;                  // its copy when the callback stopped the solve
-};
-
-void CallPython(CallbackState* state, const IterationSummary& it) {
-  state->log.push_back(it);
+// The Python iteration callback as SolverOptions::keep_going: called with the GIL held;
+// returning False (not None) stops the solve (status "stopped"); an exception it raises is
+// kept and raised again by optimize().
+bool CallPython(const py::object& fn, const IterationSummary& it) {
   py::gil_scoped_acquire gil;
-  bool go_on = true;
   try {
-    const py::object r = state->fn(it);
-    go_on = r.is_none() || r.cast<bool>();
+    const py::object r = fn(it);
+    return r.is_none() || r.cast<bool>();
   } catch (py::error_already_set&) {
     PendingPythonError::Keep();
     throw Error("the iteration callback raised an exception");
   } catch (const py::cast_error&) {
     throw InvalidArgument("the iteration callback must return None, True or False");
   }
-  if (!go_on) {
-    // The solvers take back the step in progress when they unwind: keep the state the
-    // callback saw, which is the one this iteration accepted.
-    state->at_stop = *state->values;
-    state->stopped = true;
-    throw StopRequested();
-  }
-}
-
-// The summary of a solve the callback stopped: the solvers report "stopped on an exception";
-// this puts back what the log knows (iterations, chi2 at the start and the end) and says what
-// happened. The values are those the callback saw.
-SolverSummary StoppedSummary(SolverSummary s, const CallbackState& state, const FactorGraph& graph,
-                             const Values& values, double start_chi2, double seconds) {
-  s.status = SolverStatus::kMaxIterations;
-  const int last = state.log.empty() ? 0 : state.log.back().iteration;
-  s.message = "stopped by the iteration callback after iteration " + std::to_string(last) +
-              " (reported as max-iterations); the values are those of that iteration";
-  s.log = state.log;
-  s.iterations = last;
-  s.accepted_iterations = 0;
-  for (const IterationSummary& it : state.log) s.accepted_iterations += it.iteration > 0 && it.accepted;
-  s.initial_cost = state.log.empty() ? graph.Cost(values) : state.log.front().chi2;
-  s.initial_chi2 = graph.HasLoss() ? start_chi2 : s.initial_cost;
-  s.final_cost = graph.Cost(values);
-  s.final_chi2 = graph.Chi2(values);
-  s.total_seconds = seconds;
-  return s;
 }
 
 SolverSummary OptimizeFromPython(const FactorGraph& graph, Values& values, SolverOptions options,
                                  const py::object& callback) {
-  CallbackState state;
-  double start_chi2 = 0;
   if (!callback.is_none()) {
     if (!PyCallable_Check(callback.ptr())) throw InvalidArgument("optimize: callback must be callable or None");
-    state.fn = callback;
-    state.values = &values;
-    options.callback = [&state](const IterationSummary& it) { CallPython(&state, it); };
-    if (graph.HasLoss()) start_chi2 = Guarded([&] { return graph.Chi2(values); });
+    options.keep_going = [&callback](const IterationSummary& it) { return CallPython(callback, it); };
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  SolverSummary s = Guarded([&] {
+  return Guarded([&] {
     py::gil_scoped_release release;
     return Optimize(graph, &values, options);
   });
-  if (state.stopped) {
-    values = std::move(state.at_stop);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    s = StoppedSummary(std::move(s), state, graph, values, start_chi2, seconds);
-  }
-  return s;
 }
 
 void BindOptions(py::module_& m) {
@@ -258,7 +202,7 @@ void BindOptions(py::module_& m) {
         py::arg("callback") = py::none(),
         "Optimises values in place and returns the SolverSummary. The GIL is released while it runs. "
         "callback(IterationSummary), where given, is called after every iteration (and for iteration 0); "
-        "returning False stops the solve with the values of that iteration (status 'max-iterations', the message "
+        "returning False stops the solve with the values of that iteration (status 'stopped', the message "
         "says so). Exceptions raised by Python factors or the callback are raised again here.");
 }
 

@@ -112,8 +112,15 @@ class CallbackBridge : public ceres::IterationCallback {
     s_->log.push_back(it);
     if (options_.callback) options_.callback(it);
     // A factor threw: stop, and report it (Ceres only sees failed evaluations).
-    return problem_.errors().any() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+    if (problem_.errors().any()) return ceres::SOLVER_ABORT;
+    if (options_.keep_going && !options_.keep_going(it)) {
+      stopped_after_ = it.iteration;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
   }
+  /// The iteration after which keep_going returned false (-1: it did not).
+  int stopped_after() const { return stopped_after_; }
 
  private:
   SolverSummary* s_;
@@ -121,6 +128,7 @@ class CallbackBridge : public ceres::IterationCallback {
   const CeresProblem& problem_;
   double radius_;
   Clock::time_point t0_;
+  int stopped_after_ = -1;
 };
 
 // Ceres' LM over SPARSE_NORMAL_CHOLESKY with tether's stopping rules and damping (as a
@@ -282,6 +290,10 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     if (it.accepted) ++s.accepted_iterations;
   }
   bool usable = MapTermination(cs, *problem, options, &s);
+  if (bridge.stopped_after() >= 0 && cs.termination_type == ceres::USER_SUCCESS) {
+    s.status = SolverStatus::kStopped;
+    s.message = "stopped by keep_going after iteration " + std::to_string(bridge.stopped_after());
+  }
   WriteResult(graph, values, problem.get(), usable, &s);
   s.total_seconds = SecondsSince(t0);
   return s;

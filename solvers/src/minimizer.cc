@@ -23,8 +23,9 @@ Minimizer::Minimizer(const SolverOptions& options, Problem* problem, LinearSyste
 void Minimizer::Minimize(double chi2) {
   chi2_ = best_chi2_ = chi2;
   Start();
-  while (stop_.MayIterate(SecondsSince(t0_), &s_) && Iterate()) {
+  while (!StopRequested() && stop_.MayIterate(SecondsSince(t0_), &s_) && Iterate()) {
   }
+  StopRequested();  // a request during the last iteration, where no other rule ended the solve
   Finish();
 }
 
@@ -176,6 +177,18 @@ void Minimizer::Log(IterationSummary& it) {
   it.seconds = SecondsSince(t0_);
   s_.log.push_back(it);
   if (options_.callback) options_.callback(it);
+  if (options_.keep_going && stop_after_ < 0 && !options_.keep_going(it)) stop_after_ = it.iteration;
+}
+
+// The solve is still running (status kMaxIterations until a rule says otherwise) and keep_going
+// asked to stop: status kStopped.
+bool Minimizer::StopRequested() {
+  if (stop_after_ < 0) return false;
+  if (s_.status == SolverStatus::kMaxIterations && s_.iterations < options_.max_iterations) {
+    s_.status = SolverStatus::kStopped;
+    s_.message = "stopped by keep_going after iteration " + std::to_string(stop_after_);
+  }
+  return true;
 }
 
 // Where steps that raise chi2 were taken, hands back the best state visited.

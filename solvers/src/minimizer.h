@@ -42,6 +42,7 @@ class Minimizer {
   bool Relinearize(IterationSummary& it, double old_chi2);
   void Diverged(IterationSummary& it, const char* what, double chi2);
   void Log(IterationSummary& it);
+  bool StopRequested();
   void Finish();
 
   const SolverOptions& options_;
@@ -56,6 +57,7 @@ class Minimizer {
   double best_chi2_ = 0;
   double x_norm_ = 0;  // |x| before the step, for the parameter tolerance
   std::vector<double> delta_;
+  int stop_after_ = -1;  // the iteration after which keep_going returned false (-1: none)
 };
 
 }  // namespace internal

@@ -14,10 +14,13 @@ const char* ToString(const Algorithm& a) { return a.name().c_str(); }
 const char* ToString(const LinearSolverType& t) { return t.name().c_str(); }
 
 namespace {
-constexpr EnumName<SolverStatus> kStatusNames[] = {
-    {SolverStatus::kConverged, "converged"},          {SolverStatus::kMaxIterations, "max-iterations"},
-    {SolverStatus::kTimeLimit, "time-limit"},         {SolverStatus::kDiverged, "diverged"},
-    {SolverStatus::kRankDeficient, "rank-deficient"}, {SolverStatus::kInvalidInput, "invalid-input"}};
+constexpr EnumName<SolverStatus> kStatusNames[] = {{SolverStatus::kConverged, "converged"},
+                                                   {SolverStatus::kMaxIterations, "max-iterations"},
+                                                   {SolverStatus::kTimeLimit, "time-limit"},
+                                                   {SolverStatus::kDiverged, "diverged"},
+                                                   {SolverStatus::kRankDeficient, "rank-deficient"},
+                                                   {SolverStatus::kInvalidInput, "invalid-input"},
+                                                   {SolverStatus::kStopped, "stopped"}};
 }  // namespace
 
 const char* ToString(SolverStatus s) { return NameOf(kStatusNames, s, "invalid-input"); }

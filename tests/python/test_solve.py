@@ -64,8 +64,8 @@ def test_callback_sees_the_table_and_stops_the_solve():
 
     stopped = initial.copy()
     s = tether.optimize(graph, stopped, callback=lambda it: it.iteration < 1)
-    assert "stopped by the iteration callback after iteration 1" in s.message
-    assert s.status == "max-iterations" and s.iterations == 1
+    assert "stopped by keep_going after iteration 1" in s.message
+    assert s.status == "stopped" and s.iterations == 1
     assert s.final_chi2 == pytest.approx(graph.chi2(stopped))
     assert s.final_chi2 == pytest.approx(rows[1].chi2)  # the state the callback saw at iteration 1
     assert s.final_chi2 < s.initial_chi2 and s.final_chi2 > s_full.final_chi2

@@ -206,6 +206,43 @@ TEST(OptimizerTest, CallbackSeesEveryIteration) {
   for (std::size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], static_cast<int>(i));
 }
 
+// keep_going returning false ends the solve with status kStopped and the values of the
+// iteration it saw, for every algorithm (Ceres included); at iteration 0 nothing moves.
+TEST(OptimizerTest, KeepGoingStopsTheSolve) {
+  const SimulatedGraph sim = Sim(SimWorld::kManhattan, 300);
+  for (Algorithm a : {Algorithm::kGaussNewton, Algorithm::kLevenbergMarquardt, Algorithm::kDogLeg, Algorithm::kCeres}) {
+    SCOPED_TRACE(a.name());
+    SolverOptions o;
+    o.algorithm = a;
+    Values full = sim.initial;
+    const SolverSummary whole = Optimize(sim.graph, &full, o);
+    ASSERT_GE(whole.iterations, 2);
+    std::vector<IterationSummary> seen;
+    o.callback = [&](const IterationSummary& it) { seen.push_back(it); };
+    o.keep_going = [](const IterationSummary& it) { return it.iteration < 1; };
+    Values v = sim.initial;
+    const SolverSummary s = Optimize(sim.graph, &v, o);
+    EXPECT_EQ(s.status, SolverStatus::kStopped) << s.message;
+    EXPECT_TRUE(s.IsSolutionUsable());
+    EXPECT_NE(s.message.find("after iteration 1"), std::string::npos) << s.message;
+    EXPECT_EQ(s.iterations, 1);
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.back().iteration, 1);
+    // The values are those of the state the callback saw at iteration 1.
+    EXPECT_NEAR(sim.graph.Chi2(v), seen.back().chi2, 1e-9 * seen.back().chi2);
+    EXPECT_NEAR(s.final_chi2, seen.back().chi2, 1e-9 * seen.back().chi2);
+    EXPECT_GT(s.final_chi2, whole.final_chi2);
+    EXPECT_LT(s.final_chi2, s.initial_chi2);
+    // Stopped at the start: no iteration, values untouched.
+    o.keep_going = [](const IterationSummary&) { return false; };
+    Values untouched = sim.initial;
+    const SolverSummary s0 = Optimize(sim.graph, &untouched, o);
+    EXPECT_EQ(s0.status, SolverStatus::kStopped) << s0.message;
+    EXPECT_EQ(s0.iterations, 0);
+    EXPECT_NEAR(sim.graph.Chi2(untouched), sim.graph.Chi2(sim.initial), 1e-9 * sim.graph.Chi2(sim.initial));
+  }
+}
+
 TEST(OptimizerTest, MaxIterationsAndTimeLimitStop) {
   const SimulatedGraph sim = Sim(SimWorld::kManhattan, 300);
   Values v = sim.initial;
@@ -355,7 +392,7 @@ TEST(SolverOptionsTest, NamesRoundTrip) {
     ASSERT_TRUE(FromString(ToString(a), &b));
     EXPECT_EQ(a, b);
   }
-  for (int i = 0; i <= static_cast<int>(SolverStatus::kInvalidInput); ++i) {
+  for (int i = 0; i <= static_cast<int>(SolverStatus::kStopped); ++i) {
     SolverStatus b;
     ASSERT_TRUE(FromString(ToString(static_cast<SolverStatus>(i)), &b));
     EXPECT_EQ(static_cast<int>(b), i);

@@ -64,6 +64,7 @@ enum class SolverStatus {
   kDiverged,       ///< chi2 became non-finite or grew without bound; last good values kept
   kRankDeficient,  ///< the linear system is singular (gauge not fixed, disconnected graph)
   kInvalidInput,   ///< options or graph invalid (message says why); values untouched
+  kStopped,        ///< SolverOptions::keep_going returned false; the values of the last iteration it saw
 };
 
 // Names used by the CLI and reports: "gn", "lm", "dogleg", "ceres"; "cholmod", "ldlt", "qr";
@@ -178,6 +179,10 @@ struct SolverOptions {
   int num_threads = 1;
   /// Called after every iteration (and once for iteration 0).
   std::function<void(const IterationSummary&)> callback;
+  /// Where set, called after `callback` with the same summary; returning false ends the solve
+  /// there with status kStopped and the values of that iteration (an accepted step is kept, a
+  /// rejected one is not). gn, lm, dogleg and ceres.
+  std::function<bool(const IterationSummary&)> keep_going;
 
   /// Checks the common settings and every piece's (lm, dogleg, linear), and that the step
   /// strategy and linear solver are registered.
@@ -225,7 +230,7 @@ struct SolverSummary {
 
   bool IsSolutionUsable() const {
     return status == SolverStatus::kConverged || status == SolverStatus::kMaxIterations ||
-           status == SolverStatus::kTimeLimit;
+           status == SolverStatus::kTimeLimit || status == SolverStatus::kStopped;
   }
   /// One line: status, chi2 before and after, iterations, time.
   std::string BriefReport() const;
