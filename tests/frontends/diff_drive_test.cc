@@ -9,6 +9,7 @@
 #include <functional>
 #include <vector>
 
+#include "testing/numeric_jacobian.h"
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/frontends/odometry/odometry_front_end.h"
@@ -29,22 +30,7 @@ Eigen::Vector3d ClosedForm(const Eigen::Vector3d& x, double v, double w, double 
                          x.y() + r * std::cos(x.z()) - r * std::cos(x.z() + w * dt), x.z() + w * dt);
 }
 
-// Central differences of f (a function of a vector) with the output's angle entry wrapped.
-Eigen::MatrixXd Numeric(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& x,
-                        int angle_row) {
-  const Eigen::VectorXd y0 = f(x);
-  Eigen::MatrixXd j(y0.size(), x.size());
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double h = 1e-6;
-    Eigen::VectorXd a = x, b = x;
-    a[i] += h;
-    b[i] -= h;
-    Eigen::VectorXd d = f(a) - f(b);
-    if (angle_row >= 0) d[angle_row] = WrapAngle(d[angle_row]);
-    j.col(i) = d / (2 * h);
-  }
-  return j;
-}
+using testing::NumericJacobian;
 
 TEST(DiffDriveTest, ArcMatchesTheClosedForm) {
   for (double w : {0.3, -1.7, kPi / 10, 2.5}) {
@@ -92,12 +78,12 @@ TEST(DiffDriveTest, JacobiansMatchNumericOnesAlsoAtZeroTurnRate) {
     const auto by_control = [&](const Eigen::VectorXd& u) {
       return Eigen::VectorXd(Params(Move(SE2d(x.x(), x.y(), x.z()), Control{u[0], u[1]}, dt)));
     };
-    EXPECT_LT((a - Numeric(by_pose, x, 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
-    EXPECT_LT((b - Numeric(by_control, Eigen::Vector2d(v, w), 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+    EXPECT_LT((a - NumericJacobian(by_pose, x, 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+    EXPECT_LT((b - NumericJacobian(by_control, Eigen::Vector2d(v, w), 2)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
     Eigen::Matrix<double, 3, 2> g;
     RelativeMotion(Control{v, w}, dt, &g);
     const auto rel = [&](const Eigen::VectorXd& u) { return Eigen::VectorXd(RelativeMotion(Control{u[0], u[1]}, dt)); };
-    EXPECT_LT((g - Numeric(rel, Eigen::Vector2d(v, w), -1)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
+    EXPECT_LT((g - NumericJacobian(rel, Eigen::Vector2d(v, w), -1)).cwiseAbs().maxCoeff(), 1e-8) << "w " << w;
   }
 }
 
@@ -139,7 +125,7 @@ TEST(DiffDriveTest, AccumulatedCovarianceIsTheLinearisedOneOfAllControls) {
     all[2 * k + 1] = us[k].w;
     sigma.block<2, 2>(2 * k, 2 * k) = noise.control;
   }
-  const Eigen::MatrixXd j = Numeric(composed, all, 2);
+  const Eigen::MatrixXd j = NumericJacobian(composed, all, 2);
   const Eigen::Matrix3d expect = j * sigma * j.transpose();
   EXPECT_LT((integrator.covariance() - expect).cwiseAbs().maxCoeff(), 1e-8);
   EXPECT_LT((Params(integrator.relative()) - composed(all)).cwiseAbs().maxCoeff(), 1e-14);
@@ -160,7 +146,7 @@ TEST(DiffDriveTest, AccumulatedCovarianceIsTheLinearisedOneOfAllControls) {
     factor.Evaluate(params, e.data(), nullptr);
     return Eigen::VectorXd(e);
   };
-  const Eigen::MatrixXd je = Numeric(error, Params(one.relative()), 2);
+  const Eigen::MatrixXd je = NumericJacobian(error, Params(one.relative()), 2);
   const Eigen::Matrix3d expect_info = (je * with_floor * je.transpose()).inverse();
   EXPECT_LT((one.Information() - expect_info).cwiseAbs().maxCoeff(), 1e-6 * expect_info.cwiseAbs().maxCoeff());
   // ... which is not the inverse of the parameters' covariance where the motion turns.

@@ -9,6 +9,7 @@
 #include <memory>
 #include <random>
 
+#include "testing/numeric_jacobian.h"
 #include "tether/core/error.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
@@ -18,21 +19,7 @@ namespace tether {
 namespace ekf {
 namespace {
 
-Eigen::MatrixXd Numeric(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& x,
-                        int angle_row) {
-  const Eigen::VectorXd y0 = f(x);
-  Eigen::MatrixXd j(y0.size(), x.size());
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double h = 1e-6;
-    Eigen::VectorXd a = x, b = x;
-    a[i] += h;
-    b[i] -= h;
-    Eigen::VectorXd d = f(a) - f(b);
-    if (angle_row >= 0) d[angle_row] = WrapAngle(d[angle_row]);
-    j.col(i) = d / (2 * h);
-  }
-  return j;
-}
+using testing::NumericJacobian;
 
 TEST(RangeBearingModelTest, JacobiansAndInverse) {
   const SE2d pose(1.0, -2.0, 2.9);
@@ -44,9 +31,10 @@ TEST(RangeBearingModelTest, JacobiansAndInverse) {
     EXPECT_LE(z.y(), M_PI);
     const auto by_pose = [&](const Eigen::VectorXd& p) { return Eigen::VectorXd(Observe(SE2d(p[0], p[1], p[2]), l)); };
     const auto by_landmark = [&](const Eigen::VectorXd& q) { return Eigen::VectorXd(Observe(pose, q)); };
-    EXPECT_LT((hp - Numeric(by_pose, Eigen::Vector3d(pose.x(), pose.y(), pose.theta()), 1)).cwiseAbs().maxCoeff(),
-              1e-7);
-    EXPECT_LT((hl - Numeric(by_landmark, l, 1)).cwiseAbs().maxCoeff(), 1e-7);
+    EXPECT_LT(
+        (hp - NumericJacobian(by_pose, Eigen::Vector3d(pose.x(), pose.y(), pose.theta()), 1)).cwiseAbs().maxCoeff(),
+        1e-7);
+    EXPECT_LT((hl - NumericJacobian(by_landmark, l, 1)).cwiseAbs().maxCoeff(), 1e-7);
     // The inverse observation gives the landmark back, with its Jacobians.
     Eigen::Matrix<double, 2, 3> gp;
     Eigen::Matrix2d gz;
@@ -55,9 +43,10 @@ TEST(RangeBearingModelTest, JacobiansAndInverse) {
       return Eigen::VectorXd(InverseObserve(SE2d(p[0], p[1], p[2]), z));
     };
     const auto inv_z = [&](const Eigen::VectorXd& q) { return Eigen::VectorXd(InverseObserve(pose, q)); };
-    EXPECT_LT((gp - Numeric(inv_pose, Eigen::Vector3d(pose.x(), pose.y(), pose.theta()), -1)).cwiseAbs().maxCoeff(),
-              1e-7);
-    EXPECT_LT((gz - Numeric(inv_z, z, -1)).cwiseAbs().maxCoeff(), 1e-7);
+    EXPECT_LT(
+        (gp - NumericJacobian(inv_pose, Eigen::Vector3d(pose.x(), pose.y(), pose.theta()), -1)).cwiseAbs().maxCoeff(),
+        1e-7);
+    EXPECT_LT((gz - NumericJacobian(inv_z, z, -1)).cwiseAbs().maxCoeff(), 1e-7);
   }
   EXPECT_THROW(Observe(pose, pose.translation()), InvalidArgument);
   EXPECT_NEAR(MeasurementDifference(Eigen::Vector2d(1, 3.1), Eigen::Vector2d(0.5, -3.1)).y(), 6.2 - 2 * M_PI, 1e-12);
@@ -175,7 +164,7 @@ TEST(EkfSlamTest, NewLandmarkCarriesItsCrossCovariances) {
   };
   Eigen::VectorXd xz(5);
   xz << 1, 2, 0.3, z.x(), z.y();
-  const Eigen::MatrixXd j = Numeric(g, xz, 2);
+  const Eigen::MatrixXd j = NumericJacobian(g, xz, 2);
   Eigen::MatrixXd c = Eigen::MatrixXd::Zero(5, 5);
   c.topLeftCorner<3, 3>() = p0;
   c.bottomRightCorner<2, 2>() = o.measurement_cov;
