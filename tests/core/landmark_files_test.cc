@@ -7,6 +7,7 @@
 #include <sstream>
 #include <string>
 
+#include "testing/read_text.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/factors/range_bearing.h"
@@ -17,17 +18,11 @@ namespace {
 constexpr Key kOffset = 1000000000;
 
 GraphFile Read(const std::string& text, const std::string& name = "l.txt", const ReadOptions& options = {}) {
-  std::istringstream in(text);
-  return ReadGraph(in, name, DefaultRegistry(), options);
+  return testing::ReadText(text, name, options);
 }
 
 std::string ReadError(const std::string& text, const std::string& name = "l.txt", const ReadOptions& options = {}) {
-  try {
-    Read(text, name, options);
-  } catch (const ParseError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing::ReadTextError(text, name, options);
 }
 
 #define EXPECT_CONTAINS(haystack, needle)                                                       \

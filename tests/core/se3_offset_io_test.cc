@@ -7,6 +7,7 @@
 #include <sstream>
 #include <string>
 
+#include "testing/read_text.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/factors/pose_point.h"
@@ -16,19 +17,9 @@
 namespace tether {
 namespace {
 
-GraphFile Read(const std::string& text) {
-  std::istringstream in(text);
-  return ReadGraph(in, "o.g2o", DefaultRegistry());
-}
+GraphFile Read(const std::string& text) { return testing::ReadText(text, "o.g2o"); }
 
-std::string ReadError(const std::string& text) {
-  try {
-    Read(text);
-  } catch (const ParseError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+std::string ReadError(const std::string& text) { return testing::ReadTextError(text, "o.g2o"); }
 
 std::string Written(const GraphFile& g) {
   std::ostringstream out;

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "testing/jacobian_check.h"
+#include "testing/read_text.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
@@ -151,19 +152,9 @@ TEST(RangeBearing2Test, PredictsTheLandmarkFromThePose) {
   EXPECT_FALSE(f.Predict(1, l, 0, out)) << "one landmark does not place a pose";
 }
 
-GraphFile Read(const std::string& text) {
-  std::istringstream in(text);
-  return ReadGraph(in, "rb.g2o", DefaultRegistry());
-}
+GraphFile Read(const std::string& text) { return testing::ReadText(text, "rb.g2o"); }
 
-std::string ReadError(const std::string& text) {
-  try {
-    Read(text);
-  } catch (const ParseError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+std::string ReadError(const std::string& text) { return testing::ReadTextError(text, "rb.g2o"); }
 
 TEST(RangeBearing2Test, G2oLineRoundTrip) {
   const std::string text =
