@@ -1,0 +1,60 @@
+#pragma once
+// One 2D laser scan as every reader gives it (CARMEN logs, ROS 1 bags): the ranges with their
+// angles and limits, the time, the robot's odometry pose at that time and where the laser sits
+// on the robot.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "tether/core/se2.h"
+
+namespace tether {
+namespace lidar {
+
+/// Where a scan's odometry came from.
+enum class OdometryOrigin {
+  kNone,          ///< no odometry at all (a log without ODOM lines, a bag without odometry)
+  kScanLine,      ///< carried by the scan's own line (CARMEN FLASER, ROBOTLASER1)
+  kInterpolated,  ///< interpolated in time between the two odometry messages around the scan
+  kClamped,       ///< the scan lies before the first or after the last odometry message: that one
+};
+const char* ToString(OdometryOrigin o);
+
+struct LaserScan {
+  double stamp = 0;  ///< seconds (CARMEN ipc_timestamp, ROS header.stamp)
+  /// Beam i points at angle_min + i * angle_increment (radians, in the laser's frame, x forward).
+  double angle_min = 0;
+  double angle_increment = 0;
+  /// Beams shorter than range_min or not shorter than range_max are invalid (no return).
+  double range_min = 0;
+  double range_max = 0;
+  std::vector<float> ranges;
+  /// The robot's odometry pose at `stamp` (odometry frame), see `odometry_origin`.
+  SE2<double> odometry;
+  OdometryOrigin odometry_origin = OdometryOrigin::kNone;
+  /// The laser's pose in the robot's frame (CARMEN: from the laser and robot poses on the line;
+  /// a bag: /tf_static's robot -> laser transform where there is one; identity otherwise).
+  SE2<double> laser_in_robot;
+  /// Line number in the CARMEN log (1-based), or message index in the bag; for messages.
+  long source_index = 0;
+
+  /// The angle of beam i.
+  double Angle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
+  /// True where beam i has a finite range in [range_min, range_max).
+  bool Valid(std::size_t i) const;
+  /// Number of valid beams.
+  std::size_t ValidCount() const;
+};
+
+/// Optional tighter range limits applied on top of a scan's own (0: keep the scan's).
+struct RangeLimits {
+  double min_range = 0;
+  double max_range = 0;
+};
+
+/// The valid beams as points in the laser's frame (range limits of the scan, tightened by
+/// `limits`), in beam order.
+std::vector<Eigen::Vector2d> ScanToPoints(const LaserScan& scan, const RangeLimits& limits = {});
+
+}  // namespace lidar
+}  // namespace tether

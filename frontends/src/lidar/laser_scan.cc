@@ -1,0 +1,49 @@
+#include "tether/frontends/lidar/laser_scan.h"
+
+#include <cmath>
+
+namespace tether {
+namespace lidar {
+
+const char* ToString(OdometryOrigin o) {
+  switch (o) {
+    case OdometryOrigin::kNone:
+      return "none";
+    case OdometryOrigin::kScanLine:
+      return "scan-line";
+    case OdometryOrigin::kInterpolated:
+      return "interpolated";
+    case OdometryOrigin::kClamped:
+      return "clamped";
+  }
+  return "unknown";
+}
+
+bool LaserScan::Valid(std::size_t i) const {
+  if (i >= ranges.size()) return false;
+  const double r = ranges[i];
+  return std::isfinite(r) && r >= range_min && r < range_max;
+}
+
+std::size_t LaserScan::ValidCount() const {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < ranges.size(); ++i) n += Valid(i) ? 1 : 0;
+  return n;
+}
+
+std::vector<Eigen::Vector2d> ScanToPoints(const LaserScan& scan, const RangeLimits& limits) {
+  const double lo = limits.min_range > 0 ? std::max(limits.min_range, scan.range_min) : scan.range_min;
+  const double hi = limits.max_range > 0 ? std::min(limits.max_range, scan.range_max) : scan.range_max;
+  std::vector<Eigen::Vector2d> points;
+  points.reserve(scan.ranges.size());
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    const double r = scan.ranges[i];
+    if (!std::isfinite(r) || r < lo || r >= hi) continue;
+    const double a = scan.Angle(i);
+    points.emplace_back(r * std::cos(a), r * std::sin(a));
+  }
+  return points;
+}
+
+}  // namespace lidar
+}  // namespace tether

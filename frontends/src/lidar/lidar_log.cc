@@ -1,0 +1,99 @@
+#include "tether/frontends/lidar/lidar_log.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "tether/core/enum_names.h"
+#include "tether/core/error.h"
+#include "tether/frontends/lidar/carmen_reader.h"
+#include "tether/frontends/lidar/rosbag_reader.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+constexpr EnumName<OdometrySource> kOdometrySourceNames[] = {{OdometrySource::kAuto, "auto"},
+                                                             {OdometrySource::kScanLine, "scan-line"},
+                                                             {OdometrySource::kInterpolated, "interpolated"}};
+constexpr EnumName<LogFormat> kLogFormatNames[] = {
+    {LogFormat::kAuto, "auto"}, {LogFormat::kCarmen, "carmen"}, {LogFormat::kRosBag, "rosbag"}};
+
+}  // namespace
+
+void CheckReadOptions(const LidarReadOptions& o) {
+  const auto bad = [](double v) { return !std::isfinite(v) || v < 0; };
+  if (bad(o.limits.min_range) || bad(o.limits.max_range)) {
+    throw InvalidArgument("lidar reader: range limits must be finite and not negative (0: the source's own)");
+  }
+  if (o.limits.max_range > 0 && o.limits.min_range >= o.limits.max_range) {
+    throw InvalidArgument("lidar reader: the minimum range must be below the maximum range");
+  }
+  if (!(o.flaser_max_range > 0) || !std::isfinite(o.flaser_max_range)) {
+    throw InvalidArgument("lidar reader: flaser_max_range must be positive and finite");
+  }
+  if (!(o.flaser_fov > 0) || !(o.flaser_fov <= 2 * M_PI)) {
+    throw InvalidArgument("lidar reader: flaser_fov must be in (0, 2 pi] radians");
+  }
+  if (o.scan_topic.empty() || o.odom_topic.empty()) throw InvalidArgument("lidar reader: empty topic name");
+}
+
+const char* ToString(OdometrySource s) { return NameOf(kOdometrySourceNames, s); }
+bool FromString(const std::string& name, OdometrySource* s) { return ValueOf(kOdometrySourceNames, name, s); }
+std::string OdometrySourceNames() { return NameList(kOdometrySourceNames); }
+const char* ToString(LogFormat f) { return NameOf(kLogFormatNames, f); }
+bool FromString(const std::string& name, LogFormat* f) { return ValueOf(kLogFormatNames, name, f); }
+
+LogFormat DetectLogFormat(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path + ": cannot open the log (" + std::strerror(errno) + ")");
+  char head[13] = {};
+  in.read(head, 12);
+  return std::string(head, static_cast<std::size_t>(in.gcount())) == "#ROSBAG V2.0" ? LogFormat::kRosBag
+                                                                                    : LogFormat::kCarmen;
+}
+
+void AttachOdometry(const std::string& path, OdometrySource source, LidarLog* log) {
+  log->clamped_odometry = 0;
+  for (LaserScan& s : log->scans) {
+    const bool has_line = s.odometry_origin == OdometryOrigin::kScanLine;
+    if (source == OdometrySource::kScanLine && !has_line) {
+      throw ParseError(path + ": scan " + std::to_string(s.source_index) +
+                       " carries no odometry of its own (odometry source scan-line); use interpolated");
+    }
+    if (source == OdometrySource::kScanLine || (source == OdometrySource::kAuto && has_line)) continue;
+    if (source == OdometrySource::kInterpolated && log->odometry.empty()) {
+      throw ParseError(path + ": no odometry messages to interpolate from (odometry source interpolated)");
+    }
+    s.odometry_origin = log->odometry.At(s.stamp, &s.odometry);
+    if (s.odometry_origin == OdometryOrigin::kClamped) ++log->clamped_odometry;
+  }
+}
+
+LidarLog ReadLidarLog(const std::string& path, const LidarReadOptions& options) {
+  CheckReadOptions(options);
+  LogFormat format = options.format;
+  if (format == LogFormat::kAuto) format = DetectLogFormat(path);
+  LidarLog log = format == LogFormat::kRosBag ? ReadRosBag(path, options) : ReadCarmenLog(path, options);
+  return log;
+}
+
+void FinishLog(const LidarReadOptions& options, LidarLog* log) {
+  for (LaserScan& s : log->scans) {
+    if (options.limits.min_range > 0) s.range_min = std::max(s.range_min, options.limits.min_range);
+    if (options.limits.max_range > 0) s.range_max = std::min(s.range_max, options.limits.max_range);
+  }
+  AttachOdometry(log->path, options.odometry, log);
+}
+
+std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log) {
+  std::vector<StampedPose2> out;
+  out.reserve(log.scans.size());
+  for (const LaserScan& s : log.scans) out.push_back({s.stamp, s.odometry});
+  return out;
+}
+
+}  // namespace lidar
+}  // namespace tether

@@ -1,0 +1,157 @@
+#include "tether/frontends/lidar/rosbag_reader.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "tether/core/error.h"
+
+#ifdef TETHER_HAVE_ROSBAG
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/LaserScan.h>
+#endif
+
+namespace tether {
+namespace lidar {
+
+#ifdef TETHER_HAVE_ROSBAG
+
+namespace {
+
+double Yaw(double x, double y, double z, double w) { return std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)); }
+
+std::string MessageWhere(const std::string& path, long index, const std::string& topic) {
+  return path + ": message " + std::to_string(index) + " on " + topic + ": ";
+}
+
+// /tf_static is a tf2_msgs/TFMessage: a sequence of geometry_msgs/TransformStamped, read here
+// without tf2_msgs' headers. Returns the first transform whose child frame is `child`.
+bool FindStaticTransform(const rosbag::MessageInstance& m, const std::string& child, SE2<double>* out) {
+  std::vector<std::uint8_t> buf(m.size());
+  ros::serialization::OStream os(buf.data(), static_cast<std::uint32_t>(buf.size()));
+  m.write(os);
+  ros::serialization::IStream is(buf.data(), static_cast<std::uint32_t>(buf.size()));
+  std::uint32_t n = 0;
+  is >> n;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    geometry_msgs::TransformStamped t;
+    ros::serialization::deserialize(is, t);
+    if (t.child_frame_id == child || (!child.empty() && child[0] != '/' && t.child_frame_id == "/" + child)) {
+      const auto& q = t.transform.rotation;
+      *out = SE2<double>(t.transform.translation.x, t.transform.translation.y, Yaw(q.x, q.y, q.z, q.w));
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+bool RosBagSupported() { return true; }
+
+LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
+  CheckReadOptions(options);
+  if (!std::ifstream(path).good()) throw IoError(path + ": cannot open the bag (" + std::strerror(errno) + ")");
+  LidarLog log;
+  log.path = path;
+  log.format = LogFormat::kRosBag;
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const std::exception& e) {
+    throw ParseError(path + ": not a readable ROS 1 bag (" + e.what() + ")");
+  }
+  std::string laser_frame;
+  long index = 0;
+  try {
+    const std::vector<std::string> topics = {options.scan_topic, options.odom_topic, "/tf_static"};
+    rosbag::View view(bag, rosbag::TopicQuery(topics));
+    bool scan_topic_seen = false;
+    for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+      if (c->topic == options.scan_topic) {
+        scan_topic_seen = true;
+        if (c->datatype != "sensor_msgs/LaserScan") {
+          throw ParseError(path + ": topic " + options.scan_topic + " holds " + c->datatype +
+                           ", not sensor_msgs/LaserScan");
+        }
+      }
+      if (c->topic == options.odom_topic && c->datatype != "nav_msgs/Odometry") {
+        throw ParseError(path + ": topic " + options.odom_topic + " holds " + c->datatype + ", not nav_msgs/Odometry");
+      }
+    }
+    if (!scan_topic_seen) {
+      std::string have;
+      rosbag::View all(bag);
+      for (const rosbag::ConnectionInfo* c : all.getConnections()) have += " " + c->topic + " (" + c->datatype + ")";
+      throw ParseError(path + ": no topic " + options.scan_topic + "; the bag has" + (have.empty() ? " none" : have) +
+                       "; choose the scan topic");
+    }
+    std::vector<rosbag::MessageInstance> statics;
+    for (const rosbag::MessageInstance& m : view) {
+      ++index;
+      if (m.getTopic() == options.scan_topic) {
+        const sensor_msgs::LaserScan::ConstPtr msg = m.instantiate<sensor_msgs::LaserScan>();
+        if (!msg) throw ParseError(MessageWhere(path, index, m.getTopic()) + "not a sensor_msgs/LaserScan");
+        LaserScan s;
+        s.stamp = msg->header.stamp.toSec();
+        s.angle_min = msg->angle_min;
+        s.angle_increment = msg->angle_increment;
+        s.range_min = msg->range_min;
+        s.range_max = msg->range_max;
+        s.ranges = msg->ranges;
+        s.source_index = index;
+        if (s.ranges.size() < 2 || !std::isfinite(s.angle_min) || !std::isfinite(s.angle_increment) ||
+            !(s.angle_increment != 0) || !std::isfinite(s.range_min) || !(s.range_max > s.range_min)) {
+          throw ParseError(MessageWhere(path, index, m.getTopic()) +
+                           "unusable scan (fewer than 2 ranges, a zero or non-finite angle step, or range_max not "
+                           "above range_min)");
+        }
+        if (laser_frame.empty()) laser_frame = msg->header.frame_id;
+        log.scans.push_back(std::move(s));
+      } else if (m.getTopic() == options.odom_topic) {
+        const nav_msgs::Odometry::ConstPtr msg = m.instantiate<nav_msgs::Odometry>();
+        if (!msg) throw ParseError(MessageWhere(path, index, m.getTopic()) + "not a nav_msgs/Odometry");
+        const auto& p = msg->pose.pose.position;
+        const auto& q = msg->pose.pose.orientation;
+        const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !(std::abs(norm - 1) < 0.1)) {
+          throw ParseError(MessageWhere(path, index, m.getTopic()) +
+                           "non-finite position or a quaternion far from unit length");
+        }
+        log.odometry.Add(msg->header.stamp.toSec(), SE2<double>(p.x, p.y, Yaw(q.x, q.y, q.z, q.w)));
+      } else {
+        statics.push_back(m);
+      }
+    }
+    SE2<double> laser_in_robot;
+    for (const rosbag::MessageInstance& m : statics) {
+      if (FindStaticTransform(m, laser_frame, &laser_in_robot)) break;
+    }
+    for (LaserScan& s : log.scans) s.laser_in_robot = laser_in_robot;
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ParseError(path + ": reading message " + std::to_string(index) + ": " + e.what());
+  }
+  FinishLog(options, &log);
+  return log;
+}
+
+#else
+
+bool RosBagSupported() { return false; }
+
+LidarLog ReadRosBag(const std::string& path, const LidarReadOptions&) {
+  throw InvalidArgument(path +
+                        ": this tether was built without ROS 1 bag support (TETHER_WITH_ROSBAG=OFF); install "
+                        "librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev (scripts/install_deps.sh) and "
+                        "rebuild");
+}
+
+#endif
+
+}  // namespace lidar
+}  // namespace tether

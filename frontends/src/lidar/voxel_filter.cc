@@ -1,0 +1,50 @@
+#include "tether/frontends/lidar/voxel_filter.h"
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+
+#include "tether/core/error.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+struct CellHash {
+  std::size_t operator()(const std::pair<std::int64_t, std::int64_t>& c) const {
+    return std::hash<std::int64_t>()(c.first * 73856093LL) ^ std::hash<std::int64_t>()(c.second * 19349663LL);
+  }
+};
+
+}  // namespace
+
+std::vector<Eigen::Vector2d> VoxelFilter(const std::vector<Eigen::Vector2d>& points, double edge) {
+  if (!(edge > 0) || !std::isfinite(edge)) {
+    throw InvalidArgument("VoxelFilter: the cell edge must be positive and finite, got " + std::to_string(edge));
+  }
+  struct Cell {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int count = 0;
+  };
+  std::unordered_map<std::pair<std::int64_t, std::int64_t>, std::size_t, CellHash> index;
+  std::vector<Cell> cells;
+  for (const Eigen::Vector2d& p : points) {
+    if (!p.allFinite()) continue;
+    const std::pair<std::int64_t, std::int64_t> key(static_cast<std::int64_t>(std::floor(p.x() / edge)),
+                                                    static_cast<std::int64_t>(std::floor(p.y() / edge)));
+    const auto it = index.emplace(key, cells.size());
+    if (it.second) cells.emplace_back();
+    Cell& c = cells[it.first->second];
+    c.sum += p;
+    ++c.count;
+  }
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(cells.size());
+  for (const Cell& c : cells) out.push_back(c.sum / c.count);
+  return out;
+}
+
+}  // namespace lidar
+}  // namespace tether
