@@ -6,6 +6,7 @@
 #include "tether/tools/bench.h"
 #include "tether/tools/commands.h"
 #include "tether/tools/ekf_demo.h"
+#include "tether/tools/lidar_eval.h"
 #include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
@@ -200,6 +201,31 @@ int main(int argc, char** argv) {
                        "Draw truth, dead reckoning, EKF, UKF and the optimised graph of the first seed (SVG)");
   ekf_demo->add_flag("-q,--quiet", ec.quiet, "Only the table");
 
+  tether::LidarEvalCommand lc;
+  CLI::App* lidar_eval = app.add_subcommand(
+      "lidar-eval",
+      "Score a trajectory on the relations of Kuemmerle et al. (mean +- std of the relative-pose errors)");
+  lidar_eval
+      ->add_option("trajectory", lc.trajectory,
+                   "TUM text (timestamp x y z qx qy qz qw), or a laser log (CARMEN .clf/.log, plain or .gz, or a ROS 1 "
+                   "bag) whose scans' odometry poses are scored")
+      ->required();
+  lidar_eval->add_option("relations", lc.relations, "Relations file: t1 t2 x y z roll pitch yaw per line")->required();
+  lidar_eval->add_option("--format", lc.format, "auto, tum or log")->capture_default_str();
+  lidar_eval->add_option("--odometry", lc.odometry, "Logs: auto, scan-line or interpolated")->capture_default_str();
+  lidar_eval->add_option("--scan-topic", lc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
+  lidar_eval->add_option("--odom-topic", lc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
+  lidar_eval->add_option("--tolerance", lc.tolerance, "Seconds between a relation's stamp and the nearest pose")
+      ->capture_default_str();
+  lidar_eval->add_option("--time-reference", lc.time_reference,
+                         "The raw log a corrected log was made from: its scans' stamps (found by ranges near the "
+                         "logger time) replace the trajectory's");
+  lidar_eval
+      ->add_option("--time-reference-tolerance", lc.time_reference_tolerance,
+                   "Seconds of logger time searched for the raw scan")
+      ->capture_default_str();
+  lidar_eval->add_option("--trajectory-out", lc.trajectory_output, "Also write the scored trajectory (TUM text)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -216,7 +242,8 @@ int main(int argc, char** argv) {
       {simulate, {{"-o", &sim.output}, {"--ground-truth", &sim.ground_truth}}},
       {bench, {{"-o", &bc.output}}},
       {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}},
-      {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}}};
+      {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}},
+      {lidar_eval, {{"--trajectory-out", &lc.trajectory_output}}}};
   for (const auto& [sub, options] : paths) {
     if (!sub->parsed()) continue;
     for (const auto& [name, value] : options) {
@@ -234,6 +261,7 @@ int main(int argc, char** argv) {
     if (bench->parsed()) return tether::RunBench(bc, std::cout, std::cerr);
     if (replay->parsed()) return tether::RunReplay(rc, std::cout, std::cerr);
     if (ekf_demo->parsed()) return tether::RunEkfDemo(ec, std::cout, std::cerr);
+    if (lidar_eval->parsed()) return tether::RunLidarEval(lc, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
     std::cerr << "error: " << e.what() << "\n";

@@ -156,7 +156,7 @@ void ParseFlaser(const Fields& f, long line, const LidarReadOptions& o, LidarLog
   s.odometry_origin = OdometryOrigin::kScanLine;
   s.laser_in_robot = s.odometry.Inverse() * laser;
   s.stamp = f.Number(n + 8, "ipc_timestamp");
-  f.Number(n + 10, "logger_timestamp");
+  s.logger_stamp = f.Number(n + 10, "logger_timestamp");
   s.angle_min = -o.flaser_fov / 2;
   s.angle_increment = o.flaser_fov / static_cast<double>(n - 1);
   s.range_min = 0;
@@ -197,7 +197,7 @@ void ParseRobotLaser1(const Fields& f, long line, LidarLog* log) {
   const char* names[] = {"tv", "rv", "forward_safety_dist", "side_safety_dist", "turn_axis"};
   for (std::size_t k = 0; k < 5; ++k) f.Number(p + 6 + k, names[k]);
   s.stamp = f.Number(p + 11, "ipc_timestamp");
-  f.Number(p + 13, "logger_timestamp");
+  s.logger_stamp = f.Number(p + 13, "logger_timestamp");
   s.range_min = 0;
   s.source_index = line;
   log->scans.push_back(std::move(s));

@@ -97,6 +97,7 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
         if (!msg) throw ParseError(MessageWhere(path, index, m.getTopic()) + "not a sensor_msgs/LaserScan");
         LaserScan s;
         s.stamp = msg->header.stamp.toSec();
+        s.logger_stamp = s.stamp;
         s.angle_min = msg->angle_min;
         s.angle_increment = msg->angle_increment;
         s.range_min = msg->range_min;

@@ -22,6 +22,8 @@ const char* ToString(OdometryOrigin o);
 
 struct LaserScan {
   double stamp = 0;  ///< seconds (CARMEN ipc_timestamp, ROS header.stamp)
+  /// CARMEN's logger_timestamp (seconds since the logger started; a bag: `stamp`).
+  double logger_stamp = 0;
   /// Beam i points at angle_min + i * angle_increment (radians, in the laser's frame, x forward).
   double angle_min = 0;
   double angle_increment = 0;
