@@ -196,6 +196,9 @@ int main(int argc, char** argv) {
   ekf_demo->add_option("--steps", ec.setup.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
   ekf_demo->add_option("--range-sigma", ec.setup.range_sigma, "Range noise std [m]")->capture_default_str();
   ekf_demo->add_option("--bearing-sigma", ec.setup.bearing_sigma, "Bearing noise std [rad]")->capture_default_str();
+  ekf_demo->add_flag("--nees", ec.setup.consistency,
+                     "Also the consistency of every pose estimate: the NEES per step averaged over the seeds, "
+                     "against its 95% interval (the graphs: the smoother's online estimate and marginal)");
   ekf_demo->add_option("-o,--output", ec.output, "Also write the table (markdown) here");
   ekf_demo->add_option("--plot", ec.plot,
                        "Draw truth, dead reckoning, EKF, UKF and the optimised graph of the first seed (SVG)");

@@ -132,14 +132,14 @@ std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec) {
 }
 
 double Chi2Quantile(int k, double p) {
-  // The standard normal quantile by bisection on erfc (p in (0.5, 1)).
-  double lo = 0, hi = 10;
+  // The standard normal quantile by bisection on erfc (p in (0, 1)).
+  double lo = -10, hi = 10;
   for (int i = 0; i < 100; ++i) {
     const double z = 0.5 * (lo + hi);
     (0.5 * std::erfc(-z / std::sqrt(2.0)) < p ? lo : hi) = z;
   }
   const double z = 0.5 * (lo + hi), a = 2.0 / (9.0 * k);
-  const double t = 1 - a + z * std::sqrt(a);
+  const double t = std::max(0.0, 1 - a + z * std::sqrt(a));  // far in the lower tail of few dof: 0
   return k * t * t * t;
 }
 

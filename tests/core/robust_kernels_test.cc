@@ -130,5 +130,18 @@ TEST(RobustKernels, Chi2QuantileWithinOnePercentOfTheTables) {
   EXPECT_LT(Chi2Quantile(3, 0.9), Chi2Quantile(3, 0.99));
 }
 
+TEST(RobustKernels, Chi2QuantileLowerTail) {
+  // Lower and upper 2.5% points for the degrees of freedom of Monte Carlo NEES averages
+  // (exact values from the regularised incomplete gamma function).
+  const struct {
+    int k;
+    double p, q;
+  } table[] = {{10, 0.05, 3.940},   {30, 0.025, 16.791},   {60, 0.025, 40.482},
+               {60, 0.975, 83.298}, {150, 0.025, 117.985}, {150, 0.975, 185.800}};
+  for (const auto& t : table) EXPECT_NEAR(Chi2Quantile(t.k, t.p), t.q, 0.005 * t.q) << t.k << " " << t.p;
+  EXPECT_LT(Chi2Quantile(3, 0.025), Chi2Quantile(3, 0.5));
+  EXPECT_GT(Chi2Quantile(3, 0.025), 0);
+}
+
 }  // namespace
 }  // namespace tether

@@ -6,11 +6,13 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 
 #include "testing/numeric_jacobian.h"
 #include "tether/core/error.h"
+#include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
@@ -282,9 +284,108 @@ TEST(LandmarkFilterTest, BadInputIsRefused) {
   EXPECT_NE(why.find("kappa"), std::string::npos);
 }
 
+// EKF-SLAM with known association written densely from the textbook equations (F = blockdiag(A,
+// I), the full H, one observation at a time), its Jacobians evaluated where the caller says: at
+// the estimate it is EkfSlam; at the truth it is the "ideal EKF" of the consistency literature,
+// which no real filter can run, and which shows how much of a filter's overconfidence comes from
+// where it linearises.
+class DenseEkf {
+ public:
+  explicit DenseEkf(const FilterOptions& o) : o_(o), x_(Eigen::VectorXd::Zero(3)), p_(Eigen::MatrixXd::Zero(3, 3)) {}
+  SE2d pose() const { return SE2d(x_[0], x_[1], x_[2]); }
+  Eigen::Matrix3d pose_cov() const { return p_.topLeftCorner<3, 3>(); }
+  const Eigen::VectorXd& mean() const { return x_; }
+  const Eigen::MatrixXd& cov() const { return p_; }
+
+  // `at`: the pose the Jacobians are taken at (nullptr: the estimate).
+  void Predict(const odometry::Control& u, double dt, const SE2d* at) {
+    Eigen::Matrix3d a;
+    Eigen::Matrix<double, 3, 2> b;
+    const SE2d moved = odometry::Move(pose(), u, dt, &a, &b);
+    if (at != nullptr) odometry::Move(*at, u, dt, &a, &b);
+    x_.head<3>() << moved.x(), moved.y(), moved.theta();
+    const Eigen::Index n = x_.size();
+    Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
+    f.topLeftCorner<3, 3>() = a;
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, 2);
+    g.topRows<3>() = b;
+    p_ = f * p_ * f.transpose() + g * o_.control_cov * g.transpose();
+  }
+
+  // `pose_at`, `landmarks_at`: the true pose and landmarks (by id) the Jacobians are taken at
+  // (nullptr: the estimate).
+  void Update(const std::vector<Observation>& observations, const SE2d* pose_at,
+              const std::vector<Eigen::Vector2d>* landmarks_at) {
+    for (const Observation& ob : observations) {
+      const Eigen::Vector2d z(ob.range, ob.bearing);
+      const Eigen::Index n = x_.size();
+      const auto it = index_.find(ob.id);
+      if (it == index_.end()) {  // a new landmark: x <- [x; g(x, z)], P through [I 0; G_x G_z]
+        Eigen::Matrix<double, 2, 3> gx;
+        Eigen::Matrix2d gz;
+        const Eigen::Vector2d l = InverseObserve(pose(), z, &gx, &gz);
+        if (pose_at != nullptr) InverseObserve(*pose_at, Observe(*pose_at, (*landmarks_at)[ob.id]), &gx, &gz);
+        Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n + 2, n + 2);
+        j.topLeftCorner(n, n).setIdentity();
+        j.block<2, 3>(n, 0) = gx;
+        j.bottomRightCorner<2, 2>() = gz;
+        Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(n + 2, n + 2);
+        joint.topLeftCorner(n, n) = p_;
+        joint.bottomRightCorner<2, 2>() = o_.measurement_cov;
+        x_.conservativeResize(n + 2);
+        x_.tail<2>() = l;
+        p_ = j * joint * j.transpose();
+        index_[ob.id] = n;
+        continue;
+      }
+      const Eigen::Index li = it->second;
+      Eigen::Matrix<double, 2, 3> hr;
+      Eigen::Matrix2d hl;
+      const Eigen::Vector2d zhat = Observe(pose(), x_.segment<2>(li), &hr, &hl);
+      if (pose_at != nullptr) Observe(*pose_at, (*landmarks_at)[ob.id], &hr, &hl);
+      Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, n);
+      h.leftCols<3>() = hr;
+      h.middleCols<2>(li) = hl;
+      const Eigen::MatrixXd s = h * p_ * h.transpose() + o_.measurement_cov;
+      const Eigen::MatrixXd k = p_ * h.transpose() * s.inverse();
+      x_ += k * MeasurementDifference(z, zhat);
+      x_[2] = WrapAngle(x_[2]);
+      p_ -= k * s * k.transpose();
+      p_ = 0.5 * (p_ + p_.transpose()).eval();
+    }
+  }
+
+ private:
+  FilterOptions o_;
+  Eigen::VectorXd x_;
+  Eigen::MatrixXd p_;
+  std::map<int, Eigen::Index> index_;
+};
+
+// At the estimate, the dense filter is EkfSlam: the same steps on a world of the thesis's noise.
+TEST(EkfSlamTest, TheDenseReferenceIsEkfSlam) {
+  LandmarkWorldOptions wo;
+  wo.seed = 7;
+  wo.steps = 30;
+  const LandmarkWorld w = SimulateLandmarkWorld(wo);
+  EkfSlam ekf(SE2d(), Eigen::Matrix3d::Zero(), FilterOptions{});
+  DenseEkf dense{FilterOptions{}};
+  for (std::size_t k = 0; k < w.odometry.size(); ++k) {
+    ekf.Predict(w.odometry[k], w.dt);
+    dense.Predict(w.odometry[k], w.dt, nullptr);
+    ekf.Update(w.observations[k]);
+    dense.Update(w.observations[k], nullptr, nullptr);
+    ASSERT_EQ(ekf.mean().size(), dense.mean().size());
+    ASSERT_LT((ekf.mean() - dense.mean()).cwiseAbs().maxCoeff(), 1e-9) << "step " << k;
+    ASSERT_LT((ekf.cov() - dense.cov()).cwiseAbs().maxCoeff(), 1e-9) << "step " << k;
+  }
+}
+
 // Average NEES of the robot pose over Monte Carlo runs, per step (steps 2.., the first pose's
-// covariance has rank 2).
-std::vector<double> AverageNees(bool ukf, double noise_scale, int runs, int steps) {
+// covariance has rank 2). kIdealEkf: the dense filter with its Jacobians at the truth.
+enum class Estimator { kEkf, kUkf, kIdealEkf };
+
+std::vector<double> AverageNees(Estimator estimator, double noise_scale, int runs, int steps) {
   std::vector<double> nees(static_cast<std::size_t>(steps + 1), 0.0);
   for (int r = 0; r < runs; ++r) {
     LandmarkWorldOptions wo;
@@ -296,53 +397,70 @@ std::vector<double> AverageNees(bool ukf, double noise_scale, int runs, int step
     FilterOptions fo;
     fo.control_cov = wo.control_sigma.cwiseAbs2().asDiagonal();
     fo.measurement_cov = wo.measurement_sigma.cwiseAbs2().asDiagonal();
-    std::unique_ptr<LandmarkFilter> f;
-    if (ukf) {
-      f = std::make_unique<UkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
+    std::vector<SE2d> poses{SE2d()};
+    std::vector<Eigen::Matrix3d> covs{Eigen::Matrix3d::Zero()};
+    if (estimator == Estimator::kIdealEkf) {
+      DenseEkf f(fo);
+      for (std::size_t k = 0; k < w.odometry.size(); ++k) {
+        f.Predict(w.odometry[k], w.dt, &w.truth[k]);
+        f.Update(w.observations[k], &w.truth[k + 1], &w.landmarks);
+        poses.push_back(f.pose());
+        covs.push_back(f.pose_cov());
+      }
     } else {
-      f = std::make_unique<EkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
+      std::unique_ptr<LandmarkFilter> f;
+      if (estimator == Estimator::kUkf) {
+        f = std::make_unique<UkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
+      } else {
+        f = std::make_unique<EkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
+      }
+      const Track t = RunFilter(f.get(), w);
+      poses = t.poses;
+      covs = t.pose_cov;
     }
-    const Track t = RunFilter(f.get(), w);
     for (int k = 2; k <= steps; ++k) {
-      const SE2d& e = t.poses[static_cast<std::size_t>(k)];
-      const SE2d& g = w.truth[static_cast<std::size_t>(k)];
-      const Eigen::Vector3d d(e.x() - g.x(), e.y() - g.y(), WrapAngle(e.theta() - g.theta()));
-      nees[static_cast<std::size_t>(k)] += d.dot(t.pose_cov[static_cast<std::size_t>(k)].ldlt().solve(d)) / runs;
+      const auto i = static_cast<std::size_t>(k);
+      nees[i] += Nees(poses[i], covs[i], w.truth[i]) / runs;
     }
   }
   return nees;
 }
 
+double MeanFromStep2(const std::vector<double>& v) {
+  double m = 0;
+  for (std::size_t k = 2; k < v.size(); ++k) m += v[k] / static_cast<double>(v.size() - 2);
+  return m;
+}
+
 // 50 runs: N * NEES ~ chi-square with 3 N = 150 degrees of freedom, so the two-sided 95%
-// interval of the average is [122.7, 181.0] / 50 = [2.45, 3.62] (rounded outwards: [2.40,
-// 3.65]). Where the problem is nearly linear (noise a hundredth of experiment 1's) the EKF is
-// consistent: the average over the steps lies inside and at least 90% of the steps do.
+// interval of the average is [117.98, 185.80] / 50 = [2.36, 3.72]. Where the problem is nearly
+// linear (noise a hundredth of experiment 1's) the EKF is consistent: the average over the steps
+// lies inside and at least 90% of the steps do.
 TEST(EkfSlamTest, ConsistentWhereNearlyLinear) {
-  const std::vector<double> nees = AverageNees(false, 0.01, 50, 200);
-  double mean = 0;
+  const NeesInterval bounds = AverageNeesInterval(50, 3);
+  const std::vector<double> nees = AverageNees(Estimator::kEkf, 0.01, 50, 200);
   int inside = 0;
-  for (std::size_t k = 2; k < nees.size(); ++k) {
-    mean += nees[k] / static_cast<double>(nees.size() - 2);
-    if (nees[k] > 2.40 && nees[k] < 3.65) ++inside;
-  }
-  EXPECT_GT(mean, 2.40);
-  EXPECT_LT(mean, 3.65);
+  for (std::size_t k = 2; k < nees.size(); ++k) inside += bounds.Contains(nees[k]) ? 1 : 0;
+  EXPECT_TRUE(bounds.Contains(MeanFromStep2(nees))) << MeanFromStep2(nees);
   EXPECT_GE(inside, static_cast<int>(0.9 * static_cast<double>(nees.size() - 2)));
 }
 
 // At experiment 1's noise (heading error pi/18 per step, range error 2 m) both filters are
 // overconfident (the known inconsistency of the linearised filters; docs/front_ends.md), the
-// UKF less so than the EKF.
+// UKF less so than the EKF. The ideal EKF, linearised at the truth, is still overconfident
+// (here 6.35 against the EKF's 20.5 and the UKF's 14.5; 6.4 against 27 over 50 runs of 200
+// steps): no choice of linearisation point a filter can make (first estimates, observability
+// constraints) brings it into the interval. The graph's estimate is in it
+// (landmark_graph_test.cc).
 TEST(UkfSlamTest, LessOverconfidentThanTheEkfAtTheThesisNoise) {
-  const auto mean_of = [](const std::vector<double>& v) {
-    double m = 0;
-    for (std::size_t k = 2; k < v.size(); ++k) m += v[k] / static_cast<double>(v.size() - 2);
-    return m;
-  };
-  const double ekf = mean_of(AverageNees(false, 1.0, 20, 100));
-  const double ukf = mean_of(AverageNees(true, 1.0, 20, 100));
-  EXPECT_GT(ekf, 3.65);
+  const NeesInterval bounds = AverageNeesInterval(20, 3);
+  const double ekf = MeanFromStep2(AverageNees(Estimator::kEkf, 1.0, 20, 100));
+  const double ukf = MeanFromStep2(AverageNees(Estimator::kUkf, 1.0, 20, 100));
+  const double ideal = MeanFromStep2(AverageNees(Estimator::kIdealEkf, 1.0, 20, 100));
+  EXPECT_GT(ekf, bounds.upper);
   EXPECT_LT(ukf, ekf);
+  EXPECT_GT(ideal, bounds.upper);
+  EXPECT_LT(ideal, 0.5 * ekf);
 }
 
 }  // namespace

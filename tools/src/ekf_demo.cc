@@ -12,6 +12,7 @@
 #include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
@@ -63,7 +64,9 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
   SeedRun run;
   run.world = ekf::SimulateLandmarkWorld(wo);
   const ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
-  const ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
+  ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
+  go.record_online = setup.consistency;
+  std::vector<double> online_nees;  // a graph's, filled by `smoothed`
   const auto record = [&](const std::string& name, const std::function<Track()>& make) {
     EkfDemoRow* row = nullptr;
     for (EkfDemoRow& r : *rows) {
@@ -82,6 +85,19 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
       const double landmark_rmse = ekf::LandmarkRmse(t, run.world.landmarks);
       if (std::isfinite(landmark_rmse)) row->landmark_rmse.push_back(landmark_rmse);  // none seen: no figure
       row->wrong_associations.push_back(t.wrong_associations);
+      if (setup.consistency) {
+        std::vector<double> nees = std::move(online_nees);
+        online_nees.clear();
+        if (nees.empty() && t.pose_cov.size() == t.poses.size()) {  // a filter's
+          for (std::size_t k = 0; k < t.poses.size(); ++k)
+            nees.push_back(ekf::Nees(t.poses[k], t.pose_cov[k], run.world.truth[k]));
+        }
+        if (!nees.empty()) {
+          row->step_nees.resize(nees.size(), 0.0);
+          for (std::size_t k = 0; k < nees.size(); ++k) row->step_nees[k] += nees[k];
+          ++row->nees_runs;
+        }
+      }
       run.tracks.emplace_back(name, std::move(t));
     } catch (const Error& e) {
       if (row->failures++ == 0) row->failure_note = "seed " + std::to_string(seed) + ": " + e.what();
@@ -96,6 +112,8 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
   const auto smoothed = [&](const Track& seed_track) {
     ekf::SmoothedTrack s = ekf::SmoothLandmarkRun(run.world, seed_track, go);
     s.track.wrong_associations = seed_track.wrong_associations;
+    for (std::size_t k = 0; k < s.online_poses.size(); ++k)
+      online_nees.push_back(ekf::TangentNees(s.online_poses[k], s.online_pose_cov[k], run.world.truth[k]));
     return s.track;
   };
   // Dead reckoning places its landmarks by the known association, whichever the filters use.
@@ -288,6 +306,43 @@ std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs) {
   return s.str();
 }
 
+std::string EkfDemoConsistencyTable(const std::vector<EkfDemoConfig>& configs) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s << "| experiment | association | method | runs | average NEES, mean over steps | steps inside the 95% "
+       "interval | at step 10 | 50 | 100 | last |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const EkfDemoConfig& c : configs) {
+    for (const EkfDemoRow& r : c.rows) {
+      if (r.nees_runs == 0 || r.step_nees.size() < 3) continue;
+      const ekf::NeesInterval bounds = ekf::AverageNeesInterval(r.nees_runs, 3);
+      double mean = 0;
+      int inside = 0;
+      const std::size_t n = r.step_nees.size();
+      for (std::size_t k = 2; k < n; ++k) {
+        const double a = r.step_nees[k] / r.nees_runs;
+        mean += a / static_cast<double>(n - 2);
+        if (bounds.Contains(a)) ++inside;
+      }
+      const auto at = [&](std::size_t k) {
+        std::ostringstream v;
+        v.setf(std::ios::fixed);
+        v.precision(2);
+        if (k < n)
+          v << r.step_nees[k] / r.nees_runs;
+        else
+          v << "-";
+        return v.str();
+      };
+      s.precision(2);
+      s << "| " << c.experiment << " | " << (c.nearest_neighbour ? "nearest neighbour" : "known") << " | " << r.method
+        << " | " << r.nees_runs << " | " << mean << " | " << inside << " of " << n - 2 << " in [" << bounds.lower
+        << ", " << bounds.upper << "] | " << at(10) << " | " << at(50) << " | " << at(100) << " | " << at(n - 1)
+        << " |\n";
+    }
+  }
+  return s.str();
+}
+
 int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) {
   std::vector<std::string> experiments, associations;
   if (!ParseList(cmd.experiments, {"1", "2"}, &experiments)) {
@@ -335,7 +390,9 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
   head << "measurement noise std " << svg::Label(cmd.setup.range_sigma, 4) << " m, "
        << svg::Label(cmd.setup.bearing_sigma, 4) << " rad; " << cmd.setup.steps << " steps; seeds " << cmd.first_seed
        << ".." << cmd.first_seed + static_cast<std::uint64_t>(cmd.seeds) - 1 << "\n\n";
-  const std::string table = head.str() + EkfDemoTable(configs);
+  std::string table = head.str() + EkfDemoTable(configs);
+  if (cmd.setup.consistency)
+    table += "\nConsistency of the pose estimate (NEES):\n\n" + EkfDemoConsistencyTable(configs);
   out << table;
   for (const EkfDemoConfig& c : configs) {
     for (const EkfDemoRow& r : c.rows) {

@@ -186,6 +186,10 @@ SmoothedTrack SmoothLandmarkRun(const LandmarkWorld& world, const Track& seed, c
     smoother.Update(std::move(g), std::move(v));
     ++out.updates;
   }
+  if (options.record_online) {
+    out.online_poses.push_back(seed.poses.front());
+    out.online_pose_cov.push_back(Eigen::Matrix3d::Identity() * options.prior_sigma * options.prior_sigma);
+  }
   for (std::size_t k = 0; k < world.observations.size(); ++k) {
     FactorGraph g;
     Values v;
@@ -198,6 +202,11 @@ SmoothedTrack SmoothLandmarkRun(const LandmarkWorld& world, const Track& seed, c
     AddStep(world, seed.association[k], k, options, rb, &g);
     smoother.Update(std::move(g), std::move(v));
     ++out.updates;
+    if (options.record_online) {
+      const Key x = PoseKey(static_cast<int>(k + 1));
+      out.online_poses.push_back(smoother.Estimate().At<SE2d>(x));
+      out.online_pose_cov.push_back(smoother.Marginal(x));
+    }
   }
   out.online_seconds = SecondsSince(t0);
   const auto t1 = std::chrono::steady_clock::now();

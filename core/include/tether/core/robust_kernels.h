@@ -85,8 +85,9 @@ std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec);
 
 /// The p quantile of the chi2 distribution with k degrees of freedom (0.99: 9.2 for 2, 11.3
 /// for 3, 16.8 for 6), by Wilson and Hilferty's cube-root normal approximation (within 1%
-/// from k = 1 at p = 0.99); p in [0.5, 1) (0.5: the median), k >= 1. The bound on a loop closure's chi2 that
-/// GNC and switchable constraints use by default.
+/// from k = 1 at p = 0.99; 117.98 for k = 150 at p = 0.025, as exact to 0.01); p in (0, 1) (0.5:
+/// the median), k >= 1. The bound on a loop closure's chi2 that GNC and switchable constraints use
+/// by default, and the filters' NEES bounds (frontends/ekf/consistency.h).
 double Chi2Quantile(int k, double p);
 
 }  // namespace tether

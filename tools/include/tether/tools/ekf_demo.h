@@ -5,7 +5,8 @@
 // each seed, it runs dead reckoning, EKF-SLAM and UKF-SLAM, builds the pose graph from the same
 // odometry and observations, seeds it with each filter's run, feeds it to the incremental
 // smoother step by step and solves it; it reports, over the seeds, mean +- std of the robot
-// trajectory RMSE and the landmark RMSE of each, the wrong associations, and the time.
+// trajectory RMSE and the landmark RMSE of each, the wrong associations, and the time; with
+// --nees also each method's consistency (frontends/ekf/consistency.h).
 #include <cstdint>
 #include <iosfwd>
 #include <string>
@@ -19,6 +20,9 @@ struct EkfDemoSetup {
   int steps = 200;
   double range_sigma = 2.0;
   double bearing_sigma = 0.17453292519943295;
+  /// Also the consistency of each method's pose estimate at every step (NEES; the graphs: the
+  /// smoother's online estimate and marginal after each step). Costs a marginal per step.
+  bool consistency = false;
 };
 
 struct EkfDemoCommand {
@@ -39,6 +43,9 @@ struct EkfDemoRow {
   std::vector<double> landmark_rmse;
   std::vector<double> wrong_associations;
   std::vector<double> seconds;
+  /// With setup.consistency: per step (the start first), the NEES summed over nees_runs runs.
+  std::vector<double> step_nees;
+  int nees_runs = 0;
   int failures = 0;          ///< runs that threw (a filter whose covariance broke down)
   std::string failure_note;  ///< the first failure's message
 };
@@ -57,6 +64,11 @@ EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds
 
 /// The markdown table of the configurations.
 std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs);
+
+/// The consistency table (setup.consistency): per method the NEES averaged over the runs at each
+/// step from the second, then its mean over those steps, the steps whose average lies in the 95%
+/// interval for that many runs, and the average at a few steps.
+std::string EkfDemoConsistencyTable(const std::vector<EkfDemoConfig>& configs);
 
 /// Exit codes: 0 done; 2 bad usage; 4 an output could not be written.
 int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err);

@@ -53,6 +53,10 @@ struct LandmarkGraphOptions {
   Eigen::Matrix2d measurement_cov = FilterOptions().measurement_cov;
   double prior_sigma = 1e-3;  ///< the prior on the start (m, m, rad)
   SmootherOptions smoother;
+  /// SmoothLandmarkRun: after every step also record the smoother's estimate of the newest
+  /// pose and its marginal covariance (what the graph knows of the robot at that moment, to
+  /// compare with a filter's). Costs one marginal per step; off by default.
+  bool record_online = false;
 };
 
 /// The whole graph (batch): the factors, in the order the smoother receives them.
@@ -68,11 +72,18 @@ struct SmoothedTrack {
   double finish_seconds = 0;  ///< Finish()
   int updates = 0;
   SolverSummary finish;
+  /// With record_online, per pose i (the start first): the smoother's estimate of pose i right
+  /// after the update that added it, and its marginal covariance there, in the SE2 tangent of
+  /// that estimate (the error of the truth is online_poses[i].Local(truth[i])); the start's is
+  /// its prior's. Empty otherwise.
+  std::vector<SE2d> online_poses;
+  std::vector<Eigen::Matrix3d> online_pose_cov;
 };
 
 /// Feeds the graph to the incremental smoother step by step (step k adds pose k + 1 with the
 /// seed's value, its odometry factor, the step's observation factors and the landmarks first
 /// seen there), then calls Finish(). Throws what the smoother throws.
+/// With options.record_online, also the online estimate of each new pose (SmoothedTrack).
 SmoothedTrack SmoothLandmarkRun(const LandmarkWorld& world, const Track& seed,
                                 const LandmarkGraphOptions& options = {});
 
