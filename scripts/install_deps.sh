@@ -6,6 +6,7 @@ packages=(
   libeigen3-dev libsuitesparse-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libopenblas0-pthread zlib1g-dev
+  librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev
   pybind11-dev python3-dev python3-numpy python3-pytest
 )
 missing=()

@@ -1,0 +1,289 @@
+// The CARMEN reader on generated logs: each message type, odometry from the line and
+// interpolated, plain and gzip, and every malformed line reported with file:line.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+#include "testing/lidar_files.h"
+#include "tether/core/error.h"
+#include "tether/frontends/lidar/carmen_reader.h"
+#include "tether/frontends/lidar/lidar_log.h"
+
+namespace tether {
+namespace lidar {
+namespace {
+
+using testing::ErrorOf;
+
+// "FLASER 4 1 2 3 4 <laser pose> <odometry> stamp host logger"
+std::string Flaser(double stamp, const std::string& laser = "1 2 0.5", const std::string& odom = "1 2 0.5",
+                   const std::string& ranges = "4 1.5 2.25 81.9 0.5") {
+  std::ostringstream s;
+  s.precision(17);
+  s << "FLASER " << ranges << " " << laser << " " << odom << " " << stamp << " nohost " << stamp - 100 << "\n";
+  return s.str();
+}
+
+std::string Odom(double stamp, double x, double y, double theta) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "ODOM " << x << " " << y << " " << theta << " 0.1 0.2 0 " << stamp << " nohost " << stamp - 100 << "\n";
+  return s.str();
+}
+
+// ROBOTLASER1 with 3 ranges and 2 remissions.
+std::string RobotLaser(const std::string& ranges = "3 1 2 3", const std::string& remissions = "2 0.5 0.6") {
+  return "ROBOTLASER1 0 -1.5 3.0 0.75 40 0.01 0 " + ranges + " " + remissions +
+         " 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1234.5 host 34.5\n";
+}
+
+class CarmenTest : public testing::LidarFilesTest {};
+
+TEST_F(CarmenTest, FlaserGivesRangesAnglesStampAndLineOdometry) {
+  const std::string path = Write("a.clf", "# a comment\nPARAM robot_frontlaser_offset 0.0 nohost 0\n\n" +
+                                              Flaser(1000.25, "1.1 2 0.5", "1 2 0.5") + "SYNC x\nNEFF 3\n");
+  const LidarLog log = ReadCarmenLog(path);
+  ASSERT_EQ(log.scans.size(), 1u);
+  const LaserScan& s = log.scans[0];
+  EXPECT_EQ(log.format, LogFormat::kCarmen);
+  EXPECT_DOUBLE_EQ(s.stamp, 1000.25);
+  EXPECT_DOUBLE_EQ(s.logger_stamp, 900.25);
+  EXPECT_EQ(s.source_index, 4);
+  ASSERT_EQ(s.ranges.size(), 4u);
+  EXPECT_FLOAT_EQ(s.ranges[1], 2.25f);
+  // 4 beams over pi, the first and the last on the edges.
+  EXPECT_DOUBLE_EQ(s.angle_min, -M_PI / 2);
+  EXPECT_DOUBLE_EQ(s.angle_increment, M_PI / 3);
+  EXPECT_NEAR(s.Angle(3), M_PI / 2, 1e-15);
+  EXPECT_DOUBLE_EQ(s.range_max, 80.0);
+  EXPECT_TRUE(s.Valid(0));
+  EXPECT_FALSE(s.Valid(2));  // 81.9: no return
+  EXPECT_EQ(s.ValidCount(), 3u);
+  EXPECT_EQ(s.odometry_origin, OdometryOrigin::kScanLine);
+  EXPECT_DOUBLE_EQ(s.odometry.x(), 1);
+  EXPECT_DOUBLE_EQ(s.odometry.theta(), 0.5);
+  // The laser sits 0.1 m along the robot's world x axis: in the robot's frame, rotated by -0.5.
+  EXPECT_NEAR(s.laser_in_robot.x(), 0.1 * std::cos(0.5), 1e-12);
+  EXPECT_NEAR(s.laser_in_robot.y(), -0.1 * std::sin(0.5), 1e-12);
+  EXPECT_NEAR(s.laser_in_robot.theta(), 0, 1e-15);
+}
+
+TEST_F(CarmenTest, FlaserOptionsSetFieldOfViewAndMaximumRange) {
+  LidarReadOptions o;
+  o.flaser_fov = M_PI / 2;
+  o.flaser_max_range = 2;
+  o.limits.min_range = 1.0;
+  const LidarLog log = ReadCarmenLog(Write("a.clf", Flaser(1)), o);
+  const LaserScan& s = log.scans.at(0);
+  EXPECT_DOUBLE_EQ(s.angle_min, -M_PI / 4);
+  EXPECT_DOUBLE_EQ(s.angle_increment, M_PI / 6);
+  EXPECT_DOUBLE_EQ(s.range_max, 2);
+  EXPECT_DOUBLE_EQ(s.range_min, 1);
+  EXPECT_EQ(s.ValidCount(), 1u);  // 1.5 only: 2.25 and 81.9 too far, 0.5 too near
+}
+
+TEST_F(CarmenTest, RobotLaser1FollowsItsOwnLayout) {
+  const LidarLog log = ReadCarmenLog(Write("r.log", RobotLaser()));
+  ASSERT_EQ(log.scans.size(), 1u);
+  const LaserScan& s = log.scans[0];
+  EXPECT_DOUBLE_EQ(s.angle_min, -1.5);
+  EXPECT_DOUBLE_EQ(s.angle_increment, 0.75);
+  EXPECT_DOUBLE_EQ(s.range_max, 40);
+  ASSERT_EQ(s.ranges.size(), 3u);
+  EXPECT_FLOAT_EQ(s.ranges[2], 3.0f);
+  EXPECT_DOUBLE_EQ(s.stamp, 1234.5);
+  EXPECT_DOUBLE_EQ(s.logger_stamp, 34.5);
+  EXPECT_DOUBLE_EQ(s.odometry.x(), 10);
+  EXPECT_DOUBLE_EQ(s.odometry.y(), 20);
+  EXPECT_DOUBLE_EQ(s.odometry.theta(), 0.3);
+  EXPECT_NEAR(s.laser_in_robot.x(), 0.1 * std::cos(0.3), 1e-12);
+  EXPECT_EQ(s.odometry_origin, OdometryOrigin::kScanLine);
+  // Without remissions the layout still holds.
+  EXPECT_EQ(ReadCarmenLog(Write("r0.log", RobotLaser("3 1 2 3", "0"))).scans.size(), 1u);
+}
+
+TEST_F(CarmenTest, OdometryIsInterpolatedFromOdomLinesInAnyOrder) {
+  // ODOM lines out of time order (as in the intel log); scans between, before and after them.
+  const std::string text = Odom(12, 2, 0, 3.0) + Odom(10, 0, 0, 0) + Odom(11, 1, 0, 3.0) + Flaser(11.25) + Flaser(9) +
+                           Flaser(13) + Flaser(11);
+  const std::string path = Write("o.clf", text);
+  LidarReadOptions o;
+  o.odometry = OdometrySource::kInterpolated;
+  const LidarLog log = ReadCarmenLog(path, o);
+  ASSERT_EQ(log.scans.size(), 4u);
+  ASSERT_EQ(log.odometry.size(), 3u);
+  EXPECT_DOUBLE_EQ(log.odometry.Sorted()[0].stamp, 10);
+  const LaserScan& mid = log.scans[0];
+  EXPECT_EQ(mid.odometry_origin, OdometryOrigin::kInterpolated);
+  EXPECT_DOUBLE_EQ(mid.odometry.x(), 1.25);
+  EXPECT_DOUBLE_EQ(mid.odometry.theta(), 3.0);
+  EXPECT_EQ(log.scans[1].odometry_origin, OdometryOrigin::kClamped);
+  EXPECT_DOUBLE_EQ(log.scans[1].odometry.x(), 0);
+  EXPECT_EQ(log.scans[2].odometry_origin, OdometryOrigin::kClamped);
+  EXPECT_DOUBLE_EQ(log.scans[2].odometry.x(), 2);
+  EXPECT_EQ(log.scans[3].odometry_origin, OdometryOrigin::kInterpolated);  // exactly on an ODOM stamp
+  EXPECT_DOUBLE_EQ(log.scans[3].odometry.x(), 1);
+  EXPECT_EQ(log.clamped_odometry, 2u);
+  // The default takes the line's own pose.
+  const LidarLog line = ReadCarmenLog(path);
+  EXPECT_EQ(line.scans[0].odometry_origin, OdometryOrigin::kScanLine);
+  EXPECT_DOUBLE_EQ(line.scans[0].odometry.x(), 1);
+  EXPECT_EQ(line.clamped_odometry, 0u);
+  // No ODOM lines to interpolate from.
+  EXPECT_NE(ErrorOf<ParseError>([&] {
+              ReadCarmenLog(Write("n.clf", Flaser(1)), o);
+            }).find("no odometry messages to interpolate from"),
+            std::string::npos);
+}
+
+TEST_F(CarmenTest, GzipAndPlainGiveTheSameLog) {
+  std::string text;
+  for (int i = 0; i < 200; ++i) text += Odom(10 + i, i * 0.1, 0, 0) + Flaser(10.5 + i);
+  const LidarLog plain = ReadCarmenLog(Write("p.clf", text));
+  const LidarLog gz = ReadCarmenLog(WriteGz("p.clf.gz", text));
+  ASSERT_EQ(plain.scans.size(), 200u);
+  ASSERT_EQ(gz.scans.size(), 200u);
+  EXPECT_EQ(gz.odometry.size(), 200u);
+  for (std::size_t i = 0; i < 200; ++i) {
+    EXPECT_EQ(gz.scans[i].stamp, plain.scans[i].stamp);
+    EXPECT_EQ(gz.scans[i].ranges, plain.scans[i].ranges);
+    EXPECT_EQ(gz.scans[i].source_index, plain.scans[i].source_index);
+  }
+  // ReadLidarLog recognises both as CARMEN.
+  EXPECT_EQ(ReadLidarLog(P("p.clf.gz")).scans.size(), 200u);
+  EXPECT_EQ(DetectLogFormat(P("p.clf.gz")), LogFormat::kCarmen);
+}
+
+TEST_F(CarmenTest, LinesLongerThanTheReadBufferAndCrLf) {
+  std::string ranges = "30000";
+  for (int i = 0; i < 30000; ++i) ranges += " 12.3456";
+  const std::string text = Flaser(5, "1 2 0.5", "1 2 0.5", ranges);
+  std::string crlf = text;
+  crlf.insert(crlf.size() - 1, "\r");
+  for (const std::string& path : {WriteGz("long.gz", text), Write("long.clf", crlf)}) {
+    const LidarLog log = ReadCarmenLog(path);
+    ASSERT_EQ(log.scans.size(), 1u) << path;
+    EXPECT_EQ(log.scans[0].ranges.size(), 30000u);
+    EXPECT_FLOAT_EQ(log.scans[0].ranges.back(), 12.3456f);
+    EXPECT_DOUBLE_EQ(log.scans[0].stamp, 5);
+  }
+}
+
+// The message reading `text` (as file bad.clf, after a good first line) gives.
+class CarmenErrorTest : public testing::LidarFilesTest {
+ protected:
+  std::string Error(const std::string& line) {
+    const std::string path = Write("bad.clf", Odom(1, 0, 0, 0) + line);
+    return ErrorOf<ParseError>([&] { ReadCarmenLog(path); });
+  }
+};
+
+TEST_F(CarmenErrorTest, EveryMalformedFieldNamesFileLineAndField) {
+  const struct {
+    std::string line, message;
+  } cases[] = {
+      {"FLASER\n", "bad.clf:2: FLASER: expected at least 2 fields"},
+      {"FLASER x 1 2\n", "bad.clf:2: FLASER: field 1 (number of readings) 'x' is not an integer"},
+      {"FLASER -3 1 2\n", "bad.clf:2: FLASER: field 1 (number of readings) -3 is outside [0, 1048576]"},
+      {"FLASER 99999999999999999999 1\n", "field 1 (number of readings) '99999999999999999999' is not an integer"},
+      {"FLASER 1 2 1 2 0.5 1 2 0.5 1 h 1\n", "bad.clf:2: FLASER: a scan needs at least 2 readings"},
+      {"FLASER 4 1 2 3 1 2 0.5 1 2 0.5 7 h 1\n", "bad.clf:2: FLASER: expected 15 fields (FLASER n r1..rn"},
+      {Flaser(7, "1 2 0.5", "1 2 0.5", "4 1 2 abc 4"), "bad.clf:2: FLASER: field 4 (range 2) 'abc' is not a number"},
+      {Flaser(7, "1 2 0.5", "1 2 0.5", "4 1 2 -3 4"), "bad.clf:2: FLASER: field 4 (range 2) -3 is negative"},
+      {Flaser(7, "1 2 0.5", "1 2 0.5", "4 1 2 nan 4"), "bad.clf:2: FLASER: field 4 (range 2) 'nan' is not finite"},
+      {Flaser(7, "1 2 0.5", "1 2 0.5", "4 1 2 1e999 4"), "field 4 (range 2) '1e999' is not finite"},
+      {Flaser(7, "1 2 0.5x", "1 2 0.5"), "bad.clf:2: FLASER: field 8 (theta) '0.5x' is not a number"},
+      {Flaser(7, "1 2 0.5", "1 y 0.5"), "bad.clf:2: FLASER: field 10 (odom_y) 'y' is not a number"},
+      {"FLASER 2 1 2 1 2 0.5 1 2 0.5 t h 1\n", "bad.clf:2: FLASER: field 10 (ipc_timestamp) 't' is not a number"},
+      {"FLASER 2 1 2 1 2 0.5 1 2 0.5 1 h l\n", "bad.clf:2: FLASER: field 12 (logger_timestamp) 'l' is not a number"},
+      {"ODOM 1 2 3\n", "bad.clf:2: ODOM: expected 10 fields (ODOM x y theta tv rv accel"},
+      {"ODOM 1 2 3 4 5 6 7 h 8 9\n", "bad.clf:2: ODOM: expected 10 fields"},
+      {"ODOM 1 2 z 4 5 6 7 h 8\n", "bad.clf:2: ODOM: field 3 (theta) 'z' is not a number"},
+      {"ODOM 1 2 3 4 5 6 t h 8\n", "bad.clf:2: ODOM: field 7 (ipc_timestamp) 't' is not a number"},
+      {"ROBOTLASER1 0 -1.5 3\n", "bad.clf:2: ROBOTLASER1: expected at least 9 fields"},
+      {RobotLaser("3 1 2 3", "3 0.5 0.6"), "bad.clf:2: ROBOTLASER1: expected 30 fields"},
+      {RobotLaser("3 1 2 3", "x"), "bad.clf:2: ROBOTLASER1: field 12 (number of remissions) 'x' is not an integer"},
+      {RobotLaser("4 1 2 3", "0"), "bad.clf:2: ROBOTLASER1: field 13 (number of remissions) '10.1' is not an integer"},
+      {RobotLaser("3 1 q 3"), "bad.clf:2: ROBOTLASER1: field 10 (range 1) 'q' is not a number"},
+      {RobotLaser("3 1 2 3", "2 0.5 r"), "bad.clf:2: ROBOTLASER1: field 14 (remission) 'r' is not a number"},
+      {"ROBOTLASER1 0 -1.5 3.0 0 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
+       "bad.clf:2: ROBOTLASER1: field 4 (angular_resolution) must be positive"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.7 -1 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
+       "bad.clf:2: ROBOTLASER1: field 5 (maximum_range) must be positive"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3 extra\n",
+       "bad.clf:2: ROBOTLASER1: expected 27 fields"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 v 0.2 0.3 0.4 1 h 3\n",
+       "bad.clf:2: ROBOTLASER1: field 20 (rv) 'v' is not a number"},
+  };
+  for (const auto& c : cases) {
+    const std::string message = Error(c.line);
+    EXPECT_NE(message.find(c.message), std::string::npos) << "line: " << c.line << "\nmessage: " << message;
+    EXPECT_NE(message.find(P("bad.clf") + ":2:"), std::string::npos) << message;
+  }
+}
+
+TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {
+  std::string text;
+  for (int i = 0; i < 2000; ++i) text += Odom(10 + i, i * 0.1, 0, 0) + Flaser(10.5 + i);
+  const std::string gz = WriteGz("t.gz", text);
+  std::string bytes;
+  {
+    std::ifstream in(gz, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string cut = Write("cut.gz", bytes.substr(0, bytes.size() / 2));
+  const std::string message = ErrorOf<ParseError>([&] { ReadCarmenLog(cut); });
+  EXPECT_NE(message.find(cut + ":"), std::string::npos) << message;
+  EXPECT_NE(message.find("the compressed data is damaged"), std::string::npos) << message;
+  std::string flipped = bytes;
+  flipped[flipped.size() - 6] ^= 0x55;  // the CRC
+  const std::string crc = Write("crc.gz", flipped);
+  EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(crc); }).find("the compressed data is damaged"), std::string::npos);
+  EXPECT_NE(ErrorOf<IoError>([&] { ReadCarmenLog(P("none.clf")); }).find("none.clf: cannot open the log"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf<IoError>([&] { ReadLidarLog(P("none.clf")); }).find("cannot open the log"), std::string::npos);
+}
+
+TEST_F(CarmenTest, UnusableOptionsAreRefused) {
+  const std::string path = Write("a.clf", Flaser(1));
+  const auto error = [&](const LidarReadOptions& o) {
+    return ErrorOf<InvalidArgument>([&] { ReadLidarLog(path, o); });
+  };
+  LidarReadOptions o;
+  o.limits.min_range = -1;
+  EXPECT_NE(error(o).find("range limits must be finite"), std::string::npos);
+  o = {};
+  o.limits.min_range = 5;
+  o.limits.max_range = 4;
+  EXPECT_NE(error(o).find("minimum range must be below"), std::string::npos);
+  o = {};
+  o.flaser_max_range = 0;
+  EXPECT_NE(error(o).find("flaser_max_range"), std::string::npos);
+  o = {};
+  o.flaser_fov = 7;
+  EXPECT_NE(error(o).find("flaser_fov"), std::string::npos);
+  o = {};
+  o.scan_topic = "";
+  EXPECT_NE(error(o).find("empty topic"), std::string::npos);
+}
+
+TEST(OdometrySourceNames, RoundTrip) {
+  for (OdometrySource s : {OdometrySource::kAuto, OdometrySource::kScanLine, OdometrySource::kInterpolated}) {
+    OdometrySource back = OdometrySource::kAuto;
+    ASSERT_TRUE(FromString(ToString(s), &back));
+    EXPECT_EQ(back, s);
+  }
+  OdometrySource s = OdometrySource::kScanLine;
+  EXPECT_FALSE(FromString("line", &s));
+  EXPECT_EQ(s, OdometrySource::kScanLine);
+  EXPECT_EQ(OdometrySourceNames(), "auto, scan-line or interpolated");
+  LogFormat f = LogFormat::kAuto;
+  EXPECT_TRUE(FromString("rosbag", &f));
+  EXPECT_EQ(f, LogFormat::kRosBag);
+  EXPECT_STREQ(ToString(OdometryOrigin::kClamped), "clamped");
+}
+
+}  // namespace
+}  // namespace lidar
+}  // namespace tether
