@@ -3,6 +3,7 @@
 // tether.simulate (the CLI's pose-graph simulator).
 #include "common.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/landmark_simulator.h"
 #include "tether/frontends/ekf/ukf_slam.h"
@@ -122,7 +123,9 @@ void BindFilter(py::module_& ek, const char* name, const char* doc) {
       .def_property_readonly("mean", &Filter::mean, "(3 + 2N,) = pose, then landmarks")
       .def_property_readonly("cov", &Filter::cov)
       .def_property_readonly("wrong_associations", &Filter::wrong_associations)
-      .def_property_readonly("dropped_observations", &Filter::dropped_observations);
+      .def_property_readonly("dropped_observations", &Filter::dropped_observations)
+      .def_property_readonly("near_observations", &Filter::near_observations,
+                             "Observations not used because their range was below options.min_range.");
 }
 
 // The graph the filters seed (tether/frontends/ekf/landmark_graph.h).
@@ -146,6 +149,9 @@ void BindLandmarkGraph(py::module_& ek) {
       py::arg("filter"), py::arg("world"));
   ek.def(
       "run_filter", [](ekf::UkfSlam& f, const ekf::LandmarkWorld& w) { return ekf::RunFilter(&f, w); },
+      py::arg("filter"), py::arg("world"));
+  ek.def(
+      "run_filter", [](ekf::InvariantEkfSlam& f, const ekf::LandmarkWorld& w) { return ekf::RunFilter(&f, w); },
       py::arg("filter"), py::arg("world"), "Runs the filter over the world (predict, update per step); its Track.");
   ek.def("truth_track", &ekf::TruthTrack, py::arg("world"));
   ek.def("dead_reckoning_track", &ekf::DeadReckoningTrack, py::arg("world"));
@@ -214,9 +220,17 @@ void BindEkf(py::module_& ek) {
             }
           })
       .def_readwrite("gate", &ekf::FilterOptions::gate)
-      .def_readwrite("new_landmark", &ekf::FilterOptions::new_landmark);
+      .def_readwrite("new_landmark", &ekf::FilterOptions::new_landmark)
+      .def_readwrite("update_iterations", &ekf::FilterOptions::update_iterations,
+                     "InvariantEkfSlam: Gauss-Newton iterations per correction (1: the plain update).")
+      .def_readwrite("min_range", &ekf::FilterOptions::min_range,
+                     "Observations whose measured range is below this are not used (every filter).");
   BindFilter<ekf::EkfSlam>(ek, "EkfSlam", "EKF-SLAM with range-bearing landmarks.");
   BindFilter<ekf::UkfSlam>(ek, "UkfSlam", "UKF-SLAM with range-bearing landmarks.");
+  BindFilter<ekf::InvariantEkfSlam>(
+      ek, "InvariantEkfSlam",
+      "The right-invariant EKF for SLAM: the EKF's problem with the error defined on the group of the robot and "
+      "landmarks; consistent where the EKF is overconfident (docs/front_ends.md).");
 
   py::class_<ekf::LandmarkWorldOptions>(ek, "LandmarkWorldOptions")
       .def(py::init<>())

@@ -14,6 +14,7 @@
 #include "tether/core/error.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
 
@@ -383,9 +384,9 @@ TEST(EkfSlamTest, TheDenseReferenceIsEkfSlam) {
 
 // Average NEES of the robot pose over Monte Carlo runs, per step (steps 2.., the first pose's
 // covariance has rank 2). kIdealEkf: the dense filter with its Jacobians at the truth.
-enum class Estimator { kEkf, kUkf, kIdealEkf };
+enum class Estimator { kEkf, kUkf, kIdealEkf, kInvariantEkf };
 
-std::vector<double> AverageNees(Estimator estimator, double noise_scale, int runs, int steps) {
+std::vector<double> AverageNees(Estimator estimator, double noise_scale, int runs, int steps, double min_range = 0) {
   std::vector<double> nees(static_cast<std::size_t>(steps + 1), 0.0);
   for (int r = 0; r < runs; ++r) {
     LandmarkWorldOptions wo;
@@ -397,6 +398,7 @@ std::vector<double> AverageNees(Estimator estimator, double noise_scale, int run
     FilterOptions fo;
     fo.control_cov = wo.control_sigma.cwiseAbs2().asDiagonal();
     fo.measurement_cov = wo.measurement_sigma.cwiseAbs2().asDiagonal();
+    fo.min_range = min_range;
     std::vector<SE2d> poses{SE2d()};
     std::vector<Eigen::Matrix3d> covs{Eigen::Matrix3d::Zero()};
     if (estimator == Estimator::kIdealEkf) {
@@ -411,6 +413,8 @@ std::vector<double> AverageNees(Estimator estimator, double noise_scale, int run
       std::unique_ptr<LandmarkFilter> f;
       if (estimator == Estimator::kUkf) {
         f = std::make_unique<UkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
+      } else if (estimator == Estimator::kInvariantEkf) {
+        f = std::make_unique<InvariantEkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
       } else {
         f = std::make_unique<EkfSlam>(SE2d(), Eigen::Matrix3d::Zero(), fo);
       }
@@ -461,6 +465,127 @@ TEST(UkfSlamTest, LessOverconfidentThanTheEkfAtTheThesisNoise) {
   EXPECT_LT(ukf, ekf);
   EXPECT_GT(ideal, bounds.upper);
   EXPECT_LT(ideal, 0.5 * ekf);
+}
+
+// The invariant EKF's prediction and landmark initialisation are the EKF's, in the parameters'
+// covariance: both are exact first-order maps of the same functions (the arc's Jacobian with
+// respect to the pose is the change of the error map, M' M^-1). Only corrections differ.
+TEST(InvariantEkfSlamTest, PredictAndNewLandmarksAreTheEkfs) {
+  FilterOptions o;
+  o.control_cov << 0.02, 0.001, 0.001, 0.01;
+  o.measurement_cov << 0.3, 0.01, 0.01, 0.02;
+  Eigen::Matrix3d p0;
+  p0 << 0.1, 0.01, 0.02, 0.01, 0.2, -0.01, 0.02, -0.01, 0.05;
+  EkfSlam ekf(SE2d(1, 2, 0.3), p0, o);
+  InvariantEkfSlam inv(SE2d(1, 2, 0.3), p0, o);
+  EXPECT_LT((inv.cov() - p0).cwiseAbs().maxCoeff(), 1e-15);
+  for (LandmarkFilter* f : std::vector<LandmarkFilter*>{&ekf, &inv}) {
+    f->Update({Observation{5.0, 0.4, 0}, Observation{3.0, -1.2, 1}});
+    f->Predict(odometry::Control{0.8, 0.4}, 1.0);
+    f->Predict(odometry::Control{1.1, -0.2}, 0.5);
+    f->Update({Observation{4.0, 2.0, 2}});
+  }
+  EXPECT_LT((inv.mean() - ekf.mean()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((inv.cov() - ekf.cov()).cwiseAbs().maxCoeff(), 1e-12);
+  // A correction moves the invariant filter elsewhere.
+  ekf.Update({Observation{3.3, -1.0, 1}});
+  inv.Update({Observation{3.3, -1.0, 1}});
+  EXPECT_GT((inv.mean() - ekf.mean()).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+// An iterated correction converges to the iterated EKF's fixed point: with xi the error of the
+// state before it (X_after = Exp(-xi) X_before, per the robot and each landmark),
+//   P^-1 xi = H^T R^-1 (z - h(X_after)),
+// H the derivative of h(Exp(-delta) X_after) at delta = 0 (taken numerically here): the
+// stationary point of the correction's MAP cost, to first order in xi.
+TEST(InvariantEkfSlamTest, IteratedCorrectionReachesItsFixedPoint) {
+  FilterOptions o;
+  o.update_iterations = 50;
+  InvariantEkfSlam f(SE2d(), Eigen::Vector3d(0.01, 0.02, 0.005).asDiagonal(), o);
+  f.Update({Observation{4.0, 0.5, 0}, Observation{6.0, -0.7, 1}});
+  f.Predict(odometry::Control{1.0, 0.3}, 1.0);
+  const Eigen::VectorXd before = f.mean();
+  const Eigen::MatrixXd p = f.invariant_cov();
+  const Eigen::Vector2d z(2.5, 0.9);  // far from the prediction: nonlinear
+  f.Update({Observation{z.x(), z.y(), 0}});
+  const Eigen::VectorXd after = f.mean();
+  // Exp(-e) applied to a state: the robot as a pose, each landmark with the heading's rotation.
+  const auto moved = [](const Eigen::VectorXd& x, const Eigen::VectorXd& e) {
+    Eigen::VectorXd y = x;
+    const SE2d robot = SE2d::Exp(-Eigen::Vector3d(e.head<3>())) * SE2d(x[0], x[1], x[2]);
+    y.head<3>() << robot.x(), robot.y(), robot.theta();
+    for (Eigen::Index l = 3; l + 1 < x.size(); l += 2)
+      y.segment<2>(l) = SE2d::Exp(-Eigen::Vector3d(e[l], e[l + 1], e[2])) * Eigen::Vector2d(x.segment<2>(l));
+    return y;
+  };
+  // xi from the two states: the robot's by the group logarithm, each landmark's by solving
+  // after_l = R(-xi_theta) before_l + V(-xi_theta) (-xi_l).
+  Eigen::VectorXd xi(before.size());
+  xi.head<3>() = -(SE2d(after[0], after[1], after[2]) * SE2d(before[0], before[1], before[2]).Inverse()).Log();
+  for (Eigen::Index l = 3; l + 1 < xi.size(); l += 2) {
+    const Eigen::Vector2d t = Eigen::Vector2d(after.segment<2>(l)) -
+                              SE2d::Exp(Eigen::Vector3d(0, 0, -xi[2])) * Eigen::Vector2d(before.segment<2>(l));
+    Eigen::Matrix2d v;  // V(-xi_theta), column by column
+    v.col(0) = SE2d::Exp(Eigen::Vector3d(1, 0, -xi[2])).translation();
+    v.col(1) = SE2d::Exp(Eigen::Vector3d(0, 1, -xi[2])).translation();
+    xi.segment<2>(l) = -v.inverse() * t;
+  }
+  EXPECT_LT((moved(before, xi) - after).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT(xi.norm(), 0.1);  // a large correction
+  const auto h = [&](const Eigen::VectorXd& delta) -> Eigen::VectorXd {
+    const Eigen::VectorXd x = moved(after, delta);
+    return Observe(SE2d(x[0], x[1], x[2]), x.segment<2>(3));
+  };
+  const Eigen::MatrixXd hn = NumericJacobian(h, Eigen::VectorXd::Zero(after.size()), 1);
+  EXPECT_NEAR(hn.col(2).norm(), 0.0, 1e-8);  // no heading column
+  const Eigen::Vector2d nu = MeasurementDifference(z, h(Eigen::VectorXd::Zero(after.size())));
+  const Eigen::VectorXd lhs = p.ldlt().solve(xi);
+  const Eigen::VectorXd rhs = hn.transpose() * o.measurement_cov.inverse() * nu;
+  EXPECT_LT((lhs - rhs).norm(), 1e-6 * (1 + rhs.norm())) << lhs.transpose() << "\n" << rhs.transpose();
+  // One plain correction from the same state stops short of it.
+  FilterOptions once;
+  once.update_iterations = 1;
+  InvariantEkfSlam g(SE2d(), Eigen::Vector3d(0.01, 0.02, 0.005).asDiagonal(), once);
+  g.Update({Observation{4.0, 0.5, 0}, Observation{6.0, -0.7, 1}});
+  g.Predict(odometry::Control{1.0, 0.3}, 1.0);
+  g.Update({Observation{z.x(), z.y(), 0}});
+  EXPECT_GT((g.mean() - after).norm(), 1e-3);
+}
+
+// At experiment 1's noise the invariant EKF, using only observations beyond 1.5 range sigmas
+// (3 m), is consistent over 50 worlds: the average NEES over the steps lies in the 95% interval
+// and so does that of at least 90% of the steps (measured 3.13, 198 of 199). Using every
+// observation it is still overconfident, but far less than the EKF (5.2 against 27): the rest
+// is the near observations, whose 2 m range noise no linearisation covers.
+TEST(InvariantEkfSlamTest, ConsistentAtTheThesisNoise) {
+  const NeesInterval bounds = AverageNeesInterval(50, 3);
+  const std::vector<double> nees = AverageNees(Estimator::kInvariantEkf, 1.0, 50, 200, 3.0);
+  int inside = 0;
+  for (std::size_t k = 2; k < nees.size(); ++k) inside += bounds.Contains(nees[k]) ? 1 : 0;
+  EXPECT_TRUE(bounds.Contains(MeanFromStep2(nees))) << MeanFromStep2(nees);
+  EXPECT_GE(inside, static_cast<int>(0.9 * static_cast<double>(nees.size() - 2))) << inside;
+  const double all = MeanFromStep2(AverageNees(Estimator::kInvariantEkf, 1.0, 20, 100));
+  const double ekf = MeanFromStep2(AverageNees(Estimator::kEkf, 1.0, 20, 100));
+  EXPECT_GT(all, bounds.upper);
+  EXPECT_LT(all, 0.5 * ekf);
+}
+
+TEST(InvariantEkfSlamTest, NearObservationsAreSkippedAndOptionsChecked) {
+  FilterOptions o;
+  o.min_range = 3.0;
+  InvariantEkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), o);
+  const std::vector<int> taken = f.Update({Observation{2.0, 0.1, 0}, Observation{5.0, 0.2, 1}});
+  EXPECT_EQ(taken, (std::vector<int>{-1, 0}));
+  EXPECT_EQ(f.near_observations(), 1);
+  EXPECT_EQ(f.landmark_count(), 1);
+  FilterOptions bad;
+  bad.update_iterations = 0;
+  EXPECT_THROW(InvariantEkfSlam(SE2d(), Eigen::Matrix3d::Zero(), bad), InvalidArgument);
+  bad = FilterOptions();
+  bad.min_range = -1;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("min_range"), std::string::npos);
 }
 
 }  // namespace

@@ -31,7 +31,7 @@ def test_odometry_front_end_feeds_the_smoother():
     np.testing.assert_allclose(last.params(), fe.trajectory[10].params(), atol=1e-6)
 
 
-@pytest.mark.parametrize("filter_class", [ekf.EkfSlam, ekf.UkfSlam])
+@pytest.mark.parametrize("filter_class", [ekf.EkfSlam, ekf.UkfSlam, ekf.InvariantEkfSlam])
 def test_filters_track_the_simulated_world(filter_class):
     opts = ekf.LandmarkWorldOptions()
     opts.steps = 60
@@ -50,6 +50,18 @@ def test_filters_track_the_simulated_world(filter_class):
     assert err < max(dead_err, 1.0)
     with pytest.raises(tether.InvalidArgument, match="use known or nearest"):
         ekf.FilterOptions().association = "best"
+
+
+def test_min_range_skips_near_observations():
+    opts = ekf.FilterOptions()
+    opts.min_range = 3.0
+    opts.update_iterations = 3
+    f = ekf.InvariantEkfSlam(tether.SE2(), np.zeros((3, 3)), opts)
+    assert f.update([ekf.Observation(2.0, 0.1, 0), ekf.Observation(5.0, 0.2, 1)]) == [-1, 0]
+    assert f.near_observations == 1 and f.landmark_count == 1
+    track = ekf.run_filter(ekf.InvariantEkfSlam(tether.SE2(), np.zeros((3, 3)), opts),
+                           ekf.simulate_landmark_world(ekf.LandmarkWorldOptions()))
+    assert len(track.poses) == 201
 
 
 def test_filter_seeds_the_graph_and_the_smoother_solves_it():

@@ -33,6 +33,8 @@ bool FilterOptions::IsValid(std::string* why) const {
   }
   std::string u;
   if (!unscented.IsValid(&u)) return fail("unscented: " + u);
+  if (update_iterations < 1) return fail("update_iterations must be at least 1");
+  if (!(std::isfinite(min_range) && min_range >= 0)) return fail("min_range must be finite and not negative");
   return true;
 }
 
@@ -76,6 +78,10 @@ std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observat
   std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
   for (std::size_t k = 0; k < observations.size(); ++k) {
     const Observation& o = observations[k];
+    if (o.range < options_.min_range) {
+      ++near_;
+      continue;
+    }
     const Eigen::Vector2d z(o.range, o.bearing);
     int chosen = -1;
     bool add = false;

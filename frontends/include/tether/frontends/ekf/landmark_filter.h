@@ -39,6 +39,13 @@ struct FilterOptions {
   double new_landmark = 13.815510557964274;
   /// UKF only: the sigma points' parameters.
   UnscentedParams unscented;
+  /// Invariant EKF only: Gauss-Newton iterations of each correction (1: the plain update).
+  /// Default 2 (docs/front_ends.md, "Consistency").
+  int update_iterations = 2;
+  /// Observations whose measured range is below this are not used (every filter): where the
+  /// range noise is large against the range, no linearisation of the observation holds.
+  /// Default 0: every observation is used.
+  double min_range = 0;
   /// True where every part can be used; otherwise says why.
   bool IsValid(std::string* why) const;
 };
@@ -54,7 +61,8 @@ class LandmarkFilter {
   /// for a non-finite control or a dt that is not positive and finite.
   void Predict(const odometry::Control& u, double dt);
   /// Corrects with the observations of one time step; returns, per observation, the index of
-  /// the landmark (in the state) it was taken for, or -1 where it was dropped. Throws
+  /// the landmark (in the state) it was taken for, or -1 where it was dropped (or nearer than
+  /// options.min_range). Throws
   /// InvalidArgument, applying nothing, where an observation's range is not positive and finite,
   /// its bearing not finite, or (known association) it has no id.
   std::vector<int> Update(const std::vector<Observation>& observations);
@@ -72,6 +80,8 @@ class LandmarkFilter {
   int wrong_associations() const { return wrong_; }
   /// Observations dropped by the nearest-neighbour rule, so far.
   int dropped_observations() const { return dropped_; }
+  /// Observations not used because their range was below options.min_range, so far.
+  int near_observations() const { return near_; }
   const FilterOptions& options() const { return options_; }
 
  protected:
@@ -96,6 +106,7 @@ class LandmarkFilter {
   std::vector<int> creator_id_;
   int wrong_ = 0;
   int dropped_ = 0;
+  int near_ = 0;
 };
 
 /// theta and bearings: a - b with the component `angle` wrapped.
