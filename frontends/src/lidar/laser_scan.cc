@@ -2,22 +2,21 @@
 
 #include <cmath>
 
+#include "tether/core/enum_names.h"
+
 namespace tether {
 namespace lidar {
 
-const char* ToString(OdometryOrigin o) {
-  switch (o) {
-    case OdometryOrigin::kNone:
-      return "none";
-    case OdometryOrigin::kScanLine:
-      return "scan-line";
-    case OdometryOrigin::kInterpolated:
-      return "interpolated";
-    case OdometryOrigin::kClamped:
-      return "clamped";
-  }
-  return "unknown";
-}
+namespace {
+
+constexpr EnumName<OdometryOrigin> kOriginNames[] = {{OdometryOrigin::kNone, "none"},
+                                                     {OdometryOrigin::kScanLine, "scan-line"},
+                                                     {OdometryOrigin::kInterpolated, "interpolated"},
+                                                     {OdometryOrigin::kClamped, "clamped"}};
+
+}  // namespace
+
+const char* ToString(OdometryOrigin o) { return NameOf(kOriginNames, o); }
 
 bool LaserScan::Valid(std::size_t i) const {
   if (i >= ranges.size()) return false;

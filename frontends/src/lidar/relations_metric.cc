@@ -8,37 +8,18 @@
 #include <fstream>
 #include <sstream>
 
+#include "number_lines.h"
 #include "tether/core/error.h"
 
 namespace tether {
 namespace lidar {
 
 std::vector<Relation> ReadRelations(std::istream& in, const std::string& name) {
+  static const char* const kFields[] = {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"};
   std::vector<Relation> out;
-  std::string text;
   long line = 0;
-  const char* fields[] = {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"};
-  while (std::getline(in, text)) {
-    ++line;
-    const std::size_t first = text.find_first_not_of(" \t\r");
-    if (first == std::string::npos || text[first] == '#') continue;
-    const auto fail = [&](const std::string& what) {
-      throw ParseError(name + ":" + std::to_string(line) + ": " + what +
-                       " (a relation line is: t1 t2 x y z roll pitch yaw)");
-    };
-    std::istringstream s(text);
-    std::string token;
-    double v[8];
-    int n = 0;
-    while (s >> token) {
-      if (n == 8) fail("more than 8 fields");
-      char* end = nullptr;
-      v[n] = std::strtod(token.c_str(), &end);
-      if (end == token.c_str() || *end != '\0') fail(std::string(fields[n]) + " '" + token + "' is not a number");
-      if (!std::isfinite(v[n])) fail(std::string(fields[n]) + " '" + token + "' is not finite");
-      ++n;
-    }
-    if (n < 8) fail("found " + std::to_string(n) + " fields, expected 8");
+  double v[8];
+  while (internal::ReadNumberLine(in, name, kFields, 8, "a relation line is: t1 t2 x y z roll pitch yaw", &line, v)) {
     Relation r;
     r.t1 = v[0];
     r.t2 = v[1];
@@ -49,7 +30,6 @@ std::vector<Relation> ReadRelations(std::istream& in, const std::string& name) {
     r.line = line;
     out.push_back(r);
   }
-  if (in.bad()) throw IoError(name + ": read error after line " + std::to_string(line));
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "number_lines.h"
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
 
@@ -31,38 +32,21 @@ void WriteTumFile(const std::string& path, const std::vector<StampedPose2>& pose
 }
 
 std::vector<StampedPose2> ReadTum(std::istream& in, const std::string& name) {
+  static const char* const kFields[] = {"timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"};
   std::vector<StampedPose2> poses;
-  std::string text;
   long line = 0;
-  const char* fields[] = {"timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"};
-  while (std::getline(in, text)) {
-    ++line;
-    const std::size_t first = text.find_first_not_of(" \t\r");
-    if (first == std::string::npos || text[first] == '#') continue;
-    const auto fail = [&](const std::string& what) {
-      throw ParseError(name + ":" + std::to_string(line) + ": " + what +
-                       " (a trajectory line is: timestamp x y z qx qy qz qw)");
-    };
-    std::istringstream s(text);
-    std::string token;
-    double v[8];
-    int n = 0;
-    while (s >> token) {
-      if (n == 8) fail("more than 8 fields");
-      char* end = nullptr;
-      v[n] = std::strtod(token.c_str(), &end);
-      if (end == token.c_str() || *end != '\0') fail(std::string(fields[n]) + " '" + token + "' is not a number");
-      if (!std::isfinite(v[n])) fail(std::string(fields[n]) + " '" + token + "' is not finite");
-      ++n;
-    }
-    if (n < 8) fail("found " + std::to_string(n) + " fields, expected 8");
+  double v[8];
+  while (
+      internal::ReadNumberLine(in, name, kFields, 8, "a trajectory line is: timestamp x y z qx qy qz qw", &line, v)) {
     const double norm = std::sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
-    if (!(norm > 0.9 && norm < 1.1)) fail("the quaternion's norm is " + std::to_string(norm) + ", not 1");
+    if (!(norm > 0.9 && norm < 1.1)) {
+      throw ParseError(name + ":" + std::to_string(line) + ": the quaternion's norm is " + std::to_string(norm) +
+                       ", not 1");
+    }
     const double qx = v[4] / norm, qy = v[5] / norm, qz = v[6] / norm, qw = v[7] / norm;
     const double yaw = std::atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz));
     poses.push_back({v[0], SE2<double>(v[1], v[2], yaw)});
   }
-  if (in.bad()) throw IoError(name + ": read error after line " + std::to_string(line));
   return poses;
 }
 
