@@ -245,6 +245,22 @@ TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {
   EXPECT_NE(ErrorOf<IoError>([&] { ReadLidarLog(P("none.clf")); }).find("cannot open the log"), std::string::npos);
 }
 
+TEST_F(CarmenErrorTest, FilesThatAreNotLaserLogs) {
+  std::string binary = "FLASER 2 1 2 1 2 0.5 1 2 0.5 7 h 1\n";
+  for (int i = 0; i < 64; ++i) binary += static_cast<char>((i * 37 + 11) % 256);
+  std::string m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("b.clf", binary)); });
+  EXPECT_NE(m.find(P("b.clf") + ":2: not a CARMEN message"), std::string::npos) << m;
+  m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("l.clf", Odom(1, 0, 0, 0) + "flaser 2 1 2\n")); });
+  EXPECT_NE(m.find("l.clf:2: not a CARMEN message"), std::string::npos) << m;
+  // Other messages, NMEA-GGA among them, are skipped; a log of them alone has no scans.
+  m = ErrorOf<ParseError>(
+      [&] { ReadCarmenLog(Write("o.clf", "# c\n" + Odom(1, 0, 0, 0) + "NMEA-GGA 1 2 3\nPARAM a b\n")); });
+  EXPECT_NE(m.find("o.clf: no FLASER or ROBOTLASER1 line in 4 lines: not a laser log"), std::string::npos) << m;
+  EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(Write("e.clf", "")); }).find("not a laser log"), std::string::npos);
+  m = ErrorOf<IoError>([&] { ReadCarmenLog(dir_.string()); });
+  EXPECT_NE(m.find("cannot read the log after line 0 (Is a directory)"), std::string::npos) << m;
+}
+
 TEST_F(CarmenTest, UnusableOptionsAreRefused) {
   const std::string path = Write("a.clf", Flaser(1));
   const auto error = [&](const LidarReadOptions& o) {

@@ -45,6 +45,10 @@ class GzLines {
     }
     int code = Z_OK;
     const char* message = gzerror(file_, &code);
+    if (code == Z_ERRNO) {
+      throw IoError(path_ + ": cannot read the log after line " + std::to_string(line_) + " (" + std::strerror(errno) +
+                    ")");
+    }
     if (code != Z_OK) {
       throw ParseError(path_ + ":" + std::to_string(line_ + 1) + ": the compressed data is damaged (zlib: " + message +
                        "); the file is truncated or corrupt");
@@ -118,6 +122,15 @@ class Fields {
 };
 
 constexpr long kMaxBeams = 1 << 20;
+
+// CARMEN message names: a capital letter, then capitals, digits, '_' or '-' (FLASER, NMEA-GGA).
+bool MessageName(const std::string& s) {
+  if (s.empty() || s[0] < 'A' || s[0] > 'Z') return false;
+  for (char c : s) {
+    if (!((c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) return false;
+  }
+  return true;
+}
 
 // The ranges in fields [first, first + n), each finite and not negative.
 std::vector<float> Ranges(const Fields& f, std::size_t first, std::size_t n) {
@@ -215,6 +228,11 @@ LidarLog ReadCarmenLog(const std::string& path, const LidarReadOptions& options)
   while (lines.Next(&text)) {
     const Fields f(path, lines.line(), text);
     if (f.size() == 0 || f[0][0] == '#') continue;
+    if (!MessageName(f[0])) {
+      throw ParseError(path + ":" + std::to_string(lines.line()) +
+                       ": not a CARMEN message (a line starts with a name in capitals such as ODOM or FLASER, or #); "
+                       "is this a CARMEN log?");
+    }
     if (f[0] == "ODOM") {
       ParseOdom(f, &log);
     } else if (f[0] == "FLASER") {
@@ -222,6 +240,10 @@ LidarLog ReadCarmenLog(const std::string& path, const LidarReadOptions& options)
     } else if (f[0] == "ROBOTLASER1") {
       ParseRobotLaser1(f, lines.line(), &log);
     }
+  }
+  if (log.scans.empty()) {
+    throw ParseError(path + ": no FLASER or ROBOTLASER1 line in " + std::to_string(lines.line()) +
+                     " lines: not a laser log");
   }
   FinishLog(options, &log);
   return log;

@@ -127,6 +127,7 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
         statics.push_back(m);
       }
     }
+    if (log.scans.empty()) throw ParseError(path + ": no message on " + options.scan_topic + ": not a laser log");
     SE2<double> laser_in_robot;
     for (const rosbag::MessageInstance& m : statics) {
       if (FindStaticTransform(m, laser_frame, &laser_in_robot)) break;
