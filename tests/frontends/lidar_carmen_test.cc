@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "testing/lidar_files.h"
@@ -257,8 +258,60 @@ TEST_F(CarmenErrorTest, FilesThatAreNotLaserLogs) {
       [&] { ReadCarmenLog(Write("o.clf", "# c\n" + Odom(1, 0, 0, 0) + "NMEA-GGA 1 2 3\nPARAM a b\n")); });
   EXPECT_NE(m.find("o.clf: no FLASER or ROBOTLASER1 line in 4 lines: not a laser log"), std::string::npos) << m;
   EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(Write("e.clf", "")); }).find("not a laser log"), std::string::npos);
+  // A NUL byte inside a line is an error at that line (not a line cut in two).
+  m = ErrorOf<ParseError>(
+      [&] { ReadCarmenLog(Write("z.clf", Odom(1, 0, 0, 0) + std::string("FLASER 2 1 2\0 3\n", 16) + Flaser(2))); });
+  EXPECT_NE(m.find("z.clf:2: a NUL byte in the line"), std::string::npos) << m;
   m = ErrorOf<IoError>([&] { ReadCarmenLog(dir_.string()); });
   EXPECT_NE(m.find("cannot read the log after line 0 (Is a directory)"), std::string::npos) << m;
+}
+
+// Damaged logs (bytes changed, cut, duplicated; deterministic) are read or refused with a
+// ParseError: never another exception, never a crash (the sanitised build runs this too).
+TEST_F(CarmenErrorTest, DamagedLogsAreReadOrRefusedNeverACrash) {
+  const std::string good = "# log\n" + Odom(1, 0, 0, 0) + Flaser(1.5) + RobotLaser() + Odom(2, 1, 0, 0.5) +
+                           Flaser(1.75, "1 2 0.5", "1 2 0.5", "3 1e-3 2.5 1e2") + "PARAM x y\n";
+  std::uint32_t state = 12345;
+  const auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return state >> 8;
+  };
+  const char alphabet[] = " \n\t\r-+.eE0123456789xFLASERODOM#nani\0\x1f\x8b";
+  int read = 0, refused = 0;
+  for (int round = 0; round < 1500; ++round) {
+    std::string text = good;
+    const int edits = 1 + static_cast<int>(next() % 4);
+    for (int e = 0; e < edits; ++e) {
+      const std::size_t at = next() % text.size();
+      switch (next() % 4) {
+        case 0:
+          text[at] = alphabet[next() % (sizeof(alphabet) - 1)];
+          break;
+        case 1:
+          text.erase(at, 1 + next() % 8);
+          break;
+        case 2:
+          text.insert(at, text.substr(next() % text.size(), 1 + next() % 16));
+          break;
+        default:
+          text.resize(at + 1);
+      }
+      if (text.empty()) text = "x";
+    }
+    const std::string path = round % 3 == 0 ? WriteGz("m.gz", text) : Write("m.clf", text);
+    try {
+      const LidarLog log = ReadCarmenLog(path);
+      for (const LaserScan& scan : log.scans) {
+        EXPECT_GE(scan.ranges.size(), 2u);
+        EXPECT_TRUE(std::isfinite(scan.stamp));
+      }
+      ++read;
+    } catch (const ParseError&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(read, 100);
+  EXPECT_GT(refused, 100);
 }
 
 TEST_F(CarmenTest, UnusableOptionsAreRefused) {

@@ -18,6 +18,8 @@ namespace lidar {
 namespace {
 
 // Lines of a plain or gzip file through zlib (gzopen reads plain files unchanged), of any length.
+// Read in blocks with gzread (gzgets cannot tell a NUL byte inside a line from the line's end,
+// and would join the two halves of such a line to the next one).
 class GzLines {
  public:
   explicit GzLines(const std::string& path) : path_(path), file_(gzopen(path.c_str(), "rb")) {
@@ -32,20 +34,43 @@ class GzLines {
   GzLines& operator=(const GzLines&) = delete;
 
   // The next line without its end-of-line; false at the end. Throws ParseError on a damaged
-  // gzip stream (truncated, bad checksum), naming the last line read.
+  // gzip stream (truncated, bad checksum) or a NUL byte, naming the line; IoError where the
+  // file cannot be read.
   bool Next(std::string* line) {
     line->clear();
-    char buf[1 << 16];
-    bool any = false;
-    while (gzgets(file_, buf, sizeof(buf)) != nullptr) {
-      any = true;
-      const std::size_t n = std::strlen(buf);
-      line->append(buf, n);
-      if (n > 0 && buf[n - 1] == '\n') break;  // else a line longer than the buffer: read on
+    for (;;) {
+      const std::size_t eol = buffer_.find('\n', begin_);
+      if (eol != std::string::npos) {
+        line->append(buffer_, begin_, eol - begin_);
+        begin_ = eol + 1;
+        break;
+      }
+      line->append(buffer_, begin_, std::string::npos);
+      buffer_.clear();
+      begin_ = 0;
+      if (!Fill()) {
+        if (line->empty()) return false;
+        break;
+      }
     }
+    ++line_;
+    if (line->find('\0') != std::string::npos) {
+      throw ParseError(path_ + ":" + std::to_string(line_) + ": a NUL byte in the line; is this a text log?");
+    }
+    while (!line->empty() && line->back() == '\r') line->pop_back();
+    return true;
+  }
+  long line() const { return line_; }
+
+ private:
+  // Reads the next block into buffer_; false at the end of the data.
+  bool Fill() {
+    if (eof_) return false;
+    buffer_.resize(1 << 16);
+    const int n = gzread(file_, &buffer_[0], static_cast<unsigned>(buffer_.size()));
     int code = Z_OK;
     const char* message = gzerror(file_, &code);
-    if (code == Z_ERRNO) {
+    if (code == Z_ERRNO || (n < 0 && code == Z_OK)) {
       throw IoError(path_ + ": cannot read the log after line " + std::to_string(line_) + " (" + std::strerror(errno) +
                     ")");
     }
@@ -53,16 +78,16 @@ class GzLines {
       throw ParseError(path_ + ":" + std::to_string(line_ + 1) + ": the compressed data is damaged (zlib: " + message +
                        "); the file is truncated or corrupt");
     }
-    if (!any) return false;
-    ++line_;
-    while (!line->empty() && (line->back() == '\n' || line->back() == '\r')) line->pop_back();
-    return true;
+    buffer_.resize(static_cast<std::size_t>(n));
+    if (n == 0) eof_ = true;
+    return n > 0;
   }
-  long line() const { return line_; }
 
- private:
   std::string path_;
   gzFile file_;
+  std::string buffer_;
+  std::size_t begin_ = 0;
+  bool eof_ = false;
   long line_ = 0;
 };
 
