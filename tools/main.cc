@@ -196,6 +196,17 @@ int main(int argc, char** argv) {
   ekf_demo->add_option("--steps", ec.setup.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
   ekf_demo->add_option("--range-sigma", ec.setup.range_sigma, "Range noise std [m]")->capture_default_str();
   ekf_demo->add_option("--bearing-sigma", ec.setup.bearing_sigma, "Bearing noise std [rad]")->capture_default_str();
+  ekf_demo
+      ->add_option("--invariant-min-range", ec.setup.invariant_min_range,
+                   "The invariant EKF uses no observation nearer than this [m] (negative: 1.5 range sigmas)")
+      ->capture_default_str();
+  ekf_demo
+      ->add_option("--invariant-iterations", ec.setup.invariant_iterations,
+                   "Gauss-Newton iterations of each invariant EKF correction (1: the plain update)")
+      ->capture_default_str();
+  ekf_demo->add_flag_function(
+      "--no-graph", [&ec](std::int64_t) { ec.setup.graphs = false; },
+      "The filters alone: no graph seeded by them (much faster)");
   ekf_demo->add_flag("--nees", ec.setup.consistency,
                      "Also the consistency of every pose estimate: the NEES per step averaged over the seeds, "
                      "against its 95% interval (the graphs: the smoother's online estimate and marginal)");

@@ -41,8 +41,8 @@ double Mean(const std::vector<double>& v) {
 // and the graphs seeded by EKF and UKF end at the same optimum.
 TEST(EkfDemoTest, KnownAssociationFigures) {
   const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, EkfDemoSetup{60, 2.0, 0.17453292519943295});
-  for (const char* m :
-       {"dead reckoning", "EKF", "UKF", "graph (EKF seed)", "graph (UKF seed)", "graph (dead reckoning seed)"}) {
+  for (const char* m : {"dead reckoning", "EKF", "UKF", "invariant EKF", "graph (EKF seed)", "graph (UKF seed)",
+                        "graph (dead reckoning seed)"}) {
     const EkfDemoRow* r = Row(c, m);
     ASSERT_NE(r, nullptr) << m;
     EXPECT_EQ(r->trajectory_rmse.size(), 3u) << m;
@@ -50,7 +50,8 @@ TEST(EkfDemoTest, KnownAssociationFigures) {
     EXPECT_EQ(Mean(r->wrong_associations), 0.0) << m;
   }
   const double dr = Mean(Row(c, "dead reckoning")->trajectory_rmse);
-  for (const char* m : {"EKF", "UKF", "graph (EKF seed)"}) EXPECT_LT(Mean(Row(c, m)->trajectory_rmse), 0.5 * dr) << m;
+  for (const char* m : {"EKF", "UKF", "invariant EKF", "graph (EKF seed)"})
+    EXPECT_LT(Mean(Row(c, m)->trajectory_rmse), 0.5 * dr) << m;
   for (std::size_t k = 0; k < 3; ++k) {
     EXPECT_NEAR(Row(c, "graph (EKF seed)")->trajectory_rmse[k], Row(c, "graph (UKF seed)")->trajectory_rmse[k], 1e-4);
   }
@@ -72,7 +73,7 @@ TEST(EkfDemoTest, ConsistencyPerStep) {
   EkfDemoSetup setup{80, 2.0, 0.17453292519943295};
   setup.consistency = true;
   const EkfDemoConfig c = RunEkfExperiment(1, false, 6, 1000, setup);
-  for (const char* method : {"EKF", "UKF", "graph (EKF seed)", "graph (UKF seed)"}) {
+  for (const char* method : {"EKF", "UKF", "invariant EKF", "graph (EKF seed)", "graph (UKF seed)"}) {
     const EkfDemoRow* r = Row(c, method);
     ASSERT_NE(r, nullptr) << method;
     EXPECT_EQ(r->nees_runs, 6) << method;
@@ -85,6 +86,8 @@ TEST(EkfDemoTest, ConsistencyPerStep) {
     return m;
   };
   EXPECT_GT(average(Row(c, "EKF")), 3 * 4.0);
+  EXPECT_GT(average(Row(c, "invariant EKF")), 2.0);
+  EXPECT_LT(average(Row(c, "invariant EKF")), 4.5);
   EXPECT_GT(average(Row(c, "graph (EKF seed)")), 2.0);
   EXPECT_LT(average(Row(c, "graph (EKF seed)")), 4.5);
   const std::string table = EkfDemoConsistencyTable({c});
@@ -109,13 +112,19 @@ TEST(EkfDemoCliTest, WritesTableAndPlot) {
   EXPECT_NE(t.find("| 2 | known | graph (EKF seed) | 2 |"), std::string::npos) << t;  // the NEES table, 2 runs
   const std::string svg = Slurp(plot);
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
-  for (const char* name : {"truth", "dead reckoning", "EKF", "UKF", "graph (EKF seed)", "2 sigma"}) {
+  for (const char* name : {"truth", "dead reckoning", "EKF", "UKF", "invariant EKF", "graph (EKF seed)", "2 sigma"}) {
     EXPECT_NE(svg.find(name), std::string::npos) << name;
   }
   // Usage errors (exit 2) and an output in a folder that does not exist (exit 4, nothing run).
   EXPECT_EQ(testing::Tether("ekf-demo --experiments 3").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --association maybe").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --seeds 0").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --invariant-iterations 0").code, 2);
+  // --no-graph: the filters alone.
+  const auto filters = testing::Tether("ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph");
+  ASSERT_EQ(filters.code, 0) << filters.output;
+  EXPECT_NE(filters.output.find("| 1 | known | invariant EKF |"), std::string::npos) << filters.output;
+  EXPECT_EQ(filters.output.find("graph ("), std::string::npos) << filters.output;
   const auto missing = testing::Tether("ekf-demo --seeds 1 -o " + (dir / "no" / "t.md").string());
   EXPECT_EQ(missing.code, 4) << missing.output;
   EXPECT_EQ(missing.output.find("| experiment"), std::string::npos) << missing.output;

@@ -14,6 +14,7 @@
 #include "tether/core/output_file.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
 #include "tether/tools/commands.h"
@@ -127,7 +128,15 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     ekf::UkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), fo);
     return ekf::RunFilter(&f, run.world);
   });
+  record("invariant EKF", [&] {
+    ekf::FilterOptions io = fo;
+    io.min_range = setup.invariant_min_range >= 0 ? setup.invariant_min_range : 1.5 * setup.range_sigma;
+    io.update_iterations = setup.invariant_iterations;
+    ekf::InvariantEkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), io);
+    return ekf::RunFilter(&f, run.world);
+  });
   for (const char* seeded : {"EKF", "UKF", "dead reckoning"}) {
+    if (!setup.graphs) break;
     if (nn && std::string(seeded) == "dead reckoning") continue;  // dead reckoning associates nothing
     const Track* t = track_of(seeded);
     if (t == nullptr) continue;  // that filter failed on this seed
@@ -180,11 +189,9 @@ std::string Ellipse(const Frame& f, const Eigen::Vector2d& c, const Eigen::Matri
 }
 
 std::string DemoSvg(const SeedRun& run, const std::string& title) {
-  const std::vector<std::pair<std::string, const char*>> colours = {{"truth", "#2ca02c"},
-                                                                    {"dead reckoning", "#999999"},
-                                                                    {"EKF", "#d62728"},
-                                                                    {"UKF", "#ff7f0e"},
-                                                                    {"graph (EKF seed)", "#1f77b4"}};
+  const std::vector<std::pair<std::string, const char*>> colours = {
+      {"truth", "#2ca02c"}, {"dead reckoning", "#999999"}, {"EKF", "#d62728"},
+      {"UKF", "#ff7f0e"},   {"invariant EKF", "#9467bd"},  {"graph (EKF seed)", "#1f77b4"}};
   std::vector<std::pair<std::string, const Track*>> shown;
   Track truth;
   truth.poses = run.world.truth;
@@ -353,8 +360,8 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
     err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
     return 2;
   }
-  if (cmd.seeds < 1 || cmd.setup.steps < 1) {
-    err << "tether ekf-demo: --seeds and --steps must be at least 1\n";
+  if (cmd.seeds < 1 || cmd.setup.steps < 1 || cmd.setup.invariant_iterations < 1) {
+    err << "tether ekf-demo: --seeds, --steps and --invariant-iterations must be at least 1\n";
     return 2;
   }
   if (!(cmd.setup.range_sigma > 0 && cmd.setup.bearing_sigma > 0 && std::isfinite(cmd.setup.range_sigma) &&

@@ -2,7 +2,7 @@
 // `tether ekf-demo`: the filter experiment of the thesis's chapters 3 and 4.2 on simulated
 // worlds (frontends/ekf/landmark_simulator.h). For each experiment (1: control noise std
 // (0.1 m/s, pi/18 rad/s); 2: doubled), each data association (known, nearest neighbour) and
-// each seed, it runs dead reckoning, EKF-SLAM and UKF-SLAM, builds the pose graph from the same
+// each seed, it runs dead reckoning, EKF-SLAM, UKF-SLAM and the invariant EKF, builds the pose graph from the same
 // odometry and observations, seeds it with each filter's run, feeds it to the incremental
 // smoother step by step and solves it; it reports, over the seeds, mean +- std of the robot
 // trajectory RMSE and the landmark RMSE of each, the wrong associations, and the time; with
@@ -23,6 +23,13 @@ struct EkfDemoSetup {
   /// Also the consistency of each method's pose estimate at every step (NEES; the graphs: the
   /// smoother's online estimate and marginal after each step). Costs a marginal per step.
   bool consistency = false;
+  /// The invariant EKF's min_range [m]: observations nearer are not used. Negative: 1.5 range
+  /// sigmas (3 m at the thesis's noise; docs/front_ends.md, "Consistency").
+  double invariant_min_range = -1;
+  /// The invariant EKF's update_iterations.
+  int invariant_iterations = 2;
+  /// Also the graphs seeded by the filters (false: the filters alone, much faster).
+  bool graphs = true;
 };
 
 struct EkfDemoCommand {
