@@ -334,7 +334,12 @@ TEST_F(CarmenTest, UnusableOptionsAreRefused) {
   EXPECT_NE(error(o).find("flaser_fov"), std::string::npos);
   o = {};
   o.scan_topic = "";
-  EXPECT_NE(error(o).find("empty topic"), std::string::npos);
+  EXPECT_NE(error(o).find("lidar reader: empty topic"), std::string::npos);
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "empty topic name");
+  EXPECT_FALSE(o.IsValid(nullptr));
+  EXPECT_TRUE(LidarReadOptions().IsValid(&why));
 }
 
 TEST(OdometrySourceNames, RoundTrip) {

@@ -23,21 +23,29 @@ constexpr EnumName<LogFormat> kLogFormatNames[] = {
 
 }  // namespace
 
-void CheckReadOptions(const LidarReadOptions& o) {
+bool LidarReadOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const char* what) {
+    if (why != nullptr) *why = what;
+    return false;
+  };
   const auto bad = [](double v) { return !std::isfinite(v) || v < 0; };
-  if (bad(o.limits.min_range) || bad(o.limits.max_range)) {
-    throw InvalidArgument("lidar reader: range limits must be finite and not negative (0: the source's own)");
+  if (bad(limits.min_range) || bad(limits.max_range)) {
+    return fail("range limits must be finite and not negative (0: the source's own)");
   }
-  if (o.limits.max_range > 0 && o.limits.min_range >= o.limits.max_range) {
-    throw InvalidArgument("lidar reader: the minimum range must be below the maximum range");
+  if (limits.max_range > 0 && limits.min_range >= limits.max_range) {
+    return fail("the minimum range must be below the maximum range");
   }
-  if (!(o.flaser_max_range > 0) || !std::isfinite(o.flaser_max_range)) {
-    throw InvalidArgument("lidar reader: flaser_max_range must be positive and finite");
+  if (!(flaser_max_range > 0) || !std::isfinite(flaser_max_range)) {
+    return fail("flaser_max_range must be positive and finite");
   }
-  if (!(o.flaser_fov > 0) || !(o.flaser_fov <= 2 * M_PI)) {
-    throw InvalidArgument("lidar reader: flaser_fov must be in (0, 2 pi] radians");
-  }
-  if (o.scan_topic.empty() || o.odom_topic.empty()) throw InvalidArgument("lidar reader: empty topic name");
+  if (!(flaser_fov > 0) || !(flaser_fov <= 2 * M_PI)) return fail("flaser_fov must be in (0, 2 pi] radians");
+  if (scan_topic.empty() || odom_topic.empty()) return fail("empty topic name");
+  return true;
+}
+
+void CheckReadOptions(const LidarReadOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidArgument("lidar reader: " + why);
 }
 
 const char* ToString(OdometrySource s) { return NameOf(kOdometrySourceNames, s); }
@@ -86,6 +94,7 @@ void FinishLog(const LidarReadOptions& options, LidarLog* log) {
     if (options.limits.max_range > 0) s.range_max = std::min(s.range_max, options.limits.max_range);
   }
   AttachOdometry(log->path, options.odometry, log);
+  log->odometry.Sorted();  // sorted now, so that later const calls change nothing
 }
 
 std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log) {

@@ -50,6 +50,10 @@ struct LidarReadOptions {
   /// Bags: the topics.
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
+
+  /// False (and why) for negative or non-finite limits, a minimum not below the maximum, a
+  /// non-positive FLASER range or field of view, an empty topic.
+  bool IsValid(std::string* why) const;
 };
 
 struct LidarLog {
@@ -77,7 +81,7 @@ LogFormat DetectLogFormat(const std::string& path);
 /// Used by the readers; throws ParseError naming `path` where a scan has no odometry to take.
 void AttachOdometry(const std::string& path, OdometrySource source, LidarLog* log);
 
-/// Throws InvalidArgument where the options are unusable (each reader calls it first).
+/// Throws InvalidArgument "lidar reader: <IsValid's why>" (each reader calls it first).
 void CheckReadOptions(const LidarReadOptions& options);
 
 /// Each reader's last step: puts `options.limits` on every scan and attaches the odometry

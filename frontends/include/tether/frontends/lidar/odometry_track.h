@@ -20,7 +20,9 @@ class OdometryTrack {
   void Add(double stamp, const SE2<double>& pose);
   std::size_t size() const { return poses_.size(); }
   bool empty() const { return poses_.empty(); }
-  /// The poses sorted by time (stable: equal stamps keep their order of arrival).
+  /// The poses sorted by time (stable: equal stamps keep their order of arrival). Sorts on the
+  /// first call after an Add (so two threads must not make that call at once; a log's track
+  /// comes sorted from the readers).
   const std::vector<StampedPose2>& Sorted() const;
 
   /// The pose at `stamp`: linear in x, y and in the shortest-way angle between the two poses
