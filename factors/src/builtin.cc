@@ -9,6 +9,7 @@
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
 #include "tether/factors/range_bearing.h"
+#include "tether/factors/scan_match_se2.h"
 #include "tether/factors/switchable.h"
 
 namespace tether {
@@ -171,6 +172,7 @@ void RegisterBuiltinFactors(Registry& r) {
     r.Register(std::move(t));
   }
   RegisterSwitchableFactors(r);
+  RegisterScanMatchFactor(r);
 }
 
 Registry& DefaultRegistry() {

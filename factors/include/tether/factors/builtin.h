@@ -20,7 +20,9 @@
 // "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1" at the top of the file.
 //
 // and the switchable constraints of tether/factors/switchable.h (the Switch variable type,
-// VERTEX_SWITCH; EDGE_SWITCH_PRIOR, EDGE_SE2_SWITCHABLE, EDGE_SE3_SWITCHABLE).
+// VERTEX_SWITCH; EDGE_SWITCH_PRIOR, EDGE_SE2_SWITCHABLE, EDGE_SE3_SWITCHABLE), and ScanMatchSE2
+// (tether/factors/scan_match_se2.h: a scan against a probability grid; no g2o tag, since a
+// file cannot hold the grid).
 #include "tether/core/registry.h"
 
 namespace tether {
