@@ -19,8 +19,7 @@ class RosBagTest : public testing::LidarFilesTest {
   void SetUp() override {
     LidarFilesTest::SetUp();
     if (!RosBagSupported()) {
-      GTEST_SKIP() << "built without ROS 1 bag support (TETHER_WITH_ROSBAG=OFF: librosbag-storage-dev, "
-                      "libsensor-msgs-dev, libnav-msgs-dev not found; scripts/install_deps.sh installs them)";
+      GTEST_SKIP() << testing::kNoBagSupport;
     }
     bag_ = testing::LidarDataset("bags/aces.bag");
     if (bag_.empty())

@@ -25,10 +25,9 @@ using testing::LidarDataset;
     GTEST_SKIP() << "dataset lidar/" << (name) << " absent (../shared/datasets not beside the repository)"; \
   }
 
-#define REQUIRE_BAGS()                                                                                       \
-  if (!RosBagSupported()) {                                                                                  \
-    GTEST_SKIP() << "built without ROS 1 bag support (TETHER_WITH_ROSBAG=OFF: librosbag-storage-dev, "       \
-                    "libsensor-msgs-dev, libnav-msgs-dev not found; scripts/install_deps.sh installs them)"; \
+#define REQUIRE_BAGS()                      \
+  if (!RosBagSupported()) {                 \
+    GTEST_SKIP() << testing::kNoBagSupport; \
   }
 
 struct LogFacts {

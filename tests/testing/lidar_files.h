@@ -53,6 +53,11 @@ std::string ErrorOf(F&& f) {
   return "(no error)";
 }
 
+/// Why the bag tests skip in a build without bag support.
+constexpr const char* kNoBagSupport =
+    "built without ROS 1 bag support (TETHER_WITH_ROSBAG=OFF; it is on where librosbag-storage-dev, "
+    "libsensor-msgs-dev and libnav-msgs-dev are found: scripts/install_deps.sh installs them)";
+
 /// ../shared/datasets/lidar/<name>; "" (after GTEST_SKIP by the caller) where absent.
 inline std::string LidarDataset(const std::string& name) {
   const std::string p = std::string(TETHER_DATASETS_DIR) + "/lidar/" + name;
