@@ -20,13 +20,13 @@ Eigen::Matrix2d Rotation(double a) {
 // J v: v turned by 90 degrees.
 Eigen::Vector2d Perp(const Eigen::Vector2d& v) { return Eigen::Vector2d(-v.y(), v.x()); }
 
-// The first-order map from the invariant error to the parameters' error:
-// d p = xi_p + xi_theta J p, d theta = xi_theta, d l = xi_l + xi_theta J l.
-Eigen::MatrixXd ErrorMap(const Eigen::VectorXd& mean) {
+// The first-order map from the invariant error to the parameters' error is M = I + m e_theta^T:
+// d p = xi_p + xi_theta J p, d theta = xi_theta, d l = xi_l + xi_theta J l. This is m.
+Eigen::VectorXd ErrorMapColumn(const Eigen::VectorXd& mean) {
   const Eigen::Index n = mean.size();
-  Eigen::MatrixXd m = Eigen::MatrixXd::Identity(n, n);
-  m.block<2, 1>(0, 2) = Perp(mean.head<2>());
-  for (Eigen::Index li = 3; li + 1 < n; li += 2) m.block<2, 1>(li, 2) = Perp(mean.segment<2>(li));
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(n);
+  m.head<2>() = Perp(mean.head<2>());
+  for (Eigen::Index li = 3; li + 1 < n; li += 2) m.segment<2>(li) = Perp(mean.segment<2>(li));
   return m;
 }
 
@@ -43,8 +43,13 @@ InvariantEkfSlam::InvariantEkfSlam(const SE2d& start, const Eigen::Matrix3d& sta
 
 void InvariantEkfSlam::RefreshParameterCovariance() {
   xi_cov_ = 0.5 * (xi_cov_ + xi_cov_.transpose()).eval();
-  const Eigen::MatrixXd m = ErrorMap(mean_);
-  cov_ = m * xi_cov_ * m.transpose();
+  // M P M^T = P + m c^T + c m^T + P_theta,theta m m^T with c = P e_theta: O(n^2).
+  const Eigen::VectorXd m = ErrorMapColumn(mean_);
+  const Eigen::VectorXd c = xi_cov_.col(2);
+  cov_ = xi_cov_;
+  cov_.noalias() += m * c.transpose();
+  cov_.noalias() += c * m.transpose();
+  cov_.noalias() += xi_cov_(2, 2) * m * m.transpose();
 }
 
 void InvariantEkfSlam::PredictChecked(const odometry::Control& u, double dt) {
