@@ -1,0 +1,101 @@
+#pragma once
+// The fast correlative scan matcher (Hess et al. 2016, section V): the best pose of a scan in a
+// large window around a guess, found by branch and bound over the same candidates an
+// exhaustive search would score, with the same answer. For loop closure: a scan against a
+// finished submap.
+//
+// Candidates: rotations theta_k = guess.theta + k delta_theta, |k| <= K, with
+// delta_theta = arccos(1 - r^2 / (2 d_max^2)) (r the resolution, d_max the farthest point:
+// no point moves by more than one cell between neighbouring rotations); translations
+// guess.t + (dx, dy) r with integer |dx|, |dy| <= W. A candidate's score is the mean of the
+// grid's probabilities at the cells of the moved points (unknown cells count as the grid's
+// minimum probability).
+//
+// Bound: precomputation grid h holds, at cell c, the largest value of the cells
+// c + [0, 2^h)^2. A node (k, dx, dy, h) stands for the 2^h x 2^h translations from (dx, dy);
+// scored on grid h its mean bounds every candidate below it. Depth first, children in order of
+// their bound, a node is cut once its bound is not above the best score found (at first
+// min_score): the best candidate is exact.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "tether/core/se2.h"
+#include "tether/factors/probability_grid.h"
+
+namespace tether {
+namespace lidar {
+
+struct FastMatcherOptions {
+  /// Half the side of the square of translations searched (m): 3.5 is a 7 m x 7 m window.
+  double linear_search_window = 3.5;
+  /// Half the range of rotations searched (rad): 15 degrees, a 30-degree window.
+  double angular_search_window = 0.26179938779914941;
+  /// Precomputation grids 0 .. depth - 1: the top nodes cover 2^(depth - 1) cells a side.
+  int branch_and_bound_depth = 7;
+  /// The rotation step (rad); 0: from the resolution and the farthest point, as above.
+  double angular_step = 0;
+  bool IsValid(std::string* why) const;
+};
+
+/// The max-filtered copies of a grid, one per height (cell values as ProbabilityGrid stores
+/// them; a cell outside the grid's stored box is unknown).
+class PrecomputationGrids {
+ public:
+  /// Throws InvalidArgument for depth < 1 or above 16.
+  PrecomputationGrids(const ProbabilityGrid& grid, int depth);
+  int depth() const { return static_cast<int>(levels_.size()); }
+  /// max over c + [0, 2^h)^2 of the grid's values.
+  std::uint16_t Value(int h, const ProbabilityGrid::Cell& c) const {
+    const Level& l = levels_[static_cast<std::size_t>(h)];
+    const ProbabilityGrid::Cell d = c - l.min_cell;
+    if (d.x() < 0 || d.y() < 0 || d.x() >= l.size.x() || d.y() >= l.size.y()) return ProbabilityGrid::kUnknownValue;
+    return l.values[static_cast<std::size_t>(d.y() * l.size.x() + d.x())];
+  }
+
+ private:
+  struct Level {
+    ProbabilityGrid::Cell min_cell = ProbabilityGrid::Cell::Zero();
+    ProbabilityGrid::Cell size = ProbabilityGrid::Cell::Zero();
+    std::vector<std::uint16_t> values;
+  };
+  std::vector<Level> levels_;
+};
+
+struct FastMatch {
+  bool found = false;  ///< a candidate scored above min_score
+  SE2d pose;           ///< the best candidate (the guess where none was found)
+  double score = 0;    ///< its mean probability
+  long nodes = 0;      ///< nodes (inner and leaves) scored
+  double angular_step = 0;
+  int rotations = 0;     ///< 2 K + 1
+  int translations = 0;  ///< 2 W + 1 a side
+};
+
+class FastCorrelativeScanMatcher2D {
+ public:
+  /// Precomputes the grids of `grid`, which must outlive the matcher and not change. Throws
+  /// InvalidArgument for invalid options.
+  FastCorrelativeScanMatcher2D(const ProbabilityGrid& grid, const FastMatcherOptions& options = {});
+
+  /// The best candidate around `guess` (the scan's pose in the grid's frame) for `points` (the
+  /// scan in its own frame), if its score is above min_score. Throws InvalidArgument for no
+  /// points, or points or a guess that are not finite.
+  FastMatch Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
+  /// The same candidates scored one by one: the reference for Match, and its speed-up.
+  FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
+
+  const FastMatcherOptions& options() const { return options_; }
+
+ private:
+  struct Setup;
+  Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const;
+
+  const ProbabilityGrid& grid_;
+  FastMatcherOptions options_;
+  PrecomputationGrids precomputed_;
+  std::vector<float> probability_;  // per stored value
+};
+
+}  // namespace lidar
+}  // namespace tether

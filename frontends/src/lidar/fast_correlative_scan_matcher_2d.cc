@@ -1,0 +1,212 @@
+#include "tether/frontends/lidar/fast_correlative_scan_matcher_2d.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include "tether/core/error.h"
+
+namespace tether {
+namespace lidar {
+
+using Cell = ProbabilityGrid::Cell;
+
+bool FastMatcherOptions::IsValid(std::string* why) const {
+  const auto fail = [&](const std::string& w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  if (!(std::isfinite(linear_search_window) && linear_search_window >= 0)) {
+    return fail("linear_search_window must be finite and not negative");
+  }
+  if (!(std::isfinite(angular_search_window) && angular_search_window >= 0 && angular_search_window <= M_PI)) {
+    return fail("angular_search_window must lie in [0, pi]");
+  }
+  if (branch_and_bound_depth < 1 || branch_and_bound_depth > 16) {
+    return fail("branch_and_bound_depth must lie in [1, 16]");
+  }
+  if (!(std::isfinite(angular_step) && angular_step >= 0)) return fail("angular_step must be finite and not negative");
+  return true;
+}
+
+PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth) {
+  if (depth < 1 || depth > 16) throw InvalidArgument("PrecomputationGrids: depth must lie in [1, 16]");
+  Level base;
+  base.min_cell = grid.min_cell();
+  base.size = grid.size();
+  base.values.resize(static_cast<std::size_t>(base.size.x()) * static_cast<std::size_t>(base.size.y()));
+  for (int y = 0; y < base.size.y(); ++y) {
+    for (int x = 0; x < base.size.x(); ++x)
+      base.values[static_cast<std::size_t>(y * base.size.x() + x)] = grid.Value(base.min_cell + Cell(x, y));
+  }
+  levels_.push_back(std::move(base));
+  for (int h = 1; h < depth; ++h) {
+    // The window of height h is four windows of height h - 1, s cells apart.
+    const int s = 1 << (h - 1);
+    const Level& below = levels_.back();
+    Level l;
+    l.min_cell = below.min_cell - Cell(s, s);
+    l.size = below.size.x() == 0 ? Cell::Zero() : Cell(below.size + Cell(s, s));
+    l.values.resize(static_cast<std::size_t>(l.size.x()) * static_cast<std::size_t>(l.size.y()));
+    levels_.push_back(std::move(l));
+    Level& top = levels_.back();
+    for (int y = 0; y < top.size.y(); ++y) {
+      for (int x = 0; x < top.size.x(); ++x) {
+        const Cell c = top.min_cell + Cell(x, y);
+        top.values[static_cast<std::size_t>(y * top.size.x() + x)] =
+            std::max(std::max(Value(h - 1, c), Value(h - 1, c + Cell(s, 0))),
+                     std::max(Value(h - 1, c + Cell(0, s)), Value(h - 1, c + Cell(s, s))));
+      }
+    }
+  }
+}
+
+struct FastCorrelativeScanMatcher2D::Setup {
+  double step = 0;
+  int k_max = 0;                         // rotations -K..K
+  int w = 0;                             // translations -W..W cells
+  std::vector<std::vector<Cell>> cells;  // per rotation index k + K: the points' cells at the guess's translation
+  SE2d Pose(const SE2d& guess, int k, int dx, int dy, double r) const {
+    return SE2d(guess.x() + dx * r, guess.y() + dy * r, guess.theta() + k * step);
+  }
+};
+
+FastCorrelativeScanMatcher2D::FastCorrelativeScanMatcher2D(const ProbabilityGrid& grid,
+                                                           const FastMatcherOptions& options)
+    : grid_(grid),
+      options_(options),
+      precomputed_(grid, options.IsValid(nullptr) ? options.branch_and_bound_depth : 1),
+      probability_(ProbabilityGrid::kMaxValue + 1) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw InvalidArgument("fast correlative scan matcher: " + why);
+  for (std::size_t v = 0; v < probability_.size(); ++v)
+    probability_[v] = static_cast<float>(grid.ValueToProbability(static_cast<std::uint16_t>(v)));
+}
+
+FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(
+    const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const {
+  if (points.empty()) throw InvalidArgument("fast correlative scan matcher: the scan has no points");
+  if (!std::isfinite(guess.x()) || !std::isfinite(guess.y()) || !std::isfinite(guess.theta())) {
+    throw InvalidArgument("fast correlative scan matcher: the guess is not finite");
+  }
+  double d_max = 0;
+  for (const Eigen::Vector2d& p : points) {
+    if (!p.allFinite()) throw InvalidArgument("fast correlative scan matcher: a point is not finite");
+    d_max = std::max(d_max, p.norm());
+  }
+  const double r = grid_.resolution();
+  Setup s;
+  s.step = options_.angular_step;
+  if (s.step == 0) {
+    // No point moves by more than one cell between neighbouring rotations.
+    s.step = d_max > r / 2 ? std::acos(std::max(-1.0, 1 - r * r / (2 * d_max * d_max))) : M_PI / 2;
+  }
+  s.k_max = static_cast<int>(std::ceil(options_.angular_search_window / s.step - 1e-9));
+  s.w = static_cast<int>(std::ceil(options_.linear_search_window / r - 1e-9));
+  s.cells.resize(static_cast<std::size_t>(2 * s.k_max + 1));
+  for (int k = -s.k_max; k <= s.k_max; ++k) {
+    const SE2d pose(guess.x(), guess.y(), guess.theta() + k * s.step);
+    std::vector<Cell>& c = s.cells[static_cast<std::size_t>(k + s.k_max)];
+    c.reserve(points.size());
+    for (const Eigen::Vector2d& p : points) c.push_back(grid_.CellOf(pose * p));
+  }
+  return s;
+}
+
+FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
+                                                        double min_score) const {
+  const Setup s = Prepare(guess, points);
+  FastMatch m;
+  m.pose = guess;
+  m.angular_step = s.step;
+  m.rotations = 2 * s.k_max + 1;
+  m.translations = 2 * s.w + 1;
+  float best = static_cast<float>(min_score);
+  const float n = static_cast<float>(points.size());
+  for (int k = -s.k_max; k <= s.k_max; ++k) {
+    const std::vector<Cell>& cells = s.cells[static_cast<std::size_t>(k + s.k_max)];
+    for (int dx = -s.w; dx <= s.w; ++dx) {
+      for (int dy = -s.w; dy <= s.w; ++dy) {
+        float sum = 0;
+        for (const Cell& c : cells) sum += probability_[precomputed_.Value(0, c + Cell(dx, dy))];
+        const float score = sum / n;
+        ++m.nodes;
+        if (score > best) {
+          best = score;
+          m.found = true;
+          m.score = score;
+          m.pose = s.Pose(guess, k, dx, dy, grid_.resolution());
+        }
+      }
+    }
+  }
+  return m;
+}
+
+FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
+                                              double min_score) const {
+  const Setup s = Prepare(guess, points);
+  FastMatch m;
+  m.pose = guess;
+  m.angular_step = s.step;
+  m.rotations = 2 * s.k_max + 1;
+  m.translations = 2 * s.w + 1;
+  struct Node {
+    int k, dx, dy;
+    float score;
+  };
+  const float n = static_cast<float>(points.size());
+  const auto score = [&](int h, int k, int dx, int dy) {
+    float sum = 0;
+    for (const Cell& c : s.cells[static_cast<std::size_t>(k + s.k_max)])
+      sum += probability_[precomputed_.Value(h, c + Cell(dx, dy))];
+    ++m.nodes;
+    return sum / n;
+  };
+  const auto by_score = [](const Node& a, const Node& b) { return a.score > b.score; };
+  const int top = precomputed_.depth() - 1;
+  const int width = 1 << top;
+  std::vector<Node> roots;
+  for (int k = -s.k_max; k <= s.k_max; ++k) {
+    for (int dx = -s.w; dx <= s.w; dx += width) {
+      for (int dy = -s.w; dy <= s.w; dy += width) roots.push_back(Node{k, dx, dy, score(top, k, dx, dy)});
+    }
+  }
+  std::stable_sort(roots.begin(), roots.end(), by_score);
+  float best = static_cast<float>(min_score);
+  Node best_node{0, 0, 0, 0};
+  // Depth first: a node whose bound is not above the best leaf so far is cut, and so are the
+  // nodes after it (they are sorted).
+  const std::function<void(const std::vector<Node>&, int)> search = [&](const std::vector<Node>& nodes, int h) {
+    for (const Node& node : nodes) {
+      if (!(node.score > best)) return;
+      if (h == 0) {
+        best = node.score;
+        best_node = node;
+        m.found = true;
+        continue;
+      }
+      const int half = 1 << (h - 1);
+      std::vector<Node> children;
+      children.reserve(4);
+      for (int ox : {0, half}) {
+        for (int oy : {0, half}) {
+          const int dx = node.dx + ox, dy = node.dy + oy;
+          if (dx > s.w || dy > s.w) continue;
+          children.push_back(Node{node.k, dx, dy, score(h - 1, node.k, dx, dy)});
+        }
+      }
+      std::stable_sort(children.begin(), children.end(), by_score);
+      search(children, h - 1);
+    }
+  };
+  search(roots, top);
+  if (m.found) {
+    m.score = best_node.score;
+    m.pose = s.Pose(guess, best_node.k, best_node.dx, best_node.dy, grid_.resolution());
+  }
+  return m;
+}
+
+}  // namespace lidar
+}  // namespace tether
