@@ -238,6 +238,8 @@ int main(int argc, char** argv) {
       ->add_option("--time-reference-tolerance", lc.time_reference_tolerance,
                    "Seconds of logger time searched for the raw scan")
       ->capture_default_str();
+  lidar_eval->add_option("--pose-offset", lc.pose_offset,
+                         "x,y,theta: score every pose T as T * offset (e.g. laser poses on relations of the robot's)");
   lidar_eval->add_option("--trajectory-out", lc.trajectory_output, "Also write the scored trajectory (TUM text)");
 
   try {

@@ -54,6 +54,30 @@ TEST_F(LidarEvalTest, ScoresATumTrajectory) {
   EXPECT_NE(r.output.find("squared translational error: 0.010000"), std::string::npos) << r.output;
 }
 
+TEST_F(LidarEvalTest, PoseOffsetComposesEveryPose) {
+  // The truth moved 0.3 m along each pose's own x axis: scored as is, off; with the offset
+  // -0.3,0,0 back on the relations exactly.
+  std::vector<lidar::StampedPose2> truth = lidar::ReadTumFile(P("est.txt"));
+  truth[3].pose = truth[3].pose * SE2<double>(0, -0.2, 0);
+  for (lidar::StampedPose2& p : truth) p.pose = p.pose * SE2<double>(0.3, 0, 0);
+  lidar::WriteTumFile(P("fwd.txt"), truth);
+  CliRun r = Tether("lidar-eval " + P("fwd.txt") + " " + P("r.relations"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output.find("translational error: 0.0000"), std::string::npos) << r.output;
+  r = Tether("lidar-eval " + P("fwd.txt") + " " + P("r.relations") + " --pose-offset=-0.3,0,0 --trajectory-out " +
+             P("back.tum"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("every pose composed with the offset (-0.3, 0, 0)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("translational error: 0.0000 +- 0.0000 m"), std::string::npos) << r.output;
+  EXPECT_NEAR(lidar::ReadTumFile(P("back.tum"))[0].pose.x(), 1,
+              1e-12);  // written after the offset: pose 0 back at (1, 0)
+  for (const char* bad : {"1,2", "1,2,3,4", "a,0,0", "1,,0", "1,2,nan"}) {
+    r = Tether("lidar-eval " + P("fwd.txt") + " " + P("r.relations") + " --pose-offset=" + bad);
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find("--pose-offset takes x,y,theta"), std::string::npos) << r.output;
+  }
+}
+
 TEST_F(LidarEvalTest, ScoresALogAndWritesItsTrajectory) {
   // A CARMEN log of the same poses (FLASER lines carry them), gzip-compressed.
   std::ostringstream log;

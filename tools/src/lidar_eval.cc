@@ -1,6 +1,7 @@
 #include "tether/tools/lidar_eval.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <ostream>
 #include <sstream>
 
@@ -30,6 +31,23 @@ std::string TrajectoryKind(const LidarEvalCommand& cmd) {
   return "tum";
 }
 
+// "x,y,theta" into *offset; false where it is not three finite numbers.
+bool ParseOffset(const std::string& text, SE2<double>* offset) {
+  double v[3];
+  std::size_t at = 0;
+  for (int k = 0; k < 3; ++k) {
+    const std::size_t comma = text.find(',', at);
+    if ((k < 2) != (comma != std::string::npos)) return false;
+    const std::string field = text.substr(at, k < 2 ? comma - at : std::string::npos);
+    char* end = nullptr;
+    v[k] = std::strtod(field.c_str(), &end);
+    if (field.empty() || *end != '\0' || !std::isfinite(v[k])) return false;
+    at = comma + 1;
+  }
+  *offset = SE2<double>(v[0], v[1], v[2]);
+  return true;
+}
+
 }  // namespace
 
 int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& err) {
@@ -46,6 +64,11 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
   if (!(cmd.tolerance >= 0) || !std::isfinite(cmd.tolerance) || !(cmd.time_reference_tolerance >= 0) ||
       !std::isfinite(cmd.time_reference_tolerance)) {
     err << usage << "--tolerance and --time-reference-tolerance must be finite and not negative\n";
+    return kExitUsage;
+  }
+  SE2<double> offset;
+  if (!cmd.pose_offset.empty() && !ParseOffset(cmd.pose_offset, &offset)) {
+    err << usage << "--pose-offset takes x,y,theta (metres, radians), got '" << cmd.pose_offset << "'\n";
     return kExitUsage;
   }
   read.scan_topic = cmd.scan_topic;
@@ -90,6 +113,11 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
             << " s (dropped); largest logger-time difference " << r.max_time_difference << " s\n";
         poses = r.poses;
       }
+    }
+    if (!cmd.pose_offset.empty()) {
+      for (lidar::StampedPose2& p : poses) p.pose = p.pose * offset;
+      out << "every pose composed with the offset (" << offset.x() << ", " << offset.y() << ", " << offset.theta()
+          << ")\n";
     }
     const std::vector<lidar::Relation> relations = lidar::ReadRelationsFile(cmd.relations);
     lidar::RelationsOptions ro;

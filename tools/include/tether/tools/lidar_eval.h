@@ -22,7 +22,10 @@ struct LidarEvalCommand {
   /// scan with its ranges near its logger time (restamp.h), as the corrected logs need.
   std::string time_reference;
   double time_reference_tolerance = 0.011;
-  /// Also write the trajectory scored (after restamping) as TUM text.
+  /// "x,y,theta": every pose T becomes T * offset before scoring (e.g. laser poses scored on
+  /// relations of the robot's poses); empty for none.
+  std::string pose_offset;
+  /// Also write the trajectory scored (after restamping and the offset) as TUM text.
   std::string trajectory_output;
 };
 
