@@ -125,7 +125,10 @@ TEST(RegistryTest, BuiltinsAreFoundByTagAndName) {
   VarType sw;
   ASSERT_TRUE(r.FindVariableByTag("VERTEX_SWITCH", &sw));
   EXPECT_EQ(ToString(sw), "Switch");
-  EXPECT_EQ(r.types().size(), 10u);
+  // The scan-match factor (tether/factors/scan_match_se2.h): no file form, since it carries a grid.
+  ASSERT_NE(r.FindByName("ScanMatchSE2"), nullptr);
+  EXPECT_EQ(r.FindByName("ScanMatchSE2")->tag, "");
+  EXPECT_EQ(r.types().size(), 11u);
 }
 
 TEST(RegistryTest, DuplicateNameNamesBothOwners) {

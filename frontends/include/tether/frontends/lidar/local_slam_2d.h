@@ -1,0 +1,71 @@
+#pragma once
+// Local SLAM: scans in, each matched against the submap built from the scans before it, then
+// inserted (Hess et al. 2016, section IV without the loop closure of section V).
+//
+// For every scan: the pose predicted from the previous matched pose and the odometry's motion
+// since the previous scan; the real-time correlative matcher's search around the prediction;
+// the nonlinear refinement from its result with the regularisers towards the prediction; the
+// scan inserted into the active submaps at the refined pose. The first scan is put at its
+// odometry pose (or the origin), unmatched. Poses are the robot's in the local map frame
+// (the laser's offset on the robot, LaserScan::laser_in_robot, applied to the points).
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tether/core/se2.h"
+#include "tether/frontends/lidar/laser_scan.h"
+#include "tether/frontends/lidar/odometry_track.h"
+#include "tether/frontends/lidar/real_time_correlative_scan_matcher_2d.h"
+#include "tether/frontends/lidar/scan_refiner_2d.h"
+#include "tether/frontends/lidar/submap_2d.h"
+
+namespace tether {
+namespace lidar {
+
+struct LocalSlamOptions {
+  SubmapOptions submaps;
+  /// Off: the refinement starts at the prediction itself.
+  bool use_correlative_matcher = true;
+  CorrelativeMatcherOptions correlative;
+  ScanRefinerOptions refiner;
+  /// Edge of the voxel filter applied to the points used for matching (m; 0: none). The grid
+  /// gets every valid point.
+  double matching_voxel_size = 0.05;
+  RangeLimits limits;
+  bool IsValid(std::string* why) const;
+};
+
+/// One scan's result, with the seconds its steps took.
+struct LocalScanResult {
+  double stamp = 0;
+  SE2d predicted;        ///< the pose before matching
+  SE2d pose;             ///< the matched pose
+  bool matched = false;  ///< false for the first scan and for a scan without points
+  int matching_points = 0;
+  double correlative_score = 0;
+  double correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
+};
+
+class LocalSlam2D {
+ public:
+  /// Throws InvalidArgument for invalid options.
+  explicit LocalSlam2D(const LocalSlamOptions& options);
+
+  /// Matches and inserts one scan; scans must come in time order (not checked: a log's order).
+  LocalScanResult AddScan(const LaserScan& scan);
+
+  const ActiveSubmaps2D& submaps() const { return submaps_; }
+  /// One pose per scan added, with the scan's stamp.
+  const std::vector<StampedPose2>& trajectory() const { return trajectory_; }
+
+ private:
+  LocalSlamOptions options_;
+  ActiveSubmaps2D submaps_;
+  std::vector<StampedPose2> trajectory_;
+  SE2d last_odometry_;
+  bool last_has_odometry_ = false;
+};
+
+}  // namespace lidar
+}  // namespace tether

@@ -1,0 +1,85 @@
+#include "tether/frontends/lidar/local_slam_2d.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "tether/core/error.h"
+#include "tether/core/registry.h"
+#include "tether/frontends/lidar/voxel_filter.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+LocalSlamOptions Checked(const LocalSlamOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("LocalSlamOptions: " + why);
+  return options;
+}
+
+}  // namespace
+
+bool LocalSlamOptions::IsValid(std::string* why) const {
+  if (!(std::isfinite(matching_voxel_size) && matching_voxel_size >= 0)) {
+    if (why != nullptr) {
+      *why = "matching_voxel_size is " + FormatDouble(matching_voxel_size) + "; it must be finite and not negative";
+    }
+    return false;
+  }
+  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why);
+}
+
+LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options) : options_(Checked(options)), submaps_(options.submaps) {}
+
+LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
+  LocalScanResult result;
+  result.stamp = scan.stamp;
+  const bool has_odometry = scan.odometry_origin != OdometryOrigin::kNone;
+  if (trajectory_.empty()) {
+    result.predicted = has_odometry ? scan.odometry : SE2d();
+  } else {
+    result.predicted = trajectory_.back().pose;
+    if (has_odometry && last_has_odometry_)
+      result.predicted = result.predicted * (last_odometry_.Inverse() * scan.odometry);
+  }
+  last_odometry_ = scan.odometry;
+  last_has_odometry_ = has_odometry;
+  result.pose = result.predicted;
+
+  // Points in the robot's frame.
+  std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
+  for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+  const std::shared_ptr<const Submap2D> target = submaps_.matching_submap();
+  if (target != nullptr && !points.empty()) {
+    std::vector<Eigen::Vector2d> matching =
+        options_.matching_voxel_size > 0 ? VoxelFilter(points, options_.matching_voxel_size) : points;
+    result.matching_points = static_cast<int>(matching.size());
+    auto t0 = std::chrono::steady_clock::now();
+    SE2d start = result.predicted;
+    if (options_.use_correlative_matcher) {
+      const CorrelativeMatch m = MatchCorrelative(*target->grid(), result.predicted, matching, options_.correlative);
+      start = m.pose;
+      result.correlative_score = m.score;
+    }
+    result.correlative_seconds = SecondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    result.pose = RefineScanPose(target->grid(), start, result.predicted, matching, options_.refiner).pose;
+    result.refine_seconds = SecondsSince(t0);
+    result.matched = true;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Eigen::Vector2d> in_map(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
+  submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
+  result.insert_seconds = SecondsSince(t0);
+  trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
+  return result;
+}
+
+}  // namespace lidar
+}  // namespace tether
