@@ -7,6 +7,7 @@
 #include "tether/tools/commands.h"
 #include "tether/tools/ekf_demo.h"
 #include "tether/tools/lidar_eval.h"
+#include "tether/tools/lidar_slam.h"
 #include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
@@ -216,6 +217,28 @@ int main(int argc, char** argv) {
   ekf_demo->add_flag("-q,--quiet", ec.quiet, "Only the table");
 
   tether::LidarEvalCommand lc;
+  tether::LidarCommand lsc;
+  CLI::App* lidar = app.add_subcommand(
+      "lidar", "2D LiDAR SLAM over a laser log (CARMEN or ROS 1 bag): trajectory, pose graph and occupancy map");
+  lidar->add_option("log", lsc.log, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
+  lidar->add_option("-o,--output", lsc.output_dir, "Output folder (made if missing)")->required();
+  lidar->add_flag_function(
+      "--no-loop-closure", [&lsc](std::int64_t) { lsc.loop_closure = false; },
+      "Local SLAM and the pose graph without loop closures");
+  lidar->add_option("--threads", lsc.threads, "Background loop-closure search threads (0: inline)")
+      ->capture_default_str();
+  lidar->add_option("--max-scans", lsc.max_scans, "Only the first N scans (0: all)")->capture_default_str();
+  lidar->add_option("--scans-per-submap", lsc.scans_per_submap, "Scans in a finished submap")->capture_default_str();
+  lidar->add_option("--resolution", lsc.resolution, "Grid resolution [m]")->capture_default_str();
+  lidar->add_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan")
+      ->capture_default_str();
+  lidar->add_option("--min-score", lsc.min_score, "Branch and bound's score threshold")->capture_default_str();
+  lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();
+  lidar->add_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
+  lidar->add_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
+  lidar->add_option("--progress-every", lsc.progress_every, "Scans between progress lines (0: none)")
+      ->capture_default_str();
+  lidar->add_flag("-q,--quiet", lsc.quiet, "No progress lines");
   CLI::App* lidar_eval = app.add_subcommand(
       "lidar-eval",
       "Score a trajectory on the relations of Kuemmerle et al. (mean +- std of the relative-pose errors)");
@@ -259,7 +282,8 @@ int main(int argc, char** argv) {
       {bench, {{"-o", &bc.output}}},
       {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}},
       {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}},
-      {lidar_eval, {{"--trajectory-out", &lc.trajectory_output}}}};
+      {lidar_eval, {{"--trajectory-out", &lc.trajectory_output}}},
+      {lidar, {{"-o", &lsc.output_dir}}}};
   for (const auto& [sub, options] : paths) {
     if (!sub->parsed()) continue;
     for (const auto& [name, value] : options) {
@@ -278,6 +302,7 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return tether::RunReplay(rc, std::cout, std::cerr);
     if (ekf_demo->parsed()) return tether::RunEkfDemo(ec, std::cout, std::cerr);
     if (lidar_eval->parsed()) return tether::RunLidarEval(lc, std::cout, std::cerr);
+    if (lidar->parsed()) return tether::RunLidar(lsc, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
     std::cerr << "error: " << e.what() << "\n";

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "testing/lidar_files.h"
+#include "testing/synthetic_room.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/fast_correlative_scan_matcher_2d.h"
 #include "tether/frontends/lidar/lidar_log.h"
@@ -43,21 +44,14 @@ TEST(PrecomputationGridsTest, EachHeightIsTheMaximumOverItsWindow) {
   EXPECT_THROW(PrecomputationGrids(grid, 0), InvalidArgument);
 }
 
+using testing::Segment;
+
 // A room of 10 m x 8 m with a 2 m x 1 m box inside (so that no rotation or shift of the room
-// maps it onto itself), as wall segments.
-struct Segment {
-  Eigen::Vector2d a, b;
-};
+// maps it onto itself).
 std::vector<Segment> Room() {
-  const auto rect = [](double x0, double y0, double x1, double y1, std::vector<Segment>* s) {
-    s->push_back({{x0, y0}, {x1, y0}});
-    s->push_back({{x1, y0}, {x1, y1}});
-    s->push_back({{x1, y1}, {x0, y1}});
-    s->push_back({{x0, y1}, {x0, y0}});
-  };
   std::vector<Segment> s;
-  rect(0, 0, 10, 8, &s);
-  rect(6, 5, 8, 6, &s);
+  testing::AddRectangle(0, 0, 10, 8, &s);
+  testing::AddRectangle(6, 5, 8, 6, &s);
   return s;
 }
 
@@ -77,21 +71,11 @@ ProbabilityGrid RoomGrid(double r) {
 // A scan from `pose` into the room: 181 beams over 360 degrees, the nearest wall of each.
 std::vector<Eigen::Vector2d> RoomScan(const SE2d& pose) {
   std::vector<Eigen::Vector2d> points;
+  const std::vector<double> ranges = testing::RayCastScan(Room(), pose, 181, -M_PI, 2 * M_PI / 181);
   for (int i = 0; i < 181; ++i) {
     const double a = -M_PI + 2 * M_PI * i / 181;
-    const Eigen::Vector2d o = pose.translation(), d(std::cos(pose.theta() + a), std::sin(pose.theta() + a));
-    double best = 1e9;
-    for (const Segment& s : Room()) {
-      // o + t d = s.a + u (s.b - s.a)
-      const Eigen::Vector2d e = s.b - s.a;
-      const double den = d.x() * (-e.y()) - d.y() * (-e.x());
-      if (std::abs(den) < 1e-12) continue;
-      const Eigen::Vector2d w = s.a - o;
-      const double t = (w.x() * (-e.y()) - w.y() * (-e.x())) / den;
-      const double u = (d.x() * w.y() - d.y() * w.x()) / den;
-      if (t > 1e-9 && u >= 0 && u <= 1) best = std::min(best, t);
-    }
-    if (best < 1e8) points.push_back(Eigen::Vector2d(best * std::cos(a), best * std::sin(a)));
+    if (std::isfinite(ranges[static_cast<std::size_t>(i)]))
+      points.push_back(ranges[static_cast<std::size_t>(i)] * Eigen::Vector2d(std::cos(a), std::sin(a)));
   }
   return points;
 }

@@ -1,0 +1,152 @@
+#pragma once
+// The LiDAR front-end's pose graph (Hess et al. 2016, section V): a node per scan and per
+// submap, fed to tether's incremental smoother while the scans stream in.
+//
+// - Local constraints: each scan to every submap it was inserted into, the relative pose local
+//   SLAM gave it (submap local pose^-1 * scan local pose), BetweenSE2 with local_*_sigma.
+// - Loop closures: a scan against a finished submap it is not in, searched by branch and bound
+//   (fast_correlative_scan_matcher_2d.h) in the window around the pose the graph estimates,
+//   refined by the scan-match factor (scan_refiner_2d.h), and added as a BetweenSE2 with a Huber
+//   loss (loop_*_sigma, huber_delta) marked as a loop closure. Searched: every
+//   search_every_n_scans-th scan against the finished submaps within max_search_distance of it,
+//   and every earlier such scan against a submap when it is finished.
+// - Searches run on `threads` background threads. Their results are applied in the order the
+//   searches were started, at fixed scan counts (every apply_every_n_scans scans, waiting for
+//   every search started until then) and at Finish(): the result does not depend on the
+//   number of threads or their timing.
+// Keys: scan i is Symbol('s', i), submap j Symbol('m', j); a prior holds the first scan.
+#include <Eigen/Core>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tether/core/key.h"
+#include "tether/core/se2.h"
+#include "tether/frontends/lidar/fast_correlative_scan_matcher_2d.h"
+#include "tether/frontends/lidar/scan_refiner_2d.h"
+#include "tether/frontends/lidar/submap_2d.h"
+#include "tether/solvers/incremental_smoother.h"
+
+namespace tether {
+namespace lidar {
+
+inline Key ScanKey(int i) { return Symbol('s', static_cast<std::uint64_t>(i)); }
+inline Key SubmapKey(int j) { return Symbol('m', static_cast<std::uint64_t>(j)); }
+
+struct PoseGraphOptions {
+  double local_translation_sigma = 0.05;  ///< m
+  double local_rotation_sigma = 0.02;     ///< rad
+  bool loop_closure = true;
+  FastMatcherOptions search;        ///< the window: 7 m x 7 m x 30 degrees
+  double min_score = 0.55;          ///< a search's best must score above this (mean probability)
+  double max_search_distance = 15;  ///< m, from the scan to the submap's origin (estimates)
+  int search_every_n_scans = 3;
+  ScanRefinerOptions refine;
+  double loop_translation_sigma = 0.05;  ///< m
+  double loop_rotation_sigma = 0.02;     ///< rad
+  double huber_delta = 1;                ///< on the whitened error's norm
+  int apply_every_n_scans = 30;
+  int threads = 1;  ///< background search threads; 0: search in AddScan's thread
+  SmootherOptions smoother;
+  bool IsValid(std::string* why) const;
+};
+
+struct LoopClosure {
+  int scan = 0;
+  int submap = 0;
+  SE2d relative;  ///< the scan in the submap's frame
+  double score = 0;
+};
+
+struct PoseGraphStats {
+  long searches = 0;
+  long found = 0;               ///< searches above min_score (the loop closures added)
+  double search_seconds = 0;    ///< summed over the searches (all threads)
+  double found_seconds = 0;     ///< summed over the searches that found one
+  double optimize_seconds = 0;  ///< the smoother's updates and Finish
+  double wait_seconds = 0;      ///< AddScan and Finish waiting for searches
+};
+
+class PoseGraph2D {
+ public:
+  /// Throws InvalidArgument for invalid options.
+  explicit PoseGraph2D(const PoseGraphOptions& options = {});
+  ~PoseGraph2D();
+  PoseGraph2D(const PoseGraph2D&) = delete;
+  PoseGraph2D& operator=(const PoseGraph2D&) = delete;
+
+  /// The next scan (index = scans so far): its pose from local SLAM, its points (the robot's
+  /// frame) and the submaps it was inserted into (index in the order of creation, and the
+  /// submap). Submaps must come with increasing indices; a finished one stays finished. A scan
+  /// in no submap (no points) is tied to the previous scan by the local poses. Throws
+  /// InvalidArgument for a null submap or one that skips an index.
+  void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points,
+               const std::vector<std::pair<int, std::shared_ptr<const Submap2D>>>& inserted_into);
+  /// Waits for every search, applies the results and solves the graph to convergence.
+  void Finish();
+
+  int scan_count() const { return static_cast<int>(scans_.size()); }
+  int submap_count() const { return static_cast<int>(submaps_.size()); }
+  /// The current estimates (global frame: the first scan's local pose).
+  SE2d ScanPose(int i) const;
+  SE2d SubmapPose(int j) const;
+  const std::vector<LoopClosure>& loop_closures() const { return closures_; }
+  /// The graph and its estimate with plain ids, as g2o tools expect them: scan i is i, submap
+  /// j is scan_count() + j (the loop closures keep their Huber loss and mark).
+  void Export(FactorGraph* graph, Values* values) const;
+  const PoseGraphStats& stats() const { return stats_; }
+  const IncrementalSmoother& smoother() const { return smoother_; }
+
+ private:
+  struct ScanNode {
+    SE2d local_pose;
+    std::vector<Eigen::Vector2d> points;
+    std::vector<int> submaps;
+  };
+  struct SubmapNode {
+    std::shared_ptr<const Submap2D> submap;
+    std::unique_ptr<FastCorrelativeScanMatcher2D> matcher;  // made when finished
+    bool finished = false;
+  };
+  struct Search {
+    int scan = 0, submap = 0;
+    SE2d guess;  // the scan in the submap's grid frame
+    // What the search reads (stable while it runs: finished submaps, scans in a deque).
+    const FastCorrelativeScanMatcher2D* matcher = nullptr;
+    std::shared_ptr<const ProbabilityGrid> grid;
+    SE2d submap_local;
+    const std::vector<Eigen::Vector2d>* points = nullptr;
+    bool done = false, found = false;
+    LoopClosure result;
+    double seconds = 0;
+  };
+
+  void StartSearch(int scan, int submap);
+  void RunSearch(Search* s) const;
+  void ApplyFinishedSearches(bool all);
+  void Worker();
+  SE2d GlobalFromLocal() const;
+
+  PoseGraphOptions options_;
+  IncrementalSmoother smoother_;
+  std::deque<ScanNode> scans_;  // a deque: searches hold pointers to the points
+  std::deque<SubmapNode> submaps_;
+  std::vector<LoopClosure> closures_;
+  PoseGraphStats stats_;
+
+  // Searches in the order started; the workers take them from `queue_`.
+  std::deque<std::unique_ptr<Search>> searches_;
+  std::deque<Search*> queue_;
+  std::mutex mutex_;
+  std::condition_variable work_, finished_;
+  bool stop_ = false;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace lidar
+}  // namespace tether

@@ -1,0 +1,270 @@
+#include "tether/frontends/lidar/pose_graph_2d.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "tether/core/error.h"
+#include "tether/core/robust_kernels.h"
+#include "tether/factors/between_se2.h"
+#include "tether/factors/prior.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool PositiveFinite(double v) { return std::isfinite(v) && v > 0; }
+
+PoseGraphOptions Checked(const PoseGraphOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidArgument("PoseGraphOptions: " + why);
+  return o;
+}
+
+SqrtInformation Noise(double translation, double rotation) {
+  return SqrtInformation::FromSigmas(Eigen::Vector3d(translation, translation, rotation));
+}
+
+}  // namespace
+
+bool PoseGraphOptions::IsValid(std::string* why) const {
+  const auto fail = [&](const std::string& w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  if (!PositiveFinite(local_translation_sigma) || !PositiveFinite(local_rotation_sigma) ||
+      !PositiveFinite(loop_translation_sigma) || !PositiveFinite(loop_rotation_sigma)) {
+    return fail("the constraints' sigmas must be positive and finite");
+  }
+  if (!PositiveFinite(huber_delta)) return fail("huber_delta must be positive and finite");
+  if (!(min_score >= 0 && min_score < 1)) return fail("min_score must lie in [0, 1)");
+  if (!(std::isfinite(max_search_distance) && max_search_distance >= 0)) {
+    return fail("max_search_distance must be finite and not negative");
+  }
+  if (search_every_n_scans < 1 || apply_every_n_scans < 1) {
+    return fail("search_every_n_scans and apply_every_n_scans must be at least 1");
+  }
+  if (threads < 0) return fail("threads must not be negative");
+  std::string w;
+  if (!search.IsValid(&w)) return fail("search: " + w);
+  if (!refine.IsValid(&w)) return fail("refine: " + w);
+  if (!smoother.IsValid(&w)) return fail("smoother: " + w);
+  return true;
+}
+
+PoseGraph2D::PoseGraph2D(const PoseGraphOptions& options) : options_(Checked(options)), smoother_(options.smoother) {
+  for (int t = 0; t < options_.threads; ++t) workers_.emplace_back([this] { Worker(); });
+}
+
+PoseGraph2D::~PoseGraph2D() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  work_.notify_all();
+  for (std::thread& t : workers_) t.join();
+}
+
+SE2d PoseGraph2D::ScanPose(int i) const { return smoother_.Estimate().At<SE2d>(ScanKey(i)); }
+SE2d PoseGraph2D::SubmapPose(int j) const { return smoother_.Estimate().At<SE2d>(SubmapKey(j)); }
+
+SE2d PoseGraph2D::GlobalFromLocal() const {
+  if (scans_.empty()) return SE2d();
+  return ScanPose(scan_count() - 1) * scans_.back().local_pose.Inverse();
+}
+
+void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points,
+                          const std::vector<std::pair<int, std::shared_ptr<const Submap2D>>>& inserted_into) {
+  int next = submap_count();  // the index a new submap must have
+  for (const auto& [j, submap] : inserted_into) {
+    if (submap == nullptr || j < 0 || j > next) {
+      throw InvalidArgument("PoseGraph2D::AddScan: submap " + std::to_string(j) + " is null or skips an index (" +
+                            std::to_string(submap_count()) + " so far; give new submaps in increasing order)");
+    }
+    if (j == next) ++next;
+  }
+  const int i = scan_count();
+  const SE2d global_from_local = GlobalFromLocal();
+  FactorGraph g;
+  Values v;
+  for (const auto& [j, submap] : inserted_into) {
+    if (j == submap_count()) submaps_.push_back(SubmapNode{});
+    SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+    if (node.submap == nullptr) {
+      node.submap = submap;
+      v.Insert(SubmapKey(j), global_from_local * submap->local_pose());
+    }
+  }
+  v.Insert(ScanKey(i), global_from_local * local_pose);
+  if (i == 0) g.Add<PriorSE2>(ScanKey(0), local_pose, Noise(1e-3, 1e-3));
+  ScanNode scan;
+  scan.local_pose = local_pose;
+  scan.points = std::move(points);
+  for (const auto& [j, submap] : inserted_into) {
+    g.Add<BetweenSE2>(SubmapKey(j), ScanKey(i), submap->local_pose().Inverse() * local_pose,
+                      Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
+    scan.submaps.push_back(j);
+  }
+  if (inserted_into.empty() && i > 0) {
+    // A scan in no submap (no points): tied to the previous scan by the local poses.
+    g.Add<BetweenSE2>(ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
+                      Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
+  }
+  scans_.push_back(std::move(scan));
+  const auto t0 = std::chrono::steady_clock::now();
+  smoother_.Update(std::move(g), std::move(v));
+  stats_.optimize_seconds += SecondsSince(t0);
+
+  if (options_.loop_closure) {
+    const auto near = [&](int k, int j) {
+      const ScanNode& s = scans_[static_cast<std::size_t>(k)];
+      if (std::find(s.submaps.begin(), s.submaps.end(), j) != s.submaps.end()) return false;
+      return (ScanPose(k).translation() - SubmapPose(j).translation()).norm() <= options_.max_search_distance;
+    };
+    // Submaps finished by this scan: every earlier sampled scan near them.
+    for (const auto& [j, submap] : inserted_into) {
+      SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+      if (node.finished || !submap->finished()) continue;
+      node.finished = true;
+      node.matcher = std::make_unique<FastCorrelativeScanMatcher2D>(*submap->grid(), options_.search);
+      for (int k = 0; k < i; k += options_.search_every_n_scans) {
+        if (near(k, j)) StartSearch(k, j);
+      }
+    }
+    // This scan, if sampled, against every finished submap near it.
+    if (i % options_.search_every_n_scans == 0) {
+      for (int j = 0; j < submap_count(); ++j) {
+        if (submaps_[static_cast<std::size_t>(j)].finished && near(i, j)) StartSearch(i, j);
+      }
+    }
+  }
+  if ((i + 1) % options_.apply_every_n_scans == 0) ApplyFinishedSearches(true);
+}
+
+void PoseGraph2D::StartSearch(int scan, int submap) {
+  auto s = std::make_unique<Search>();
+  s->scan = scan;
+  s->submap = submap;
+  const SubmapNode& node = submaps_[static_cast<std::size_t>(submap)];
+  s->matcher = node.matcher.get();
+  s->grid = node.submap->grid();
+  s->submap_local = node.submap->local_pose();
+  s->points = &scans_[static_cast<std::size_t>(scan)].points;
+  // The scan's pose in the submap's grid (the local map frame it was built in).
+  s->guess = s->submap_local * (SubmapPose(submap).Inverse() * ScanPose(scan));
+  Search* raw = s.get();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    searches_.push_back(std::move(s));
+    if (!workers_.empty()) queue_.push_back(raw);
+  }
+  if (workers_.empty()) {
+    RunSearch(raw);
+  } else {
+    work_.notify_one();
+  }
+}
+
+void PoseGraph2D::RunSearch(Search* s) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const FastMatch m = s->matcher->Match(s->guess, *s->points, options_.min_score);
+  if (m.found) {
+    SE2d pose = m.pose;
+    const ScanRefinement r = RefineScanPose(s->grid, m.pose, m.pose, *s->points, options_.refine);
+    if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
+    s->found = true;
+    s->result = LoopClosure{s->scan, s->submap, s->submap_local.Inverse() * pose, m.score};
+  }
+  s->seconds = SecondsSince(t0);
+  if (workers_.empty()) s->done = true;
+}
+
+void PoseGraph2D::Worker() {
+  for (;;) {
+    Search* s = nullptr;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      work_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      if (stop_ && queue_.empty()) return;
+      s = queue_.front();
+      queue_.pop_front();
+    }
+    RunSearch(s);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      s->done = true;
+    }
+    finished_.notify_all();
+  }
+}
+
+void PoseGraph2D::ApplyFinishedSearches(bool all) {
+  (void)all;  // results are applied only all at once, in the order started (determinism)
+  const auto t0 = std::chrono::steady_clock::now();
+  std::deque<std::unique_ptr<Search>> done;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_.wait(lock, [this] {
+      return std::all_of(searches_.begin(), searches_.end(), [](const std::unique_ptr<Search>& s) { return s->done; });
+    });
+    done.swap(searches_);
+  }
+  stats_.wait_seconds += SecondsSince(t0);
+  FactorGraph g;
+  for (const std::unique_ptr<Search>& s : done) {
+    ++stats_.searches;
+    stats_.search_seconds += s->seconds;
+    if (!s->found) continue;
+    ++stats_.found;
+    stats_.found_seconds += s->seconds;
+    closures_.push_back(s->result);
+    BetweenSE2& f = g.Add<BetweenSE2>(SubmapKey(s->submap), ScanKey(s->scan), s->result.relative,
+                                      Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
+    f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
+    f.set_loop_closure(true);
+  }
+  if (g.size() > 0) {
+    const auto t1 = std::chrono::steady_clock::now();
+    smoother_.Update(std::move(g));
+    stats_.optimize_seconds += SecondsSince(t1);
+  }
+}
+
+void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
+  const int n = scan_count();
+  const auto id = [n](Key k) -> Key {
+    return SymbolLetter(k) == 's' ? SymbolIndex(k) : static_cast<Key>(n) + SymbolIndex(k);
+  };
+  const Values& estimate = smoother_.Estimate();
+  for (int i = 0; i < n; ++i) values->Insert(static_cast<Key>(i), ScanPose(i));
+  for (int j = 0; j < submap_count(); ++j) {
+    if (estimate.Has(SubmapKey(j))) values->Insert(static_cast<Key>(n + j), SubmapPose(j));
+  }
+  const FactorGraph& g = smoother_.graph();
+  for (std::size_t f = 0; f < g.size(); ++f) {
+    const Factor& factor = g.at(f);
+    if (const auto* b = dynamic_cast<const BetweenSE2*>(&factor)) {
+      BetweenSE2& c = graph->Add<BetweenSE2>(id(b->keys()[0]), id(b->keys()[1]), b->measured(), b->noise());
+      c.set_loss(b->shared_loss());
+      c.set_loop_closure(b->loop_closure());
+    } else if (const auto* p = dynamic_cast<const PriorSE2*>(&factor)) {
+      graph->Add<PriorSE2>(id(p->keys()[0]), SE2d(p->Measurement()[0], p->Measurement()[1], p->Measurement()[2]),
+                           p->noise());
+    }
+  }
+}
+
+void PoseGraph2D::Finish() {
+  ApplyFinishedSearches(true);
+  const auto t0 = std::chrono::steady_clock::now();
+  smoother_.Finish();
+  stats_.optimize_seconds += SecondsSince(t0);
+}
+
+}  // namespace lidar
+}  // namespace tether

@@ -1,0 +1,53 @@
+#pragma once
+// Shared test helper: a 2D world of wall segments and laser scans ray-cast into it.
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+#include "tether/core/se2.h"
+
+namespace tether {
+namespace testing {
+
+struct Segment {
+  Eigen::Vector2d a, b;
+};
+
+/// Adds the four walls of the rectangle [x0, x1] x [y0, y1].
+inline void AddRectangle(double x0, double y0, double x1, double y1, std::vector<Segment>* s) {
+  s->push_back({{x0, y0}, {x1, y0}});
+  s->push_back({{x1, y0}, {x1, y1}});
+  s->push_back({{x1, y1}, {x0, y1}});
+  s->push_back({{x0, y1}, {x0, y0}});
+}
+
+/// The distance from `origin` along the unit direction `d` to the nearest segment (infinity
+/// where none is hit).
+inline double CastRay(const std::vector<Segment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d) {
+  double best = INFINITY;
+  for (const Segment& s : walls) {
+    // origin + t d = s.a + u (s.b - s.a)
+    const Eigen::Vector2d e = s.b - s.a, w = s.a - origin;
+    const double den = -d.x() * e.y() + d.y() * e.x();
+    if (std::abs(den) < 1e-12) continue;
+    const double t = (-w.x() * e.y() + w.y() * e.x()) / den;
+    const double u = (d.x() * w.y() - d.y() * w.x()) / den;
+    if (t > 1e-9 && u >= 0 && u <= 1) best = std::min(best, t);
+  }
+  return best;
+}
+
+/// Ranges of `beams` beams from angle_min in steps of `increment` (the sensor's frame) seen
+/// from `pose`; beams that hit nothing get +infinity.
+inline std::vector<double> RayCastScan(const std::vector<Segment>& walls, const SE2d& pose, int beams, double angle_min,
+                                       double increment) {
+  std::vector<double> ranges;
+  for (int i = 0; i < beams; ++i) {
+    const double a = pose.theta() + angle_min + i * increment;
+    ranges.push_back(CastRay(walls, pose.translation(), Eigen::Vector2d(std::cos(a), std::sin(a))));
+  }
+  return ranges;
+}
+
+}  // namespace testing
+}  // namespace tether

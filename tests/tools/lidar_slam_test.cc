@@ -1,0 +1,104 @@
+// tether lidar: a CARMEN log of a simulated room in, trajectory, pose graph and map out; usage
+// and input errors.
+#include "tether/tools/lidar_slam.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "testing/cli.h"
+#include "testing/lidar_files.h"
+#include "testing/synthetic_room.h"
+#include "tether/core/graph_io.h"
+#include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/tum_trajectory.h"
+
+namespace tether {
+namespace {
+
+using testing::Tether;
+
+class LidarSlamTest : public testing::LidarFilesTest {};
+
+// 80 scans on a circle in a 24 m x 18 m room with boxes: FLASER lines (180 beams over 180
+// degrees), odometry = truth.
+std::string RoomLog() {
+  std::vector<testing::Segment> world;
+  testing::AddRectangle(0, 0, 24, 18, &world);
+  testing::AddRectangle(3, 3, 4, 5, &world);
+  testing::AddRectangle(11, 8, 13, 10.5, &world);
+  testing::AddRectangle(18, 14, 19, 16, &world);
+  std::ostringstream log;
+  log.precision(10);
+  for (int k = 0; k < 80; ++k) {
+    const double a = 2 * M_PI * k / 80.0;
+    const SE2d pose(12 + 5 * std::sin(a), 9 - 5 * std::cos(a), a);
+    const std::vector<double> ranges = testing::RayCastScan(world, pose, 180, -M_PI / 2, M_PI / 179);
+    log << "FLASER 180";
+    for (double r : ranges) log << " " << (std::isfinite(r) ? r : 81.9);
+    log << " " << pose.x() << " " << pose.y() << " " << pose.theta() << " " << pose.x() << " " << pose.y() << " "
+        << pose.theta() << " " << 1000.0 + k * 0.2 << " sim " << k * 0.2 << "\n";
+  }
+  return log.str();
+}
+
+TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
+  const std::string log = Write("room.log", RoomLog());
+  const auto run = Tether("lidar " + log + " -o " + P("out") + " --scans-per-submap 20 --threads 2");
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("scans 80, submaps "), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("real-time factor"), std::string::npos) << run.output;
+  // One pose per scan, with the scans' stamps, near the truth. (Odometry is perfect here; how
+  // closely local SLAM's matching keeps to it is its own tests' business: this checks the
+  // plumbing.)
+  const std::vector<lidar::StampedPose2> t = lidar::ReadTumFile(P("out/trajectory.tum"));
+  ASSERT_EQ(t.size(), 80u);
+  for (int k = 0; k < 80; ++k) {
+    const double a = 2 * M_PI * k / 80.0;
+    EXPECT_DOUBLE_EQ(t[static_cast<std::size_t>(k)].stamp, 1000.0 + k * 0.2);
+    EXPECT_LT(
+        (t[static_cast<std::size_t>(k)].pose.translation() - Eigen::Vector2d(12 + 5 * std::sin(a), 9 - 5 * std::cos(a)))
+            .norm(),
+        1.0)
+        << k;
+  }
+  // The graph reads back (80 scans and the submaps) and is at its optimum.
+  const GraphFile g = ReadGraphFile(P("out/pose_graph.g2o"), DefaultRegistry());
+  EXPECT_GT(g.values.size(), 80u);
+  EXPECT_GT(g.graph.size(), 80u);
+  const GraphFile trajectory = ReadGraphFile(P("out/trajectory.g2o"), DefaultRegistry());
+  EXPECT_EQ(trajectory.values.size(), 80u);
+  // The map: PGM header, YAML naming it, a PNG.
+  std::ifstream pgm(P("out/map.pgm"), std::ios::binary);
+  std::string magic;
+  pgm >> magic;
+  EXPECT_EQ(magic, "P5");
+  std::ifstream yaml(P("out/map.yaml"));
+  std::stringstream y;
+  y << yaml.rdbuf();
+  EXPECT_NE(y.str().find("image: map.pgm"), std::string::npos);
+  std::ifstream png(P("out/map.png"), std::ios::binary);
+  std::string sig(8, '\0');
+  png.read(&sig[0], 8);
+  EXPECT_EQ(sig, std::string("\x89PNG\r\n\x1a\n"));
+}
+
+TEST_F(LidarSlamTest, UsageAndInputErrors) {
+  const std::string log = Write("room.log", RoomLog());
+  EXPECT_EQ(Tether("lidar " + log).code, 2);  // -o is required
+  EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --search-every 0").code, 2);
+  const auto missing = Tether("lidar " + P("nothing.log") + " -o " + P("o"));
+  EXPECT_EQ(missing.code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("nothing.log"), std::string::npos) << missing.output;
+  const auto bad = Tether("lidar " + Write("bad.log", "FLASER 3 1 2\n") + " -o " + P("o"));
+  EXPECT_EQ(bad.code, 1) << bad.output;
+  EXPECT_NE(bad.output.find("bad.log:1"), std::string::npos) << bad.output;
+  // An output folder that cannot be made.
+  const std::string file = Write("plain", "x");
+  EXPECT_EQ(Tether("lidar " + log + " -o " + file + "/sub").code, 4);
+}
+
+}  // namespace
+}  // namespace tether

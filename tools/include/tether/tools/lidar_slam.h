@@ -1,0 +1,35 @@
+#pragma once
+// `tether lidar LOG -o DIR`: 2D LiDAR SLAM over a laser log (CARMEN or ROS 1 bag): local SLAM
+// (scan matching into submaps, frontends/lidar/local_slam_2d.h), the pose graph with
+// branch-and-bound loop closures fed to the incremental smoother while the scans stream in
+// (pose_graph_2d.h), then the outputs in DIR:
+//   trajectory.tum   one robot pose per scan (stamp x y z qx qy qz qw)
+//   trajectory.g2o   the same poses (id = scan index), chained by their relative poses
+//   pose_graph.g2o   the graph (scans 0..N-1, submaps N..), re-optimisable by tether optimize
+//   map.pgm, map.yaml, map.png   the occupancy map (every scan inserted at its final pose)
+#include <iosfwd>
+#include <string>
+
+namespace tether {
+
+struct LidarCommand {
+  std::string log;
+  std::string output_dir;
+  bool loop_closure = true;
+  int threads = 1;     ///< background loop-closure search threads (0: inline)
+  long max_scans = 0;  ///< 0: every scan
+  int scans_per_submap = 90;
+  double resolution = 0.05;
+  int search_every = 3;     ///< loop-closure search for every N-th scan
+  double min_score = 0.55;  ///< branch and bound's score threshold
+  double max_range = 0;     ///< 0: the log's
+  std::string scan_topic = "/scan";
+  std::string odom_topic = "/odom";
+  long progress_every = 2000;  ///< scans between progress lines (0: none)
+  bool quiet = false;
+};
+
+/// Exit codes as commands.h: 0 done, 1 bad input, 2 bad usage, 4 an output not written.
+int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err);
+
+}  // namespace tether

@@ -1,0 +1,204 @@
+#include "tether/tools/lidar_slam.h"
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <ostream>
+#include <sstream>
+
+#include "tether/core/error.h"
+#include "tether/core/graph_io.h"
+#include "tether/core/output_file.h"
+#include "tether/factors/between_se2.h"
+#include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/local_slam_2d.h"
+#include "tether/frontends/lidar/occupancy_map.h"
+#include "tether/frontends/lidar/pose_graph_2d.h"
+#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/voxel_filter.h"
+#include "tether/tools/commands.h"
+
+namespace tether {
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
+  if (cmd.threads < 0 || cmd.max_scans < 0 || cmd.scans_per_submap < 2 || cmd.search_every < 1 ||
+      !(cmd.resolution > 0) || !(cmd.min_score >= 0 && cmd.min_score < 1) || !(cmd.max_range >= 0)) {
+    err << "tether lidar: --threads and --max-scans must not be negative, --scans-per-submap at least 2, "
+           "--search-every at least 1, --resolution positive, --min-score in [0, 1), --max-range not negative\n";
+    return kExitUsage;
+  }
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(cmd.output_dir, ec);
+  if (ec || !fs::is_directory(cmd.output_dir)) {
+    err << "tether lidar: cannot make the output folder '" << cmd.output_dir << "' (" << ec.message()
+        << "); give a folder that can be written\n";
+    return kExitWriteFailed;
+  }
+  const auto in_dir = [&](const char* name) { return (fs::path(cmd.output_dir) / name).string(); };
+  OutputSet outputs;
+  OutputFile *tum = nullptr, *traj = nullptr, *graph_file = nullptr, *pgm = nullptr, *yaml = nullptr, *png = nullptr;
+  const int rc = CheckOutputs(
+      "lidar", outputs,
+      [&] {
+        outputs.AddInput(cmd.log);
+        tum = &outputs.Add(in_dir("trajectory.tum"), "trajectory");
+        traj = &outputs.Add(in_dir("trajectory.g2o"), "trajectory (g2o)");
+        graph_file = &outputs.Add(in_dir("pose_graph.g2o"), "pose graph");
+        pgm = &outputs.Add(in_dir("map.pgm"), "map image");
+        yaml = &outputs.Add(in_dir("map.yaml"), "map description");
+        png = &outputs.Add(in_dir("map.png"), "map picture");
+      },
+      err);
+  if (rc != 0) return rc;
+
+  lidar::LidarReadOptions ro;
+  ro.scan_topic = cmd.scan_topic;
+  ro.odom_topic = cmd.odom_topic;
+  ro.limits.max_range = cmd.max_range;
+  lidar::LidarLog log;
+  try {
+    log = lidar::ReadLidarLog(cmd.log, ro);
+  } catch (const IoError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const ParseError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  const std::size_t n =
+      cmd.max_scans > 0 ? std::min(log.scans.size(), static_cast<std::size_t>(cmd.max_scans)) : log.scans.size();
+  if (n == 0) {
+    err << "error: " << cmd.log << " has no scans\n";
+    return kExitBadInput;
+  }
+
+  lidar::LocalSlamOptions lo;
+  lo.submaps.resolution = cmd.resolution;
+  lo.submaps.scans_per_submap = cmd.scans_per_submap;
+  lo.limits = ro.limits;
+  lidar::PoseGraphOptions po;
+  po.loop_closure = cmd.loop_closure;
+  po.threads = cmd.threads;
+  po.search_every_n_scans = cmd.search_every;
+  po.min_score = cmd.min_score;
+  lidar::LocalSlam2D local(lo);
+  lidar::PoseGraph2D graph(po);
+  const auto t0 = std::chrono::steady_clock::now();
+  double matching_seconds = 0, insert_seconds = 0, graph_seconds = 0;
+  std::map<const lidar::Submap2D*, int> index_of;  // submaps in order of creation
+  std::vector<int> scans_in;                       // per submap index, its scans before this one
+  for (std::size_t i = 0; i < n; ++i) {
+    const lidar::LaserScan& scan = log.scans[i];
+    const lidar::LocalScanResult r = local.AddScan(scan);
+    matching_seconds += r.correlative_seconds + r.refine_seconds;
+    insert_seconds += r.insert_seconds;
+    std::vector<std::pair<int, std::shared_ptr<const lidar::Submap2D>>> inserted;
+    const auto& submaps = local.submaps().submaps();
+    for (const std::shared_ptr<lidar::Submap2D>& s : submaps) {
+      const auto it = index_of.emplace(s.get(), static_cast<int>(index_of.size())).first;
+      const int j = it->second;
+      if (static_cast<int>(scans_in.size()) <= j) scans_in.resize(static_cast<std::size_t>(j) + 1, 0);
+      if (s->num_scans() > scans_in[static_cast<std::size_t>(j)]) {
+        inserted.emplace_back(j, s);
+        scans_in[static_cast<std::size_t>(j)] = s->num_scans();
+      }
+    }
+    std::vector<Eigen::Vector2d> points = lidar::ScanToPoints(scan, ro.limits);
+    for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+    const auto tg = std::chrono::steady_clock::now();
+    graph.AddScan(r.pose, lidar::VoxelFilter(points, lo.matching_voxel_size > 0 ? lo.matching_voxel_size : 0.05),
+                  inserted);
+    graph_seconds += SecondsSince(tg);
+    if (!cmd.quiet && cmd.progress_every > 0 && (i + 1) % static_cast<std::size_t>(cmd.progress_every) == 0) {
+      const double logged = log.scans[i].stamp - log.scans[0].stamp;
+      out << "scans " << i + 1 << " of " << n << ", submaps " << graph.submap_count() << ", loop closures "
+          << graph.loop_closures().size() << " (searches " << graph.stats().searches << "), real-time factor "
+          << Fixed(logged / std::max(SecondsSince(t0), 1e-9), 1) << "\n";
+    }
+  }
+  const auto tf = std::chrono::steady_clock::now();
+  graph.Finish();
+  graph_seconds += SecondsSince(tf);
+  const double total = SecondsSince(t0);
+
+  // Outputs: the trajectory, the graph, the map with every scan at its final pose.
+  // The trajectory as g2o: the poses chained by their relative poses (unit information), so
+  // that it reads back as one connected graph.
+  std::vector<lidar::StampedPose2> trajectory;
+  Values poses;
+  FactorGraph chain;
+  for (std::size_t i = 0; i < n; ++i) {
+    trajectory.push_back(lidar::StampedPose2{log.scans[i].stamp, graph.ScanPose(static_cast<int>(i))});
+    poses.Insert(static_cast<Key>(i), trajectory.back().pose);
+    if (i > 0) {
+      chain.Add<BetweenSE2>(static_cast<Key>(i - 1), static_cast<Key>(i),
+                            trajectory[i - 1].pose.Inverse() * trajectory[i].pose,
+                            SqrtInformation::FromSigmas(Eigen::Vector3d::Ones()));
+    }
+  }
+  FactorGraph exported;
+  Values exported_values;
+  graph.Export(&exported, &exported_values);
+  ProbabilityGrid map(cmd.resolution);
+  const lidar::ProbabilityGridInserter inserter(lo.submaps.insert, map.min_probability(), map.max_probability());
+  const auto tm = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < n; ++i) {
+    const lidar::LaserScan& scan = log.scans[i];
+    const SE2d laser = trajectory[i].pose * scan.laser_in_robot;
+    std::vector<Eigen::Vector2d> hits = lidar::ScanToPoints(scan, ro.limits);
+    for (Eigen::Vector2d& p : hits) p = laser * p;
+    inserter.Insert(&map, laser.translation(), hits);
+  }
+  const double map_seconds = SecondsSince(tm);
+  try {
+    tum->Stage([&](std::ostream& s) { lidar::WriteTum(s, trajectory); });
+    traj->Stage([&](std::ostream& s) { WriteG2o(s, poses, chain, DefaultRegistry()); });
+    graph_file->Stage([&](std::ostream& s) { WriteG2o(s, exported_values, exported, DefaultRegistry()); });
+    const lidar::OccupancyImage image = lidar::RenderOccupancy(map);
+    pgm->Stage(lidar::PgmBytes(image));
+    yaml->Stage(lidar::MapYaml(image, "map.pgm"));
+    png->Stage(lidar::PngBytes(image));
+    outputs.CommitAll();
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
+  }
+  const double logged = log.scans[n - 1].stamp - log.scans[0].stamp;
+  const lidar::PoseGraphStats& st = graph.stats();
+  out << "scans " << n << ", submaps " << graph.submap_count() << ", loop closures " << graph.loop_closures().size()
+      << " of " << st.searches << " searches\n"
+      << "time " << Fixed(total, 2) << " s for " << Fixed(logged, 1) << " s of log: real-time factor "
+      << Fixed(logged / std::max(total, 1e-9), 1) << "\n"
+      << "  local matching " << Fixed(1e3 * matching_seconds / static_cast<double>(n), 3) << " ms per scan, insertion "
+      << Fixed(1e3 * insert_seconds / static_cast<double>(n), 3) << " ms per scan\n"
+      << "  branch and bound "
+      << Fixed(st.searches > 0 ? 1e3 * st.search_seconds / static_cast<double>(st.searches) : 0, 2)
+      << " ms per search, " << Fixed(st.found > 0 ? 1e3 * st.search_seconds / static_cast<double>(st.found) : 0, 2)
+      << " ms per constraint found (" << cmd.threads << " search threads; waited " << Fixed(st.wait_seconds, 2)
+      << " s)\n"
+      << "  optimisation " << Fixed(st.optimize_seconds, 2) << " s, pose graph in all " << Fixed(graph_seconds, 2)
+      << " s, map " << Fixed(map_seconds, 2) << " s\n"
+      << "wrote " << cmd.output_dir
+      << "/{trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm, map.yaml, map.png}\n";
+  return 0;
+}
+
+}  // namespace tether
