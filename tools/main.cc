@@ -201,6 +201,8 @@ int main(int argc, char** argv) {
       ->add_option("--invariant-min-range", ec.setup.invariant_min_range,
                    "The invariant EKF uses no observation nearer than this [m] (negative: 1.5 range sigmas)")
       ->capture_default_str();
+  ekf_demo->add_option("--min-range", ec.setup.min_range, "The EKF and UKF use no landmark nearer than this [m]")
+      ->capture_default_str();
   ekf_demo
       ->add_option("--invariant-iterations", ec.setup.invariant_iterations,
                    "Gauss-Newton iterations of each invariant EKF correction (1: the plain update)")

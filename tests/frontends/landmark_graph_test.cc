@@ -258,6 +258,13 @@ TEST(ConsistencyTest, NeesOfBothParametrisations) {
   EXPECT_NEAR(TangentNees(SE2d(1, 2, 3.0), cov, truth), 0.1 * 0.1 / 0.0025, 1e-9);
   EXPECT_THROW(AverageNeesInterval(0, 3), InvalidArgument);
   EXPECT_THROW(AverageNeesInterval(10, 3, 1.0), InvalidArgument);
+  // The exact quantiles (regularised incomplete gamma), where Wilson-Hilferty is poor too.
+  EXPECT_NEAR(ChiSquareQuantile(3, 0.025), 0.215795, 1e-5);
+  EXPECT_NEAR(ChiSquareQuantile(1, 0.025), 0.000982069, 1e-8);
+  EXPECT_NEAR(ChiSquareQuantile(2, 0.99), 9.21034, 1e-4);
+  EXPECT_NEAR(ChiSquareQuantile(150, 0.025), 117.985, 1e-3);
+  EXPECT_NEAR(ChiSquareQuantile(150, 0.975), 185.800, 1e-3);
+  EXPECT_THROW(ChiSquareQuantile(0, 0.5), InvalidArgument);
   const NeesInterval one = AverageNeesInterval(1, 3);
   EXPECT_LT(one.lower, 3.0);
   EXPECT_GT(one.upper, 3.0);

@@ -120,6 +120,9 @@ TEST(EkfDemoCliTest, WritesTableAndPlot) {
   EXPECT_EQ(testing::Tether("ekf-demo --association maybe").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --seeds 0").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --invariant-iterations 0").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --invariant-min-range inf").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --invariant-min-range nan").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --min-range -1").code, 2);
   // --no-graph: the filters alone.
   const auto filters = testing::Tether("ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph");
   ASSERT_EQ(filters.code, 0) << filters.output;

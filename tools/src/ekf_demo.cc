@@ -64,7 +64,8 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
   const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
   SeedRun run;
   run.world = ekf::SimulateLandmarkWorld(wo);
-  const ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
+  ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
+  fo.min_range = setup.min_range;  // the EKF's and UKF's (the invariant EKF has its own)
   ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
   go.record_online = setup.consistency;
   std::vector<double> online_nees;  // a graph's, filled by `smoothed`
@@ -358,6 +359,12 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
   }
   if (!ParseList(cmd.association, {"known", "nn"}, &associations)) {
     err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
+    return 2;
+  }
+  if (!std::isfinite(cmd.setup.invariant_min_range) ||
+      !(std::isfinite(cmd.setup.min_range) && cmd.setup.min_range >= 0)) {
+    err << "tether ekf-demo: --invariant-min-range must be finite (negative: 1.5 range sigmas) and --min-range "
+           "finite and not negative\n";
     return 2;
   }
   if (cmd.seeds < 1 || cmd.setup.steps < 1 || cmd.setup.invariant_iterations < 1) {

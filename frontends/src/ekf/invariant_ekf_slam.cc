@@ -78,6 +78,8 @@ void InvariantEkfSlam::PredictChecked(const odometry::Control& u, double dt) {
 Eigen::Vector2d InvariantEkfSlam::Predicted(int i, Eigen::Matrix2d* d_position) const {
   const Eigen::Vector2d y = Rotation(mean_[2]).transpose() * (mean_.segment<2>(3 + 2 * i) - mean_.head<2>());
   const double r2 = y.squaredNorm(), r = std::sqrt(r2);
+  if (!std::isfinite(r))
+    throw InvalidArgument("invariant EKF-SLAM: the state is not finite (landmark " + std::to_string(i) + ")");
   if (!(r > 0)) throw InvalidArgument("invariant EKF-SLAM: landmark " + std::to_string(i) + " sits on the robot");
   Eigen::Matrix2d d;  // d (range, bearing) / d y
   d << y.x() / r, y.y() / r, -y.y() / r2, y.x() / r2;
@@ -102,24 +104,29 @@ void InvariantEkfSlam::Correct(int i, const Eigen::Vector2d& z) {
       mean_.segment<2>(lj) = moved * Eigen::Vector2d(start.segment<2>(lj));
     }
   };
-  for (int it = 0; it < options_.update_iterations; ++it) {
-    Eigen::Matrix2d hp;
-    const Eigen::Vector2d zhat = Predicted(i, &hp);
-    // H = [hp (position), 0 (heading), -hp (landmark i)]: P H^T from two column blocks.
-    const Eigen::MatrixXd pht = xi_cov_.leftCols<2>() * hp.transpose() - xi_cov_.middleCols<2>(li) * hp.transpose();
-    s = hp * pht.topRows<2>() - hp * pht.middleRows<2>(li) + options_.measurement_cov;
-    const Eigen::LLT<Eigen::Matrix2d> llt(s);
-    if (llt.info() != Eigen::Success) {
-      throw InvalidArgument("invariant EKF-SLAM: innovation covariance is not positive definite");
+  try {
+    for (int it = 0; it < options_.update_iterations; ++it) {
+      Eigen::Matrix2d hp;
+      const Eigen::Vector2d zhat = Predicted(i, &hp);
+      // H = [hp (position), 0 (heading), -hp (landmark i)]: P H^T from two column blocks.
+      const Eigen::MatrixXd pht = xi_cov_.leftCols<2>() * hp.transpose() - xi_cov_.middleCols<2>(li) * hp.transpose();
+      s = hp * pht.topRows<2>() - hp * pht.middleRows<2>(li) + options_.measurement_cov;
+      const Eigen::LLT<Eigen::Matrix2d> llt(s);
+      if (llt.info() != Eigen::Success) {
+        throw InvalidArgument("invariant EKF-SLAM: innovation covariance is not positive definite");
+      }
+      k = llt.solve(pht.transpose()).transpose();
+      // Gauss-Newton: xi <- K (nu + H xi), nu at the estimate xi gives.
+      const Eigen::Vector2d hxi = hp * (xi.head<2>() - xi.segment<2>(li));
+      const Eigen::VectorXd next = k * (MeasurementDifference(z, zhat) + hxi);
+      const double change = (next - xi).lpNorm<Eigen::Infinity>();
+      xi = next;
+      apply(xi);
+      if (change < 1e-12) break;
     }
-    k = llt.solve(pht.transpose()).transpose();
-    // Gauss-Newton: xi <- K (nu + H xi), nu at the estimate xi gives.
-    const Eigen::Vector2d hxi = hp * (xi.head<2>() - xi.segment<2>(li));
-    const Eigen::VectorXd next = k * (MeasurementDifference(z, zhat) + hxi);
-    const double change = (next - xi).lpNorm<Eigen::Infinity>();
-    xi = next;
-    apply(xi);
-    if (change < 1e-12) break;
+  } catch (...) {
+    mean_ = start;  // a failed correction changes nothing
+    throw;
   }
   xi_cov_ -= k * s * k.transpose();
   RefreshParameterCovariance();
@@ -148,18 +155,13 @@ std::vector<double> InvariantEkfSlam::Distances(const Eigen::Vector2d& z) const 
   for (int i = 0; i < landmark_count(); ++i) {
     const Eigen::Index li = 3 + 2 * i;
     Eigen::Matrix2d hp;
-    double value = std::numeric_limits<double>::infinity();
-    try {
-      const Eigen::Vector2d nu = MeasurementDifference(z, Predicted(i, &hp));
-      // H P H^T over the two position blocks: hp (P_pp - P_pl - P_lp + P_ll) hp^T.
-      const Eigen::Matrix2d block = xi_cov_.block<2, 2>(0, 0) - xi_cov_.block<2, 2>(0, li) -
-                                    xi_cov_.block<2, 2>(li, 0) + xi_cov_.block<2, 2>(li, li);
-      const Eigen::LLT<Eigen::Matrix2d> llt(hp * block * hp.transpose() + options_.measurement_cov);
-      if (llt.info() == Eigen::Success) value = nu.dot(llt.solve(nu));
-    } catch (const InvalidArgument&) {
-      // a landmark on the robot: no distance
-    }
-    d[static_cast<std::size_t>(i)] = value;
+    const Eigen::Vector2d nu = MeasurementDifference(z, Predicted(i, &hp));  // throws as Correct does
+    // H P H^T over the two position blocks: hp (P_pp - P_pl - P_lp + P_ll) hp^T.
+    const Eigen::Matrix2d block = xi_cov_.block<2, 2>(0, 0) - xi_cov_.block<2, 2>(0, li) - xi_cov_.block<2, 2>(li, 0) +
+                                  xi_cov_.block<2, 2>(li, li);
+    const Eigen::LLT<Eigen::Matrix2d> llt(hp * block * hp.transpose() + options_.measurement_cov);
+    d[static_cast<std::size_t>(i)] =
+        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
   }
   return d;
 }

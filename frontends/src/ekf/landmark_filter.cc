@@ -78,10 +78,6 @@ std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observat
   std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
   for (std::size_t k = 0; k < observations.size(); ++k) {
     const Observation& o = observations[k];
-    if (o.range < options_.min_range) {
-      ++near_;
-      continue;
-    }
     const Eigen::Vector2d z(o.range, o.bearing);
     int chosen = -1;
     bool add = false;
@@ -109,6 +105,14 @@ std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observat
         chosen = -1;
         ++dropped_;
       }
+    }
+    // Too near to use: a landmark already in the state by its predicted range (not the measured
+    // one, which would select observations by their noise), a new one by the measured range.
+    const bool near = add ? o.range < options_.min_range
+                          : chosen >= 0 && (landmark(chosen) - mean_.head<2>()).norm() < options_.min_range;
+    if (near) {
+      ++near_;
+      continue;
     }
     if (add) {
       AddLandmark(z);

@@ -86,8 +86,9 @@ std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec);
 /// The p quantile of the chi2 distribution with k degrees of freedom (0.99: 9.2 for 2, 11.3
 /// for 3, 16.8 for 6), by Wilson and Hilferty's cube-root normal approximation (within 1%
 /// from k = 1 at p = 0.99; 117.98 for k = 150 at p = 0.025, as exact to 0.01); p in (0, 1) (0.5:
-/// the median), k >= 1. The bound on a loop closure's chi2 that GNC and switchable constraints use
-/// by default, and the filters' NEES bounds (frontends/ekf/consistency.h).
+/// the median), k >= 1. The lower tail is poor for few degrees of freedom (k = 3, p = 0.025:
+/// 0.181 against 0.216; 0 for k = 1): frontends/ekf/consistency.h has an exact quantile. The
+/// bound on a loop closure's chi2 that GNC and switchable constraints use by default.
 double Chi2Quantile(int k, double p);
 
 }  // namespace tether

@@ -26,6 +26,8 @@ struct EkfDemoSetup {
   /// The invariant EKF's min_range [m]: observations nearer are not used. Negative: 1.5 range
   /// sigmas (3 m at the thesis's noise; docs/front_ends.md, "Consistency").
   double invariant_min_range = -1;
+  /// The EKF's and UKF's min_range [m] (default 0: every observation).
+  double min_range = 0;
   /// The invariant EKF's update_iterations.
   int invariant_iterations = 2;
   /// Also the graphs seeded by the filters (false: the filters alone, much faster).

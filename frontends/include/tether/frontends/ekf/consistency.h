@@ -23,6 +23,12 @@ struct NeesInterval {
   bool Contains(double average) const { return average > lower && average < upper; }
 };
 
+/// The p quantile of the chi-square distribution with k degrees of freedom, exact (bisection on
+/// the regularised incomplete gamma function; Chi2Quantile in core is Wilson and Hilferty's
+/// approximation, poor in the lower tail for few degrees of freedom). Throws InvalidArgument
+/// for k < 1 or p outside (0, 1).
+double ChiSquareQuantile(int k, double p);
+
 /// The two-sided `confidence` interval of the average NEES over `runs` runs of a
 /// `dof`-dimensional error (chi-square quantiles (1 -+ confidence) / 2 with runs * dof degrees
 /// of freedom, divided by runs): [2.36, 3.72] for 50 runs of a planar pose at 0.95. Throws
