@@ -66,6 +66,15 @@ struct FastCorrelativeScanMatcher2D::Setup {
   int k_max = 0;                         // rotations -K..K
   int w = 0;                             // translations -W..W cells
   std::vector<std::vector<Cell>> cells;  // per rotation index k + K: the points' cells at the guess's translation
+  // A match that found nothing yet: the guess, with the search's size.
+  FastMatch Unfound(const SE2d& guess) const {
+    FastMatch m;
+    m.pose = guess;
+    m.angular_step = step;
+    m.rotations = 2 * k_max + 1;
+    m.translations = 2 * w + 1;
+    return m;
+  }
   SE2d Pose(const SE2d& guess, int k, int dx, int dy, double r) const {
     return SE2d(guess.x() + dx * r, guess.y() + dy * r, guess.theta() + k * step);
   }
@@ -116,11 +125,7 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(
 FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                         double min_score) const {
   const Setup s = Prepare(guess, points);
-  FastMatch m;
-  m.pose = guess;
-  m.angular_step = s.step;
-  m.rotations = 2 * s.k_max + 1;
-  m.translations = 2 * s.w + 1;
+  FastMatch m = s.Unfound(guess);
   float best = static_cast<float>(min_score);
   const float n = static_cast<float>(points.size());
   for (int k = -s.k_max; k <= s.k_max; ++k) {
@@ -146,11 +151,7 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
 FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                               double min_score) const {
   const Setup s = Prepare(guess, points);
-  FastMatch m;
-  m.pose = guess;
-  m.angular_step = s.step;
-  m.rotations = 2 * s.k_max + 1;
-  m.translations = 2 * s.w + 1;
+  FastMatch m = s.Unfound(guess);
   struct Node {
     int k, dx, dy;
     float score;
