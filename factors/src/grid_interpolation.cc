@@ -18,6 +18,11 @@ inline void Cubic(const double* f, double t, double* value, double* derivative) 
 }  // namespace
 
 double InterpolateProbability(const ProbabilityGrid& grid, const Eigen::Vector2d& p, Eigen::Vector2d* gradient) {
+  return InterpolateProbability(grid, p, gradient, grid.min_probability());
+}
+
+double InterpolateProbability(const ProbabilityGrid& grid, const Eigen::Vector2d& p, Eigen::Vector2d* gradient,
+                              double unknown_probability) {
   // Continuous cell coordinates with the cells' centres at integers.
   const Eigen::Vector2d u = (p - grid.origin()) / grid.resolution() - Eigen::Vector2d::Constant(0.5);
   const double fx = std::floor(u.x()), fy = std::floor(u.y());
@@ -26,7 +31,8 @@ double InterpolateProbability(const ProbabilityGrid& grid, const Eigen::Vector2d
   double rows[4], row_dx[4];
   for (int j = 0; j < 4; ++j) {
     double f[4];
-    for (int i = 0; i < 4; ++i) f[i] = grid.Probability(ProbabilityGrid::Cell(ix - 1 + i, iy - 1 + j));
+    for (int i = 0; i < 4; ++i)
+      f[i] = grid.Probability(ProbabilityGrid::Cell(ix - 1 + i, iy - 1 + j), unknown_probability);
     Cubic(f, tx, &rows[j], &row_dx[j]);
   }
   double value, dy;

@@ -40,6 +40,11 @@ bool ScanMatchWeights::IsValid(std::string* why) const {
   if (!(std::isfinite(occupied_space) && occupied_space > 0)) return bad("occupied-space", occupied_space);
   if (!(std::isfinite(translation) && translation > 0)) return bad("translation", translation);
   if (!(std::isfinite(rotation) && rotation > 0)) return bad("rotation", rotation);
+  if (!(unknown_probability >= 0 && unknown_probability <= 1)) {
+    if (why != nullptr)
+      *why = "unknown_probability is " + FormatDouble(unknown_probability) + "; it must lie in [0, 1]";
+    return false;
+  }
   return true;
 }
 
@@ -66,7 +71,8 @@ bool ScanMatchSE2::Evaluate(const double* const* params, double* error, double* 
     const Eigen::Vector2d& h = points_[k];
     const Eigen::Vector2d rh(c * h.x() - s * h.y(), s * h.x() + c * h.y());
     Eigen::Vector2d g;
-    error[k] = 1.0 - InterpolateProbability(*grid_, Eigen::Vector2d(x + rh.x(), y + rh.y()), jac ? &g : nullptr);
+    error[k] = 1.0 - InterpolateProbability(*grid_, Eigen::Vector2d(x + rh.x(), y + rh.y()), jac ? &g : nullptr,
+                                            weights_.unknown_probability);
     if (jac != nullptr) {
       // d(T h)/d(dt) = R, d(T h)/d(dtheta) = (-(R h)_y, (R h)_x).
       double* row = jac + 3 * k;

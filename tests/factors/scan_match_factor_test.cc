@@ -43,7 +43,10 @@ TEST(ScanMatchSE2, ErrorIsOneMinusSmoothProbabilityThenRegularisers) {
   std::mt19937 rng(2);
   const std::vector<Eigen::Vector2d> pts = RandomPoints(rng, 7);
   const SE2d guess(0.05, -0.02, 0.3), x(0.1, 0.03, 0.25 + 2 * 3.14159265358979);
-  const ScanMatchSE2 f(4, grid, pts, guess);
+  ScanMatchWeights w;
+  w.translation = 10;
+  w.rotation = 40;
+  const ScanMatchSE2 f(4, grid, pts, guess, w);
   ASSERT_EQ(f.residual_dim(), 10);
   ASSERT_EQ(f.dim(), 10);
   EXPECT_NO_THROW(f.CheckShape());
@@ -51,7 +54,11 @@ TEST(ScanMatchSE2, ErrorIsOneMinusSmoothProbabilityThenRegularisers) {
   const double* p[1] = {params};
   std::vector<double> e(10);
   ASSERT_TRUE(f.Evaluate(p, e.data(), nullptr));
-  for (int k = 0; k < 7; ++k) EXPECT_NEAR(e[k], 1 - InterpolateProbability(*grid, x * pts[k]), 1e-12);
+  for (int k = 0; k < 7; ++k) EXPECT_NEAR(e[k], 1 - InterpolateProbability(*grid, x * pts[k], nullptr, 0.5), 1e-12);
+  // A point where no cell is known reads unknown_probability (0.5 by default).
+  const ScanMatchSE2 far(4, grid, {Eigen::Vector2d(100, 100)}, guess);
+  ASSERT_TRUE(far.Evaluate(p, e.data(), nullptr));
+  EXPECT_DOUBLE_EQ(e[0], 0.5);
   EXPECT_NEAR(e[7], 0.05, 1e-12);
   EXPECT_NEAR(e[8], 0.05, 1e-12);
   EXPECT_NEAR(e[9], -0.05, 1e-9);  // wrapped
@@ -65,6 +72,8 @@ TEST(ScanMatchSE2, ErrorIsOneMinusSmoothProbabilityThenRegularisers) {
   const std::unique_ptr<Factor> c = f.Clone();
   EXPECT_EQ(static_cast<const ScanMatchSE2&>(*c).grid(), grid);  // shares the grid
   EXPECT_EQ(f.weights().rotation, 40);
+  EXPECT_EQ(ScanMatchWeights().translation, 1);  // the defaults
+  EXPECT_EQ(ScanMatchWeights().rotation, 1);
 }
 
 TEST(ScanMatchSE2, JacobianMatchesNumeric) {
@@ -141,6 +150,11 @@ TEST(ScanMatchSE2, BadInputIsAClearError) {
   w = ScanMatchWeights();
   w.occupied_space = std::nan("");
   EXPECT_FALSE(w.IsValid(nullptr));
+  w = ScanMatchWeights();
+  w.unknown_probability = -0.1;
+  std::string why;
+  EXPECT_FALSE(w.IsValid(&why));
+  EXPECT_NE(why.find("unknown_probability"), std::string::npos) << why;
   // A pose that is not finite cannot be evaluated.
   const ScanMatchSE2 f(0, grid, pts, SE2d());
   double params[3] = {std::nan(""), 0, 0};

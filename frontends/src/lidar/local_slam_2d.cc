@@ -31,6 +31,12 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
     }
     return false;
   }
+  for (double v : {insert_min_distance, insert_min_angle, insert_max_seconds}) {
+    if (!(std::isfinite(v) && v >= 0)) {
+      if (why != nullptr) *why = "the motion filter's thresholds must be finite and not negative";
+      return false;
+    }
+  }
   return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why);
 }
 
@@ -72,12 +78,20 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     result.refine_seconds = SecondsSince(t0);
     result.matched = true;
   }
+  const SE2d moved = inserted_any_ ? last_inserted_.pose.Inverse() * result.pose : SE2d();
+  const bool insert = !inserted_any_ || moved.translation().norm() >= options_.insert_min_distance ||
+                      std::abs(moved.theta()) >= options_.insert_min_angle ||
+                      scan.stamp - last_inserted_.stamp >= options_.insert_max_seconds;
+  trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
+  if (!insert) return result;
+  inserted_any_ = true;
+  last_inserted_ = trajectory_.back();
+  result.inserted = true;
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector2d> in_map(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
   submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
   result.insert_seconds = SecondsSince(t0);
-  trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
   return result;
 }
 

@@ -17,7 +17,9 @@ bool CorrelativeMatcherOptions::IsValid(std::string* why) const {
   };
   return check("linear_search_window", linear_search_window) && check("angular_search_window", angular_search_window) &&
          check("angular_step", angular_step) && check("translation_delta_cost_weight", translation_delta_cost_weight) &&
-         check("rotation_delta_cost_weight", rotation_delta_cost_weight);
+         check("rotation_delta_cost_weight", rotation_delta_cost_weight) &&
+         check("unknown_probability", unknown_probability) &&
+         (unknown_probability <= 1 || !(why != nullptr && (*why = "unknown_probability must lie in [0, 1]", true)));
 }
 
 CorrelativeMatch MatchCorrelative(const ProbabilityGrid& grid, const SE2d& guess,
@@ -56,7 +58,7 @@ CorrelativeMatch MatchCorrelative(const ProbabilityGrid& grid, const SE2d& guess
       for (int ix = -linear_steps; ix <= linear_steps; ++ix) {
         const ProbabilityGrid::Cell offset(ix, iy);
         double sum = 0;
-        for (const ProbabilityGrid::Cell& c : cells) sum += grid.Probability(c + offset);
+        for (const ProbabilityGrid::Cell& c : cells) sum += grid.Probability(c + offset, options.unknown_probability);
         const double mean = sum * inv_n;
         const double penalty = options.translation_delta_cost_weight * r * std::hypot(ix, iy) +
                                options.rotation_delta_cost_weight * std::abs(dtheta);

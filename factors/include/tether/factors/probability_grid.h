@@ -62,6 +62,11 @@ class ProbabilityGrid {
   bool IsKnown(const Cell& c) const { return Value(c) != kUnknownValue; }
   /// The cell's probability; an unknown cell reads as min_probability() (it supports no hit).
   double Probability(const Cell& c) const { return ValueToProbability(Value(c)); }
+  /// The cell's probability, `unknown` where the cell is unknown.
+  double Probability(const Cell& c, double unknown) const {
+    const std::uint16_t v = Value(c);
+    return v == kUnknownValue ? unknown : ValueToProbability(v);
+  }
   /// Sets a cell's probability (clamped to the range); grows the box. Throws for a NaN.
   void SetProbability(const Cell& c, double p);
 

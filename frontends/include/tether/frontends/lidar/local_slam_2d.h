@@ -6,7 +6,8 @@
 // since the previous scan; the real-time correlative matcher's search around the prediction;
 // the nonlinear refinement from its result with the regularisers towards the prediction; the
 // scan inserted into the active submaps at the refined pose. The first scan is put at its
-// odometry pose (or the origin), unmatched. Poses are the robot's in the local map frame
+// odometry pose (or the origin), unmatched. A motion filter inserts only scans taken after the
+// robot moved or turned enough (every scan is matched and has a pose). Poses are the robot's in the local map frame
 // (the laser's offset on the robot, LaserScan::laser_in_robot, applied to the points).
 #include <Eigen/Core>
 #include <memory>
@@ -33,15 +34,22 @@ struct LocalSlamOptions {
   /// gets every valid point.
   double matching_voxel_size = 0.05;
   RangeLimits limits;
+  /// Motion filter: a scan is inserted into the submaps only where the robot moved at least
+  /// this far (m) or turned this much (rad) since the last inserted scan, or this much time
+  /// passed (s); every scan is matched. 0, 0, 0: insert every scan.
+  double insert_min_distance = 0.2;
+  double insert_min_angle = 0.0174532925199432958;  // 1 degree
+  double insert_max_seconds = 5;
   bool IsValid(std::string* why) const;
 };
 
 /// One scan's result, with the seconds its steps took.
 struct LocalScanResult {
   double stamp = 0;
-  SE2d predicted;        ///< the pose before matching
-  SE2d pose;             ///< the matched pose
-  bool matched = false;  ///< false for the first scan and for a scan without points
+  SE2d predicted;         ///< the pose before matching
+  SE2d pose;              ///< the matched pose
+  bool matched = false;   ///< false for the first scan and for a scan without points
+  bool inserted = false;  ///< inserted into the submaps (the motion filter let it through)
   int matching_points = 0;
   double correlative_score = 0;
   double correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
@@ -65,6 +73,8 @@ class LocalSlam2D {
   std::vector<StampedPose2> trajectory_;
   SE2d last_odometry_;
   bool last_has_odometry_ = false;
+  bool inserted_any_ = false;
+  StampedPose2 last_inserted_;
 };
 
 }  // namespace lidar

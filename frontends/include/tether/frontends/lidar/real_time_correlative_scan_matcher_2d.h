@@ -31,6 +31,8 @@ struct CorrelativeMatcherOptions {
   /// and dtheta in rad from the guess (0: no preference for the guess).
   double translation_delta_cost_weight = 0.1;
   double rotation_delta_cost_weight = 0.1;
+  /// What an unknown cell scores: 0.5, as in the scan-match factor (ScanMatchWeights).
+  double unknown_probability = 0.5;
   bool IsValid(std::string* why) const;
 };
 
