@@ -284,7 +284,8 @@ TEST(LocalScanMatching, IntelLogRelationsAndTiming) {
   n = std::min(n, log.scans.size());
   LocalSlam2D slam(OptionsFromEnvironment());
   std::vector<double> match_ms;
-  double correlative_ms = 0, insert_ms = 0;
+  double correlative_ms = 0, insert_ms = 0, candidates = 0, points = 0;
+  int inserted = 0;
   std::vector<StampedPose2> odometry;
   const auto t0 = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < n; ++i) {
@@ -292,8 +293,11 @@ TEST(LocalScanMatching, IntelLogRelationsAndTiming) {
     if (r.matched) {
       match_ms.push_back(1e3 * (r.correlative_seconds + r.refine_seconds));
       correlative_ms += 1e3 * r.correlative_seconds;
+      candidates += r.correlative_candidates;
+      points += r.matching_points;
     }
     insert_ms += 1e3 * r.insert_seconds;
+    inserted += r.inserted;
     odometry.push_back(StampedPose2{log.scans[i].stamp, log.scans[i].odometry});
   }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -316,8 +320,10 @@ TEST(LocalScanMatching, IntelLogRelationsAndTiming) {
             << "  odometry:   " << odom_err.Report() << "\n"
             << "  matching per scan (correlative + refinement): mean " << mean << " ms, median "
             << match_ms[match_ms.size() / 2] << " ms, 95% " << match_ms[match_ms.size() * 95 / 100] << " ms, max "
-            << match_ms.back() << " ms (correlative " << correlative_ms / match_ms.size() << " ms of it); insertion "
-            << insert_ms / n << " ms per scan; whole loop " << total << " s (" << 1e3 * total / n << " ms per scan)\n";
+            << match_ms.back() << " ms (correlative " << correlative_ms / match_ms.size() << " ms of it; "
+            << candidates / match_ms.size() << " candidates of " << points / match_ms.size() << " points on average); "
+            << inserted << " scans inserted, insertion " << insert_ms / n << " ms per scan; whole loop " << total
+            << " s (" << 1e3 * total / n << " ms per scan)\n";
   EXPECT_EQ(slam_err.matched, relations.size());
   EXPECT_LT(slam_err.translation.mean, odom_err.translation.mean);
   EXPECT_LT(slam_err.rotation.mean, odom_err.rotation.mean);

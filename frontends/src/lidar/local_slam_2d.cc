@@ -71,6 +71,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
       const CorrelativeMatch m = MatchCorrelative(*target->grid(), result.predicted, matching, options_.correlative);
       start = m.pose;
       result.correlative_score = m.score;
+      result.correlative_candidates = m.candidates;
     }
     result.correlative_seconds = SecondsSince(t0);
     t0 = std::chrono::steady_clock::now();

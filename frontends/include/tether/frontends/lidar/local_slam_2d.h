@@ -52,6 +52,7 @@ struct LocalScanResult {
   bool inserted = false;  ///< inserted into the submaps (the motion filter let it through)
   int matching_points = 0;
   double correlative_score = 0;
+  long correlative_candidates = 0;  ///< poses the correlative search scored
   double correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
 };
 
