@@ -50,6 +50,7 @@ TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
   ASSERT_EQ(run.code, 0) << run.output;
   EXPECT_NE(run.output.find("scans 80, submaps "), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("real-time factor"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("; precision "), std::string::npos) << run.output;
   // One pose per scan, with the scans' stamps, near the truth. (Odometry is perfect here; how
   // closely local SLAM's matching keeps to it is its own tests' business: this checks the
   // plumbing.)

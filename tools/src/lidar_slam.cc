@@ -183,8 +183,21 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   const double logged = log.scans[n - 1].stamp - log.scans[0].stamp;
   const lidar::PoseGraphStats& st = graph.stats();
+  // Loop-closure precision: a closure is kept when the final solution violates it by less than
+  // 20 cm and 1 degree.
+  std::size_t kept = 0;
+  for (const lidar::LoopClosure& c : graph.loop_closures()) {
+    const SE2d solved = graph.SubmapPose(c.submap).Inverse() * graph.ScanPose(c.scan);
+    if ((solved.translation() - c.relative.translation()).norm() < 0.2 &&
+        std::abs(WrapAngle(solved.theta() - c.relative.theta())) < M_PI / 180)
+      ++kept;
+  }
   out << "scans " << n << ", submaps " << graph.submap_count() << ", loop closures " << graph.loop_closures().size()
-      << " of " << st.searches << " searches\n"
+      << " of " << st.searches << " searches; precision "
+      << (graph.loop_closures().empty()
+              ? std::string("-")
+              : Fixed(100.0 * static_cast<double>(kept) / static_cast<double>(graph.loop_closures().size()), 2) + "%")
+      << " (" << kept << " kept by the final solution within 20 cm and 1 degree)\n"
       << "time " << Fixed(total, 2) << " s for " << Fixed(logged, 1) << " s of log: real-time factor "
       << Fixed(logged / std::max(total, 1e-9), 1) << "\n"
       << "  local matching " << Fixed(1e3 * matching_seconds / static_cast<double>(n), 3) << " ms per scan, insertion "
