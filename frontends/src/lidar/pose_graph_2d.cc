@@ -172,13 +172,19 @@ void PoseGraph2D::StartSearch(int scan, int submap) {
 
 void PoseGraph2D::RunSearch(Search* s) const {
   const auto t0 = std::chrono::steady_clock::now();
-  const FastMatch m = s->matcher->Match(s->guess, *s->points, options_.min_score);
-  if (m.found) {
-    SE2d pose = m.pose;
-    const ScanRefinement r = RefineScanPose(s->grid, m.pose, m.pose, *s->points, options_.refine);
-    if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
-    s->found = true;
-    s->result = LoopClosure{s->scan, s->submap, s->submap_local.Inverse() * pose, m.score};
+  // A search that throws (a degenerate scan) finds nothing; on a worker thread an exception
+  // would end the program.
+  try {
+    const FastMatch m = s->matcher->Match(s->guess, *s->points, options_.min_score);
+    if (m.found) {
+      SE2d pose = m.pose;
+      const ScanRefinement r = RefineScanPose(s->grid, m.pose, m.pose, *s->points, options_.refine);
+      if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
+      s->found = true;
+      s->result = LoopClosure{s->scan, s->submap, s->submap_local.Inverse() * pose, m.score};
+    }
+  } catch (const std::exception&) {
+    s->found = false;
   }
   s->seconds = SecondsSince(t0);
   if (workers_.empty()) s->done = true;
