@@ -143,7 +143,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
       }
     }
   }
-  if ((i + 1) % options_.apply_every_n_scans == 0) ApplyFinishedSearches(true);
+  if ((i + 1) % options_.apply_every_n_scans == 0) ApplyFinishedSearches();
 }
 
 void PoseGraph2D::StartSearch(int scan, int submap) {
@@ -209,8 +209,9 @@ void PoseGraph2D::Worker() {
   }
 }
 
-void PoseGraph2D::ApplyFinishedSearches(bool all) {
-  (void)all;  // results are applied only all at once, in the order started (determinism)
+// Waits for every search started so far and applies them all, in the order they were started
+// (never a part: that would depend on the threads' timing).
+void PoseGraph2D::ApplyFinishedSearches() {
   const auto t0 = std::chrono::steady_clock::now();
   std::deque<std::unique_ptr<Search>> done;
   {
@@ -266,7 +267,7 @@ void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
 }
 
 void PoseGraph2D::Finish() {
-  ApplyFinishedSearches(true);
+  ApplyFinishedSearches();
   const auto t0 = std::chrono::steady_clock::now();
   smoother_.Finish();
   stats_.optimize_seconds += SecondsSince(t0);

@@ -128,7 +128,7 @@ class PoseGraph2D {
 
   void StartSearch(int scan, int submap);
   void RunSearch(Search* s) const;
-  void ApplyFinishedSearches(bool all);
+  void ApplyFinishedSearches();
   void Worker();
   SE2d GlobalFromLocal() const;
 
