@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <filesystem>
-#include <map>
 #include <ostream>
 #include <sstream>
 
@@ -103,29 +102,16 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   lidar::PoseGraph2D graph(po);
   const auto t0 = std::chrono::steady_clock::now();
   double matching_seconds = 0, insert_seconds = 0, graph_seconds = 0;
-  std::map<const lidar::Submap2D*, int> index_of;  // submaps in order of creation
-  std::vector<int> scans_in;                       // per submap index, its scans before this one
   for (std::size_t i = 0; i < n; ++i) {
     const lidar::LaserScan& scan = log.scans[i];
     const lidar::LocalScanResult r = local.AddScan(scan);
     matching_seconds += r.correlative_seconds + r.refine_seconds;
     insert_seconds += r.insert_seconds;
-    std::vector<std::pair<int, std::shared_ptr<const lidar::Submap2D>>> inserted;
-    const auto& submaps = local.submaps().submaps();
-    for (const std::shared_ptr<lidar::Submap2D>& s : submaps) {
-      const auto it = index_of.emplace(s.get(), static_cast<int>(index_of.size())).first;
-      const int j = it->second;
-      if (static_cast<int>(scans_in.size()) <= j) scans_in.resize(static_cast<std::size_t>(j) + 1, 0);
-      if (s->num_scans() > scans_in[static_cast<std::size_t>(j)]) {
-        inserted.emplace_back(j, s);
-        scans_in[static_cast<std::size_t>(j)] = s->num_scans();
-      }
-    }
     std::vector<Eigen::Vector2d> points = lidar::ScanToPoints(scan, ro.limits);
     for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
     const auto tg = std::chrono::steady_clock::now();
-    graph.AddScan(r.pose, lidar::VoxelFilter(points, lo.matching_voxel_size > 0 ? lo.matching_voxel_size : 0.05),
-                  inserted);
+    graph.AddScan(r.pose, lo.matching_voxel_size > 0 ? lidar::VoxelFilter(points, lo.matching_voxel_size) : points,
+                  r.inserted_into);
     graph_seconds += SecondsSince(tg);
     if (!cmd.quiet && cmd.progress_every > 0 && (i + 1) % static_cast<std::size_t>(cmd.progress_every) == 0) {
       const double logged = log.scans[i].stamp - log.scans[0].stamp;

@@ -91,7 +91,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector2d> in_map(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
-  submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
+  result.inserted_into = submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
   result.insert_seconds = SecondsSince(t0);
   return result;
 }

@@ -79,7 +79,7 @@ SE2d PoseGraph2D::GlobalFromLocal() const {
 }
 
 void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points,
-                          const std::vector<std::pair<int, std::shared_ptr<const Submap2D>>>& inserted_into) {
+                          const InsertedSubmaps& inserted_into) {
   int next = submap_count();  // the index a new submap must have
   for (const auto& [j, submap] : inserted_into) {
     if (submap == nullptr || j < 0 || j > next) {

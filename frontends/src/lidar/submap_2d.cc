@@ -53,20 +53,27 @@ SubmapOptions Checked(const SubmapOptions& options) {
 ActiveSubmaps2D::ActiveSubmaps2D(const SubmapOptions& options)
     : options_(Checked(options)), inserter_(options.insert, options.min_probability, options.max_probability) {}
 
-void ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin,
-                                 const std::vector<Eigen::Vector2d>& points) {
+InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin,
+                                            const std::vector<Eigen::Vector2d>& points) {
   if (start_new_) {
     submaps_.push_back(std::make_shared<Submap2D>(scan_pose, options_));
     active_.push_back(submaps_.back());
     start_new_ = false;
   }
-  for (const auto& s : active_) s->InsertScan(inserter_, origin, points);
+  // The active submaps are the newest ones, in order of creation.
+  InsertedSubmaps inserted;
+  int index = static_cast<int>(submaps_.size() - active_.size());
+  for (const auto& s : active_) {
+    s->InsertScan(inserter_, origin, points);
+    inserted.emplace_back(index++, s);
+  }
   if (active_.front()->num_scans() >= options_.scans_per_submap) {
     active_.front()->Finish();
     active_.erase(active_.begin());
   }
   const int half = std::max(1, options_.scans_per_submap / 2);
   if (active_.empty() || (active_.size() == 1 && active_.back()->num_scans() >= half)) start_new_ = true;
+  return inserted;
 }
 
 std::shared_ptr<const Submap2D> ActiveSubmaps2D::matching_submap() const {

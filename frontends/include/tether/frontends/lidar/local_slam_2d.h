@@ -46,10 +46,11 @@ struct LocalSlamOptions {
 /// One scan's result, with the seconds its steps took.
 struct LocalScanResult {
   double stamp = 0;
-  SE2d predicted;         ///< the pose before matching
-  SE2d pose;              ///< the matched pose
-  bool matched = false;   ///< false for the first scan and for a scan without points
-  bool inserted = false;  ///< inserted into the submaps (the motion filter let it through)
+  SE2d predicted;                 ///< the pose before matching
+  SE2d pose;                      ///< the matched pose
+  bool matched = false;           ///< false for the first scan and for a scan without points
+  bool inserted = false;          ///< inserted into the submaps (the motion filter let it through)
+  InsertedSubmaps inserted_into;  ///< the submaps it went into (empty where not inserted)
   int matching_points = 0;
   double correlative_score = 0;
   long correlative_candidates = 0;  ///< poses the correlative search scored

@@ -82,11 +82,10 @@ class PoseGraph2D {
 
   /// The next scan (index = scans so far): its pose from local SLAM, its points (the robot's
   /// frame) and the submaps it was inserted into (index in the order of creation, and the
-  /// submap). Submaps must come with increasing indices; a finished one stays finished. A scan
-  /// in no submap (no points) is tied to the previous scan by the local poses. Throws
+  /// submap, as ActiveSubmaps2D::InsertScan gives them). Submaps must come with increasing indices; a finished one
+  /// stays finished. A scan in no submap (no points) is tied to the previous scan by the local poses. Throws
   /// InvalidArgument for a null submap or one that skips an index.
-  void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points,
-               const std::vector<std::pair<int, std::shared_ptr<const Submap2D>>>& inserted_into);
+  void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points, const InsertedSubmaps& inserted_into);
   /// Waits for every search, applies the results and solves the graph to convergence.
   void Finish();
 

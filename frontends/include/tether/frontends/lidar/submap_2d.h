@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tether/core/se2.h"
@@ -54,6 +55,10 @@ class Submap2D {
   bool finished_ = false;
 };
 
+/// Submaps a scan went into: each one's index in ActiveSubmaps2D::submaps() (the order of
+/// creation) and the submap.
+using InsertedSubmaps = std::vector<std::pair<int, std::shared_ptr<const Submap2D>>>;
+
 class ActiveSubmaps2D {
  public:
   /// Throws InvalidArgument for invalid options.
@@ -62,7 +67,9 @@ class ActiveSubmaps2D {
   /// Inserts a scan taken at `scan_pose` (points and sensor origin in the local map frame)
   /// into the active submaps, starting a submap at scan_pose where one is due and finishing
   /// the older one once it is full.
-  void InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin, const std::vector<Eigen::Vector2d>& points);
+  /// Returns the submaps the scan went into.
+  InsertedSubmaps InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin,
+                             const std::vector<Eigen::Vector2d>& points);
 
   /// The submap to match the next scan against: the older active one (null before any scan).
   std::shared_ptr<const Submap2D> matching_submap() const;
