@@ -20,6 +20,9 @@ bool ChunkedSolveOptions::IsValid(std::string* why) const {
   };
   if (chunks < 1) return fail("chunks must be at least 1");
   if (min_chunk_poses < 1) return fail("min_chunk_poses must be at least 1");
+  if (!(interim_function_tolerance >= 0 && interim_function_tolerance < 1)) {
+    return fail("interim_function_tolerance must be in [0, 1)");
+  }
   std::string reason;
   if (!solver.IsValid(&reason)) return fail("solver: " + reason);
   return true;
@@ -141,7 +144,10 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     if (grow.sub().empty()) continue;
     if (options.before_solve) options.before_solve(c, solved, &grow.sub(), grow.current());
     solved = grow.sub().size();
-    r.last = Optimize(grow.sub(), &grow.current(), options.solver);
+    SolverOptions solver = options.solver;
+    if (c + 1 < chunks)
+      solver.function_tolerance = std::max(solver.function_tolerance, options.interim_function_tolerance);
+    r.last = Optimize(grow.sub(), &grow.current(), solver);
     ++r.chunks;
     r.iterations += r.last.iterations;
     if (!r.last.IsSolutionUsable()) {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "testing/simulated.h"
@@ -32,6 +33,30 @@ TEST(ChunkedSolve, EndsAtTheBatchOptimum) {
     EXPECT_NEAR(sim.graph.Chi2(v), b.final_chi2, 1e-6 * b.final_chi2) << static_cast<int>(world);
     EXPECT_GT(c.iterations, c.chunks);
   }
+}
+
+TEST(ChunkedSolve, InterimSolvesStopEarlierAndTheLastReachesTheOptimum) {
+  // The solves before the last stop at interim_function_tolerance: fewer iterations in all,
+  // and the last solve (solver's own tolerance) still ends at the batch optimum.
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 600, 7, 60);
+  Values batch = sim.initial;
+  const SolverSummary b = Optimize(sim.graph, &batch);
+  ASSERT_TRUE(b.IsSolutionUsable()) << b.message;
+  ChunkedSolveOptions tight, loose;
+  tight.chunks = loose.chunks = 8;
+  tight.interim_function_tolerance = 0;
+  loose.interim_function_tolerance = 1e-3;
+  Values vt = sim.initial, vl = sim.initial;
+  const ChunkedSolveSummary ct = SolveInChunks(sim.graph, &vt, tight);
+  const ChunkedSolveSummary cl = SolveInChunks(sim.graph, &vl, loose);
+  ASSERT_TRUE(ct.usable && cl.usable) << ct.message << cl.message;
+  EXPECT_LT(cl.iterations, ct.iterations);
+  EXPECT_NEAR(sim.graph.Chi2(vt), b.final_chi2, 1e-6 * b.final_chi2);
+  EXPECT_NEAR(sim.graph.Chi2(vl), b.final_chi2, 1e-6 * b.final_chi2);
+  // The default: ten chunks, 1e-5 before the last.
+  const ChunkedSolveOptions d;
+  EXPECT_EQ(d.chunks, 10);
+  EXPECT_EQ(d.interim_function_tolerance, 1e-5);
 }
 
 TEST(ChunkedSolve, ChunkCountAndHook) {
@@ -145,6 +170,11 @@ TEST(ChunkedSolve, InvalidOptionsThrow) {
   o = ChunkedSolveOptions();
   o.min_chunk_poses = 0;
   EXPECT_THROW(SolveInChunks(sim.graph, &v, o), InvalidArgument);
+  for (double bad : {-1e-5, 1.0, std::nan("")}) {
+    o = ChunkedSolveOptions();
+    o.interim_function_tolerance = bad;
+    EXPECT_THROW(SolveInChunks(sim.graph, &v, o), InvalidArgument) << bad;
+  }
   EXPECT_THROW(SolveInChunks(sim.graph, nullptr), InvalidArgument);
 }
 

@@ -23,11 +23,18 @@ namespace tether {
 
 struct ChunkedSolveOptions {
   /// How many chunks the poses are cut into (fewer where chunks would hold fewer than
-  /// min_chunk_poses). Default 20.
-  int chunks = 20;
+  /// min_chunk_poses). Default 10 (20 gave the same decisions on the outlier benchmark and on
+  /// simulated worlds of 1000-2000 poses, at 1.4x the time; benchmarks/RESULTS.md, "GNC: ten
+  /// chunks").
+  int chunks = 10;
   int min_chunk_poses = 50;
   /// Each chunk's solve. Default: Levenberg-Marquardt, at most 30 iterations.
   SolverOptions solver;
+  /// The solves before the last stop once the cost falls by less than this fraction per
+  /// iteration (the larger of this and solver.function_tolerance); the last solve, of the
+  /// whole graph, keeps solver's. A chunk's map only has to be good enough to judge the next
+  /// chunk's closures against. 0: solver's own everywhere. Default 1e-5.
+  double interim_function_tolerance = 1e-5;
   /// Called before each chunk's solve (chunk from 0) with the graph so far (the factors of
   /// earlier chunks first, in the order they joined: the first `solved` of them were in the
   /// last solve) and the estimate it starts from; it may change that graph's losses (a scale

@@ -70,8 +70,9 @@ struct GncOptions {
   double reject_below = 0.1;
   /// Where the stages start (above). Default kChunkedDcs.
   GncStart start = GncStart::kChunkedDcs;
-  /// The chunks of the kChunkedDcs start (20 chunks of at least 50 poses, each solve at most
-  /// 30 LM iterations by default). GNC sets its own before_solve (one given here is replaced).
+  /// The chunks of the kChunkedDcs start (10 chunks of at least 50 poses, each solve at most
+  /// 30 LM iterations, the ones before the last to a relative cost decrease of 1e-5, by
+  /// default). GNC sets its own before_solve (one given here is replaced).
   ChunkedSolveOptions chunked;
   /// Each stage's solve (and the least-squares start): Levenberg-Marquardt, at most 30
   /// iterations by default.
