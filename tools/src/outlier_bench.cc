@@ -188,6 +188,10 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
               const GncSummary gs = OptimizeGnc(graph, &v, go);
               ok = gs.usable;
               rejected = gs.rejected;
+              row.gnc_stages_max = std::max(row.gnc_stages_max, gs.stages);
+              row.gnc_start_seconds += gs.start_seconds;
+              row.gnc_stages_seconds += gs.stages_seconds;
+              row.gnc_final_seconds += gs.final_seconds;
             } else if (method == "cdcs") {
               for (std::size_t i = 0; i < graph.size(); ++i) {
                 Factor& f = graph.at(i);
@@ -235,8 +239,12 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
         row.chi2_ratio = Median(chi2);
         row.time_ratio = Median(time);
         progress << "  " << row.mode << " " << rate << " " << method << ": ATE " << row.ate_median << " m (max "
-                 << row.ate_max << "), precision " << row.precision_min << ", recall " << row.recall_min << "\n"
-                 << std::flush;
+                 << row.ate_max << "), precision " << row.precision_min << ", recall " << row.recall_min;
+        if (row.gnc_stages_max > 0) {
+          progress << "; GNC over the seeds: start " << row.gnc_start_seconds << " s, stages " << row.gnc_stages_seconds
+                   << " s (at most " << row.gnc_stages_max << " per run), final " << row.gnc_final_seconds << " s";
+        }
+        progress << "\n" << std::flush;
         rows.push_back(row);
       }
     }

@@ -43,6 +43,10 @@ struct OutlierBenchRow {
   double ate_median = 0, ate_max = 0, chi2_ratio = 0, precision_min = 1, recall_min = 1, time_ratio = 0;
   int runs = 0;
   std::string status;  ///< "ok", or why a run failed
+  /// gnc and gnc-ls: the most stages any seed ran, and the seconds of GNC's start, stages and
+  /// final least squares summed over the seeds (0 for the other methods).
+  int gnc_stages_max = 0;
+  double gnc_start_seconds = 0, gnc_stages_seconds = 0, gnc_final_seconds = 0;
 };
 
 /// Runs the benchmark; throws tether::Error for a file that cannot be read or an unknown
