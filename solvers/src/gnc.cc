@@ -104,8 +104,14 @@ double PredictedChi2(const Factor& f, const Values& values, const Marginals& mar
 }
 
 // DCS's phi for a learned scale k and a bound c^2: k c^2, at most c^2 and at least 1 (1 also
-// where k is not learned yet, or where a bound set by hand is below 1).
-double DcsPhi(double k, double c2) { return std::max(1.0, std::min(k * c2, c2)); }
+// where a bound set by hand is below 1). Until k is learned (k 0), c^2: the closures are taken
+// at their stated noise until their fit says otherwise. (phi 1 there gave up true closures that
+// the chunks never took back: on clean simulated worlds of 100-200 poses, 67 of 1258 true
+// closures in 18 worlds against 20 with c^2, the map off by 0.08-0.90 m in 7 worlds against 3.)
+double DcsPhi(double k, double c2) {
+  if (k <= 0) return std::max(1.0, c2);
+  return std::max(1.0, std::min(k * c2, c2));
+}
 
 }  // namespace
 
@@ -172,7 +178,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     c2_of[i] = bound(work.at(i).dim());
     work.at(i).set_loss(chunked ? std::make_shared<DcsLoss>(1.0) : nullptr);
   }
-  double phi_scale = 0;  // k above (0 until learned: phi = 1)
+  double phi_scale = 0;  // k above (0 until learned: phi = c^2)
   if (chunked) {
     ChunkedSolveOptions co = options.chunked;
     co.before_solve = [&](int, std::size_t solved, FactorGraph* sub, const Values& estimate) {
