@@ -91,7 +91,7 @@ TEST(Gnc, WithoutWrongClosuresNothingIsRejectedAndTheOptimumStays) {
 
 TEST(Gnc, SmallCleanWorldsKeepTheirTrueClosures) {
   // Until DCS's scale is learned (from 10 kept closures) the chunked start takes the closures
-  // at their stated noise (phi c^2). With phi 1 there, these clean worlds lost closures for
+  // near their stated noise (phi 0.3 c^2). With phi 1 there, these clean worlds lost closures for
   // good: 7 of 46 (150 poses, seed 4; map 0.21 m off) and 32 of 89 (200 poses, seed 2; 0.90 m
   // off). Measured now: none, the least-squares optimum.
   for (const auto& [poses, seed] : {std::pair<int, int>{150, 4}, std::pair<int, int>{200, 2}}) {

@@ -23,7 +23,7 @@
 //     median chi2 of the closures kept so far over the median of the chi2 distribution of their
 //     dimension (phi 1, the literature's, where closures fit far below their stated noise, as
 //     in the public files; c^2 where they fit as stated, as in simulated worlds, where phi 1
-//     would give up true closures); c^2 until k is learned (from 10 kept closures).
+//     would give up true closures); 0.3 c^2 until k is learned (from 10 kept closures).
 //     max(s / c^2) is then taken over the closures that start keeps (DCS weight at least
 //     reject_below): the stages refine the start instead of undoing it (with the wrong
 //     closures' residuals, mu_0 would make the first stage least squares again). Where the
@@ -105,7 +105,7 @@ struct GncSummary {
   bool kept_start = false;
   int start_iterations = 0;  ///< iterations of the start (over every chunk)
   /// kChunkedDcs: the scale k learned for DCS's phi = max(1, min(k c^2, c^2)) (0: not learned,
-  /// phi c^2).
+  /// phi max(1, 0.3 c^2)).
   double phi_scale = 0;
   int loop_closures = 0;
   double seconds = 0;
