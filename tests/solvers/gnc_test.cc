@@ -93,8 +93,11 @@ TEST(Gnc, SmallCleanWorldsKeepTheirTrueClosures) {
   // Until DCS's scale is learned (from 10 kept closures) the chunked start takes the closures
   // near their stated noise (phi 0.3 c^2). With phi 1 there, these clean worlds lost closures for
   // good: 7 of 46 (150 poses, seed 4; map 0.21 m off) and 32 of 89 (200 poses, seed 2; 0.90 m
-  // off). Measured now: none, the least-squares optimum.
-  for (const auto& [poses, seed] : {std::pair<int, int>{150, 4}, std::pair<int, int>{200, 2}}) {
+  // off). In the 150-pose world of seed 1 the start held out 16 true closures beyond 10 c^2;
+  // judged by their plain chi2 against the map without them, 17 of 48 stayed out (0.54 m off);
+  // judged with that map's uncertainty, none. Measured now: none, the least-squares optimum.
+  for (const auto& [poses, seed] :
+       {std::pair<int, int>{150, 4}, std::pair<int, int>{200, 2}, std::pair<int, int>{150, 1}}) {
     const Corrupted c = Corrupt(poses, 0.0, seed);
     Values clean = c.initial;
     ASSERT_TRUE(Optimize(c.clean, &clean).IsSolutionUsable());

@@ -93,8 +93,10 @@ struct GncSummary {
   std::vector<double> weights;
   std::vector<std::size_t> rejected;  ///< indices (in the graph) of the rejected loop closures
   int readmitted = 0;                 ///< closures below reject_below that the final map explains
-  /// Closures the chunked start rejected and the stages kept (judged with the map's
-  /// covariance); a closure the start kept and the stages rejected is simply rejected.
+  /// Closures the chunked start rejected and the stages kept, and closures held out of the
+  /// stages that the final map leaves within 100 times their bound (times min(1, 10 k)): judged
+  /// with the map's covariance. A closure the start kept and the stages rejected is simply
+  /// rejected.
   int doubtful = 0;
   int held_out = 0;  ///< closures the chunked start rejected beyond 10 c^2, left out of the stages
   /// Seconds of the start, of the stages and of the final least squares with readmission.
