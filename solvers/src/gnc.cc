@@ -180,7 +180,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     c2_of[i] = bound(work.at(i).dim());
     work.at(i).set_loss(chunked ? std::make_shared<DcsLoss>(1.0) : nullptr);
   }
-  double phi_scale = 0;  // k above (0 until learned: phi = c^2)
+  double phi_scale = 0;  // k above (0 until learned: phi = max(1, 0.3 c^2))
   if (chunked) {
     ChunkedSolveOptions co = options.chunked;
     co.before_solve = [&](int, std::size_t solved, FactorGraph* sub, const Values& estimate) {
