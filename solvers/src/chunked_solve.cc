@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "minimizer.h"
@@ -19,6 +20,7 @@ bool ChunkedSolveOptions::IsValid(std::string* why) const {
     return false;
   };
   if (chunks < 1) return fail("chunks must be at least 1");
+  if (free_chunks < 0) return fail("free_chunks must be at least 0");
   if (min_chunk_poses < 1) return fail("min_chunk_poses must be at least 1");
   if (!(interim_function_tolerance >= 0 && interim_function_tolerance < 1)) {
     return fail("interim_function_tolerance must be in [0, 1)");
@@ -138,21 +140,49 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
   Growing grow(graph, *values);
   int next = 0;
   std::size_t solved = 0;
-  for (int c = 0; c < chunks; ++c) {
-    const int end = c + 1 == chunks ? n : static_cast<int>((static_cast<long long>(n) * (c + 1)) / chunks);
+  // With a window (free_chunks less than chunks), each chunk's solve moves the poses of the
+  // newest free_chunks chunks only, the older ones held where the earlier solves left them;
+  // then one more solve moves every pose. Without one, the last chunk's solve is the whole
+  // graph's.
+  const bool windowed = options.free_chunks > 0 && chunks > options.free_chunks;
+  const int solves = chunks + (windowed ? 1 : 0);
+  for (int c = 0; c < solves; ++c) {
+    const int end = c + 1 >= chunks ? n : static_cast<int>((static_cast<long long>(n) * (c + 1)) / chunks);
     for (; next < end; ++next) grow.AddPose(poses[next], next > 0 ? poses[next - 1] : poses[next]);
     if (grow.sub().empty()) continue;
     if (options.before_solve) options.before_solve(c, solved, &grow.sub(), grow.current());
     solved = grow.sub().size();
     SolverOptions solver = options.solver;
-    if (c + 1 < chunks)
-      solver.function_tolerance = std::max(solver.function_tolerance, options.interim_function_tolerance);
-    r.last = Optimize(grow.sub(), &grow.current(), solver);
+    const bool last = c + 1 == solves;
+    if (!last) solver.function_tolerance = std::max(solver.function_tolerance, options.interim_function_tolerance);
+    const int first_free =
+        !last && windowed && c + 1 > options.free_chunks
+            ? static_cast<int>((static_cast<long long>(n) * (c + 1 - options.free_chunks)) / chunks)
+            : 0;
+    if (first_free == 0) {
+      r.last = Optimize(grow.sub(), &grow.current(), solver);
+    } else {
+      // The window: the factors that touch a pose that moves (or a variable that is not a
+      // pose); a factor among held poses alone is constant and left out.
+      std::unordered_set<Key> held(poses.begin(), poses.begin() + first_free);
+      FactorGraph window;
+      for (std::size_t i = 0; i < grow.sub().size(); ++i) {
+        const Factor& f = grow.sub().at(i);
+        if (std::all_of(f.keys().begin(), f.keys().end(), [&held](Key k) { return held.count(k) != 0; })) continue;
+        window.Add(f.Clone());
+        for (Key k : f.keys()) {
+          if (held.count(k)) window.Fix(k);
+        }
+      }
+      for (Key k : grow.sub().fixed()) window.Fix(k);
+      r.last = Optimize(window, &grow.current(), solver);
+    }
     ++r.chunks;
     r.iterations += r.last.iterations;
     if (!r.last.IsSolutionUsable()) {
-      r.message = "chunk " + std::to_string(c + 1) + " of " + std::to_string(chunks) + " (" + std::to_string(end) +
-                  " poses) failed: " + r.last.message;
+      r.message = (c < chunks ? "chunk " + std::to_string(c + 1) + " of " + std::to_string(chunks)
+                              : std::string("the whole graph after the last chunk")) +
+                  " (" + std::to_string(end) + " poses) failed: " + r.last.message;
       r.seconds = internal::SecondsSince(t0);
       return r;
     }

@@ -1,10 +1,12 @@
 // SolveInChunks (tether/solvers/chunked_solve.h): the graph grown in pose-id order, each chunk
-// solved from the last one's estimate. Without losses it ends at the batch optimum; the chunk
-// count and the before_solve hook; landmarks enter with their poses; options.
+// solved from the last one's estimate. Without losses it ends at the batch optimum, with and
+// without a window; the window holds the older poses; the chunk count and the before_solve
+// hook; landmarks enter with their poses; options.
 #include "tether/solvers/chunked_solve.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -23,15 +25,62 @@ TEST(ChunkedSolve, EndsAtTheBatchOptimum) {
     Values batch = sim.initial;
     const SolverSummary b = Optimize(sim.graph, &batch);
     ASSERT_TRUE(b.IsSolutionUsable()) << b.message;
-    Values v = sim.initial;
+    // Without a window (8 solves), and with windows of 1 and 3 chunks (8 and one more of the
+    // whole graph).
+    for (int free_chunks : {0, 1, 3}) {
+      Values v = sim.initial;
+      ChunkedSolveOptions o;
+      o.chunks = 8;
+      o.free_chunks = free_chunks;
+      const ChunkedSolveSummary c = SolveInChunks(sim.graph, &v, o);
+      ASSERT_TRUE(c.usable) << c.message;
+      EXPECT_EQ(c.chunks, free_chunks == 0 ? 8 : 9);
+      EXPECT_EQ(v.size(), sim.initial.size());
+      EXPECT_NEAR(sim.graph.Chi2(v), b.final_chi2, 1e-6 * b.final_chi2)
+          << static_cast<int>(world) << ", window " << free_chunks;
+      EXPECT_GT(c.iterations, c.chunks);
+    }
+  }
+}
+
+TEST(ChunkedSolve, TheWindowHoldsTheOlderPosesUntilTheWholeGraphIsSolved) {
+  // Each hook call sees the estimate the previous solve left: with a window of one chunk, the
+  // solve of chunk c moves its own poses and leaves every pose of chunks 0..c-1 exactly where
+  // it was; the whole graph's solve (after the hook's sixth call) then moves them. Without a
+  // window they move at every chunk.
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 300, 6);
+  for (int free_chunks : {1, 0}) {
     ChunkedSolveOptions o;
-    o.chunks = 8;
+    o.chunks = 5;
+    o.free_chunks = free_chunks;
+    std::vector<Values> seen;
+    o.before_solve = [&](int, std::size_t, FactorGraph*, const Values& estimate) { seen.push_back(estimate); };
+    Values v = sim.initial;
     const ChunkedSolveSummary c = SolveInChunks(sim.graph, &v, o);
     ASSERT_TRUE(c.usable) << c.message;
-    EXPECT_EQ(c.chunks, 8);
-    EXPECT_EQ(v.size(), sim.initial.size());
-    EXPECT_NEAR(sim.graph.Chi2(v), b.final_chi2, 1e-6 * b.final_chi2) << static_cast<int>(world);
-    EXPECT_GT(c.iterations, c.chunks);
+    ASSERT_EQ(seen.size(), free_chunks == 1 ? 6u : 5u);
+    seen.push_back(v);
+    // Poses 0..59 are chunk 0, 60..119 chunk 1, ...
+    auto moved = [&](std::size_t call, Key first, Key end) {
+      double most = 0;
+      for (Key k = first; k < end; ++k) {
+        const double *a = seen[call].Params(k), *b = seen[call + 1].Params(k);  // x, y, theta
+        most = std::max(most, std::hypot(b[0] - a[0], b[1] - a[1]));
+      }
+      return most;
+    };
+    for (std::size_t call = 1; call < 5; ++call) {  // the solve of chunk `call`
+      const Key older_end = static_cast<Key>(60 * call);
+      if (free_chunks == 1) {
+        EXPECT_EQ(moved(call, 0, older_end), 0) << "chunk " << call;
+      } else {
+        EXPECT_GT(moved(call, 0, older_end), 1e-6) << "chunk " << call;
+      }
+      EXPECT_GT(moved(call, older_end, older_end + 60), 1e-6) << "chunk " << call << ": its own poses";
+    }
+    if (free_chunks == 1) {
+      EXPECT_GT(moved(5, 0, 180), 1e-6) << "the whole graph's solve";
+    }
   }
 }
 
@@ -53,9 +102,10 @@ TEST(ChunkedSolve, InterimSolvesStopEarlierAndTheLastReachesTheOptimum) {
   EXPECT_LT(cl.iterations, ct.iterations);
   EXPECT_NEAR(sim.graph.Chi2(vt), b.final_chi2, 1e-6 * b.final_chi2);
   EXPECT_NEAR(sim.graph.Chi2(vl), b.final_chi2, 1e-6 * b.final_chi2);
-  // The default: ten chunks, 1e-5 before the last.
+  // The default: ten chunks, a window of one, 1e-5 before the last.
   const ChunkedSolveOptions d;
   EXPECT_EQ(d.chunks, 10);
+  EXPECT_EQ(d.free_chunks, 1);
   EXPECT_EQ(d.interim_function_tolerance, 1e-5);
 }
 
@@ -75,16 +125,21 @@ TEST(ChunkedSolve, ChunkCountAndHook) {
   Values v = sim.initial;
   const ChunkedSolveSummary c = SolveInChunks(sim.graph, &v, o);
   ASSERT_TRUE(c.usable) << c.message;
-  ASSERT_EQ(c.chunks, 4);
-  ASSERT_EQ(chunk_ids, (std::vector<int>{0, 1, 2, 3}));
+  // Four chunks, then the whole graph's solve (the default window), with the hook before each.
+  ASSERT_EQ(c.chunks, 5);
+  ASSERT_EQ(chunk_ids, (std::vector<int>{0, 1, 2, 3, 4}));
   EXPECT_EQ(solved[0], 0u);
-  for (int i = 1; i < 4; ++i) {
+  for (int i = 1; i < 5; ++i) {
     EXPECT_EQ(solved[i], sizes[i - 1]) << i;  // the factors of the last solve come first
-    EXPECT_GT(sizes[i], sizes[i - 1]) << i;
-    EXPECT_GT(present[i], present[i - 1]) << i;
+    if (i < 4) {
+      EXPECT_GT(sizes[i], sizes[i - 1]) << i;
+      EXPECT_GT(present[i], present[i - 1]) << i;
+    }
   }
   EXPECT_EQ(sizes[3], sim.graph.size());
   EXPECT_EQ(present[3], sim.initial.size());
+  EXPECT_EQ(sizes[4], sizes[3]);  // nothing new for the whole graph's solve
+  EXPECT_EQ(present[4], present[3]);
   EXPECT_EQ(present[0], 230u / 4);  // the first chunk's poses
 }
 
@@ -122,8 +177,8 @@ TEST(ChunkedSolve, AHookThatRemovesFactorsKeepsTheCountRight) {
   Values v = sim.initial;
   const ChunkedSolveSummary c = SolveInChunks(sim.graph, &v, o);
   ASSERT_TRUE(c.usable) << c.message;
-  ASSERT_EQ(solved.size(), 4u);
-  for (std::size_t i = 1; i < 4; ++i) EXPECT_EQ(solved[i], sizes_after[i - 1]) << i;
+  ASSERT_EQ(solved.size(), 5u);  // four chunks and the whole graph
+  for (std::size_t i = 1; i < 5; ++i) EXPECT_EQ(solved[i], sizes_after[i - 1]) << i;
   EXPECT_EQ(sizes_after.back(), 199u);  // the odometry chain
   EXPECT_NEAR(c.last.final_chi2, 0, 1e-12);
 }
@@ -175,6 +230,9 @@ TEST(ChunkedSolve, InvalidOptionsThrow) {
     o.interim_function_tolerance = bad;
     EXPECT_THROW(SolveInChunks(sim.graph, &v, o), InvalidArgument) << bad;
   }
+  o = ChunkedSolveOptions();
+  o.free_chunks = -1;
+  EXPECT_THROW(SolveInChunks(sim.graph, &v, o), InvalidArgument);
   EXPECT_THROW(SolveInChunks(sim.graph, nullptr), InvalidArgument);
 }
 

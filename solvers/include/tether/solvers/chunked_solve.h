@@ -7,7 +7,9 @@
 // a loop closure is judged against a map made of the closures accepted before it, not
 // against an odometry start that has drifted for the whole run (benchmarks/RESULTS.md,
 // "Outlier benchmark": DCS from the odometry start of input_M3500_g2o fails at 30-50% false
-// closures, and holds from the optimum without them).
+// closures, and holds from the optimum without them). A chunk's solve moves only the newest
+// chunk's poses (the window, ChunkedSolveOptions::free_chunks): the older map is held, as the
+// closures accepted so far left it; one solve of the whole graph ends it.
 //
 // The graph's own losses are used as they are (for example DCS on the loop closures).
 // Variables other than poses enter with the first chunk in which a factor ties them to a pose
@@ -35,7 +37,16 @@ struct ChunkedSolveOptions {
   /// whole graph, keeps solver's. A chunk's map only has to be good enough to judge the next
   /// chunk's closures against. 0: solver's own everywhere. Default 1e-5.
   double interim_function_tolerance = 1e-5;
-  /// Called before each chunk's solve (chunk from 0) with the graph so far (the factors of
+  /// The window: each chunk's solve moves the poses of the newest free_chunks chunks only,
+  /// the older ones held where the earlier solves left them (factors among held poses alone
+  /// are left out of it); after the last chunk one more solve moves every pose. A chunk's
+  /// solve then costs about one chunk's worth, not the whole graph so far. 0: no window, each
+  /// solve moves every pose so far (the last chunk's is the whole graph's). Default 1: the
+  /// same decisions as 0 on the outlier benchmark and simulated worlds, at 0.25-0.6x the time
+  /// (benchmarks/RESULTS.md, "GNC: a window").
+  int free_chunks = 1;
+  /// Called before each solve (chunk from 0; with a window, also before the whole graph's
+  /// solve that follows the last chunk, as chunk `chunks`) with the graph so far (the factors of
   /// earlier chunks first, in the order they joined: the first `solved` of them were in the
   /// last solve) and the estimate it starts from; it may change that graph's losses (a scale
   /// learned from the residuals so far) or remove factors from it for the chunks to come
@@ -50,7 +61,7 @@ struct ChunkedSolveOptions {
 struct ChunkedSolveSummary {
   int chunks = 0;      ///< solves run
   int iterations = 0;  ///< over all solves
-  SolverSummary last;  ///< the last chunk's (the whole graph's) solve
+  SolverSummary last;  ///< the last solve's (the whole graph's)
   double seconds = 0;
   bool usable = false;
   std::string message;  ///< empty when usable; else why not
