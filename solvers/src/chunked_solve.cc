@@ -155,10 +155,9 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     SolverOptions solver = options.solver;
     const bool last = c + 1 == solves;
     if (!last) solver.function_tolerance = std::max(solver.function_tolerance, options.interim_function_tolerance);
-    const int first_free =
-        !last && windowed && c + 1 > options.free_chunks
-            ? static_cast<int>((static_cast<long long>(n) * (c + 1 - options.free_chunks)) / chunks)
-            : 0;
+    const int first_free = !last && windowed && c + 1 > options.free_chunks
+                               ? static_cast<int>((static_cast<long long>(n) * (c + 1 - options.free_chunks)) / chunks)
+                               : 0;
     if (first_free == 0) {
       r.last = Optimize(grow.sub(), &grow.current(), solver);
     } else {
