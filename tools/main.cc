@@ -165,6 +165,15 @@ int main(int argc, char** argv) {
                    "(SmootherOptions::iterate_fraction)")
       ->capture_default_str();
   replay
+      ->add_option("--iterate-share", rc.options.smoother.iterate_share,
+                   "Solve again within an update while more than this share of the variables have steps too large "
+                   "(SmootherOptions::iterate_share)")
+      ->capture_default_str();
+  replay->add_flag_function(
+      "--no-refine-new", [&rc](std::int64_t) { rc.options.smoother.refine_new_values = false; },
+      "Start new variables at the given values, not at the optimum of their new factors "
+      "(SmootherOptions::refine_new_values)");
+  replay
       ->add_option("--rounds", rc.options.smoother.rounds_per_update,
                    "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
       ->capture_default_str();

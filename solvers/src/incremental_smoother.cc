@@ -1,5 +1,6 @@
 #include "tether/solvers/incremental_smoother.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,6 +23,80 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// Moves each new variable to the minimum of the cost of its new factors with every other
+// variable held at its value (the estimate's, or a new variable's as refined so far): a few
+// Gauss-Newton steps on that one variable. A variable with one factor only, or one its
+// factors do not determine, or one held fixed, keeps its given value.
+void RefineNewValues(const FactorGraph& factors, const FactorGraph& graph, const Values& estimate, Values* fresh) {
+  for (Key k : fresh->keys()) {
+    if (factors.IsFixed(k) || graph.IsFixed(k)) continue;
+    const VarType type = fresh->TypeOf(k);
+    const int d = TangentDim(type);
+    std::vector<const Factor*> mine;
+    for (std::size_t i = 0; i < factors.size(); ++i) {
+      const Factor& f = factors.at(i);
+      const auto& keys = f.keys();
+      if (std::count(keys.begin(), keys.end(), k) != 1) continue;
+      bool known = true;
+      for (Key o : keys) known = known && (o == k || fresh->Has(o) || estimate.Has(o));
+      if (known) mine.push_back(&f);
+    }
+    if (mine.size() < 2) continue;
+    std::vector<double> x(fresh->Params(k), fresh->Params(k) + AmbientDim(type)), trial(x.size());
+    std::vector<double> e, jac;
+    // The cost at p (and with H and g where they are not null), or infinity where a factor
+    // cannot be evaluated.
+    auto evaluate = [&](const double* p, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+      double cost = 0;
+      for (const Factor* f : mine) {
+        const int m = f->dim();
+        e.assign(m, 0.0);
+        jac.assign(static_cast<std::size_t>(m) * d, 0.0);
+        std::vector<const double*> params;
+        std::vector<double*> jp;
+        for (Key o : f->keys()) {
+          params.push_back(o == k ? p : fresh->Has(o) ? fresh->Params(o) : estimate.Params(o));
+          jp.push_back(o == k && H != nullptr ? jac.data() : nullptr);
+        }
+        if (!f->Evaluate(params.data(), e.data(), H != nullptr ? jp.data() : nullptr)) return kInfinity;
+        f->noise().WhitenVector(e.data());
+        double sq = 0, rho = 0;
+        for (double v : e) sq += v * v;
+        const double w = RobustWeight(f->loss(), sq, &rho);
+        cost += rho;
+        if (H != nullptr) {
+          f->noise().WhitenRowMajor(jac.data(), d);
+          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, d);
+          Eigen::Map<const Eigen::VectorXd> r(e.data(), m);
+          H->noalias() += w * w * J.transpose() * J;
+          g->noalias() += w * w * J.transpose() * r;
+        }
+      }
+      return std::isfinite(cost) ? cost : kInfinity;
+    };
+    Eigen::MatrixXd H(d, d);
+    Eigen::VectorXd g(d);
+    double cost = evaluate(x.data(), nullptr, nullptr);
+    for (int it = 0; it < 5 && std::isfinite(cost); ++it) {
+      H.setZero();
+      g.setZero();
+      if (!std::isfinite(evaluate(x.data(), &H, &g))) break;
+      Eigen::LLT<Eigen::MatrixXd> llt(H);
+      if (llt.info() != Eigen::Success) break;
+      const Eigen::VectorXd delta = -llt.solve(g);
+      if (!delta.allFinite()) break;
+      RetractParams(type, x.data(), delta.data(), trial.data());
+      const double next = evaluate(trial.data(), nullptr, nullptr);
+      if (!(next < cost)) break;
+      x.swap(trial);
+      const bool small = next > (1 - 1e-6) * cost;
+      cost = next;
+      if (small) break;
+    }
+    std::copy(x.begin(), x.end(), fresh->Params(k));
+  }
+}
+
 }  // namespace
 
 SmootherOptions::SmootherOptions() {
@@ -42,6 +117,7 @@ bool SmootherOptions::IsValid(std::string* why) const {
   if (!(relinearize_sigmas >= 0)) return fail("relinearize_sigmas must be 0 or more");
   if (!(iterate_ratio >= 1)) return fail("iterate_ratio must be at least 1");
   if (!(iterate_fraction >= 0 && iterate_fraction <= 1)) return fail("iterate_fraction must be in [0, 1]");
+  if (!(iterate_share >= 0 && iterate_share <= 1)) return fail("iterate_share must be in [0, 1]");
   if (!update.IsValid(&reason)) return fail("update: " + reason);
   if (!finish.IsValid(&reason)) return fail("finish: " + reason);
   if (!covariance.IsValid(&reason)) return fail("covariance: " + reason);
@@ -310,6 +386,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   }
 
   // The changes. Nothing below throws for bad input any more.
+  if (options_.refine_new_values) RefineNewValues(new_factors, graph_, estimate_, &new_values);
   SmootherUpdate u;
   State& st = *state_;
   marginals_.reset();
@@ -424,8 +501,11 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
         ok = false;
         break;
       }
-      // Another round where a step is still large: the linearisation is far off there.
-      if (!(largest > options_.iterate_ratio)) {
+      // Another round where a step is still large (the linearisation is far off there), or
+      // where many steps are too large (a large part of the map moved).
+      const bool many =
+          static_cast<double>(st.pending.size()) > options_.iterate_share * static_cast<double>(estimate_.size());
+      if (!(largest > options_.iterate_ratio) && !many) {
         st.near.clear();
         break;
       }

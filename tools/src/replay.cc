@@ -279,9 +279,10 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
       << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
-      << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them), at most "
-      << o.smoother.rounds_per_update << " round(s) per update, wildfire " << o.smoother.wildfire_threshold
-      << ", factorization "
+      << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them) or "
+      << o.smoother.iterate_share << " of the variables too large, new variables "
+      << (o.smoother.refine_new_values ? "refined" : "as given") << ", at most " << o.smoother.rounds_per_update
+      << " round(s) per update, wildfire " << o.smoother.wildfire_threshold << ", factorization "
       << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
           : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
                                                                              : "auto")

@@ -85,6 +85,19 @@ struct SmootherOptions {
   /// graph so far. 1: only steps beyond the thresholds. Default 0.5 (benchmarks/RESULTS.md,
   /// "At every step").
   double iterate_fraction = 0.5;
+  /// An update also solves again (as for iterate_ratio) while more than this share of the
+  /// variables have steps too large: a large part of the map moved, as at a loop closure in
+  /// a small graph. 1: never for this reason. Default 0.2 (benchmarks/RESULTS.md, "New
+  /// variables start at their own optimum").
+  double iterate_share = 0.2;
+  /// Each new variable starts where its new factors, with every other variable held at its
+  /// value, cost least (a few Gauss-Newton steps on that variable alone), not at the value
+  /// given for it, where it has at least two such factors that determine it. A new pose
+  /// guessed from odometry thus starts near where its loop closure puts it: the first solve
+  /// then moves the map by the closure's correction, not by the guess's error, and fewer
+  /// updates need a second round (sphere2500: 1048 of 2500 instead of 2035, replay 37 s ->
+  /// 25 s; benchmarks/RESULTS.md, same section). Default true.
+  bool refine_new_values = true;
   /// At most this many factorise-solve rounds per update. Default 8.
   int rounds_per_update = 8;
   /// The back substitution goes down the elimination tree below a variable only where the
