@@ -373,10 +373,10 @@ void IncrementalCholesky::Symbolic(int j) {
 // Adds the update of column k (its subtree's contribution to its rows, update_rows order) to
 // the lower triangle of F (leading dimension ld) and to b, each row variable r at scratch_[r]
 // (none where scratch_[r] < 0). Variables consecutive in both form runs, added block by block.
-void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b) {
+void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b, int split, double* U, int ldu) {
   const Var& ck = vars_[k];
   const std::vector<int>& rows = ck.update_rows;
-  // Runs: offset in the update, destination, length.
+  // Runs: offset in the update, destination, length; none crosses `split`.
   std::vector<Run>& runs = run_scratch_;
   runs.clear();
   int src = 0;
@@ -385,7 +385,8 @@ void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b) {
     const int d = vars_[r].dim;
     const int dst = scratch_[r];
     if (dst >= 0) {
-      if (!runs.empty() && runs.back().src + runs.back().len == src && runs.back().dst + runs.back().len == dst) {
+      if (!runs.empty() && runs.back().src + runs.back().len == src && runs.back().dst + runs.back().len == dst &&
+          (dst < split) == (runs.back().dst < split)) {
         runs.back().len += d;
       } else {
         runs.push_back(Run{src, dst, d});
@@ -394,6 +395,15 @@ void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b) {
     src += d;
   }
   using Stride = Eigen::OuterStride<>;
+  // The block at destination rows r0.. and columns c0.. (r0 >= c0): in F, or in U from `split` on.
+  auto target = [&](int r0, int c0, int n_rows, int n_cols) {
+    if (c0 < split) {
+      return Eigen::Map<Eigen::MatrixXd, 0, Stride>(F + static_cast<std::ptrdiff_t>(c0) * ld + r0, n_rows, n_cols,
+                                                    Stride(ld));
+    }
+    return Eigen::Map<Eigen::MatrixXd, 0, Stride>(U + static_cast<std::ptrdiff_t>(c0 - split) * ldu + (r0 - split),
+                                                  n_rows, n_cols, Stride(ldu));
+  };
   for (std::size_t q = 0; q < runs.size(); ++q) {
     const Run& Q = runs[q];
     Eigen::Map<Eigen::VectorXd>(b + Q.dst, Q.len) += ck.update_rhs.segment(Q.src, Q.len);
@@ -401,11 +411,9 @@ void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b) {
       const Run& P = runs[p];
       const auto block = ck.update.block(P.src, Q.src, P.len, Q.len);
       if (P.dst >= Q.dst) {
-        Eigen::Map<Eigen::MatrixXd, 0, Stride>(F + static_cast<std::ptrdiff_t>(Q.dst) * ld + P.dst, P.len, Q.len,
-                                               Stride(ld)) += block;
+        target(P.dst, Q.dst, P.len, Q.len) += block;
       } else {
-        Eigen::Map<Eigen::MatrixXd, 0, Stride>(F + static_cast<std::ptrdiff_t>(P.dst) * ld + Q.dst, Q.len, P.len,
-                                               Stride(ld)) += block.transpose();
+        target(Q.dst, P.dst, Q.len, P.len) += block.transpose();
       }
     }
   }
@@ -520,11 +528,12 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
     stamp_[last.rows[i]] = mark;
     scratch_[last.rows[i]] = W - last.dim + last.offsets[i];
   }
-  // The front: lower triangle only (what is above the diagonal is never read).
-  const std::size_t size = static_cast<std::size_t>(R) * static_cast<std::size_t>(R);
+  // The front's columns (R x W, lower triangle only: what is above the diagonal is never
+  // read); its lower right B x B block is the supernode's update matrix, kept apart below.
+  const std::size_t size = static_cast<std::size_t>(R) * static_cast<std::size_t>(W);
   if (front_scratch_.size() < size) front_scratch_.resize(size);
-  Eigen::Map<Eigen::MatrixXd> P(front_scratch_.data(), R, R);
-  for (int col = 0; col < R; ++col) P.col(col).tail(R - col).setZero();
+  Eigen::Map<Eigen::MatrixXd> P(front_scratch_.data(), R, W);
+  for (int col = 0; col < W; ++col) P.col(col).tail(R - col).setZero();
   Eigen::VectorXd& b = front_rhs_scratch_;
   b.setZero(R);
   double* F = P.data();
@@ -549,7 +558,11 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
     c.scale = P.block(oj, oj, dj, dj).diagonal().cwiseSqrt();
     if (j == s.last) break;
   }
-  for (int k : children) ExtendAdd(k, F, R, b.data());
+  // The rows below the supernode's columns: their block is the supernode's own update matrix
+  // (its children's updates on those rows, then minus below below^T), built in place.
+  Var& l = vars_[s.last];
+  if (B > 0) l.update.setZero(B, B);
+  for (int k : children) ExtendAdd(k, F, R, b.data(), W, l.update.data(), B);
   // The dense kernels: Eigen's on small fronts, the BLAS's (vectorised for the CPU at run
   // time) on large ones (benchmarks/RESULTS.md, "BLAS fronts").
   const bool blas = UseBlas(W, B);
@@ -574,15 +587,12 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
   Ltop.solveInPlace(b.head(W));
   if (B > 0) {
     auto below = P.block(W, 0, B, W);
-    Var& l = vars_[s.last];
     if (blas) {
       const double one = 1, minus_one = -1;
-      dtrsm_("R", "L", "T", "N", &B, &W, &one, F, &R, F + W, &R);  // below = below Ltop^-T
-      l.update = P.bottomRightCorner(B, B);
+      dtrsm_("R", "L", "T", "N", &B, &W, &one, F, &R, F + W, &R);                  // below = below Ltop^-T
       dsyrk_("L", "N", &B, &W, &minus_one, F + W, &R, &one, l.update.data(), &B);  // -= below below^T
     } else {
       Ltop.transpose().solveInPlace<Eigen::OnTheRight>(below);
-      l.update = P.bottomRightCorner(B, B);
       l.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
     }
     l.update_rhs = b.tail(B);

@@ -27,6 +27,7 @@
 // whose whitened Jacobian blocks and residual the caller writes (SetLinearization).
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -161,7 +162,11 @@ class IncrementalCholesky {
   /// The index of the first of `rows` at or after position `pos`.
   int RowIndex(const std::vector<int>& rows, std::int64_t pos) const;
   void ComputeUpdate(int k);
-  void ExtendAdd(int k, double* F, int ld, double* b);
+  // Adds the update of column k to the front F (leading dimension ld) and its right-hand side
+  // b, at the positions scratch_ gives its rows; columns from `split` on go to U (leading
+  // dimension ldu) instead, shifted by split in both coordinates.
+  void ExtendAdd(int k, double* F, int ld, double* b, int split = std::numeric_limits<int>::max(), double* U = nullptr,
+                 int ldu = 0);
   int Height(const Var& c) const;
   void BackSubstitute(const std::vector<int>& columns, double wildfire, std::vector<int>* changed);
   void SortRows(int k);
