@@ -372,7 +372,9 @@ void IncrementalCholesky::Symbolic(int j) {
 
 // Adds the update of column k (its subtree's contribution to its rows, update_rows order) to
 // the lower triangle of F (leading dimension ld) and to b, each row variable r at scratch_[r]
-// (none where scratch_[r] < 0). Variables consecutive in both form runs, added block by block.
+// (none where scratch_[r] < 0); the columns from `split` on go to U (leading dimension ldu) at
+// both coordinates less split: a supernode's own update matrix, kept apart from its front.
+// Variables consecutive in both form runs, added block by block.
 void IncrementalCholesky::ExtendAdd(int k, double* F, int ld, double* b, int split, double* U, int ldu) {
   const Var& ck = vars_[k];
   const std::vector<int>& rows = ck.update_rows;

@@ -1,11 +1,13 @@
 #include "tether/solvers/incremental_smoother.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <set>
+#include <unordered_map>
 #include <utility>
 
 #include "incremental_cholesky.h"
@@ -23,46 +25,54 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Moves each new variable to the minimum of the cost of its new factors with every other
-// variable held at its value (the estimate's, or a new variable's as refined so far): a few
-// Gauss-Newton steps on that one variable. A variable with one factor only, or one its
-// factors do not determine, or one held fixed, keeps its given value.
-void RefineNewValues(const FactorGraph& factors, const FactorGraph& graph, const Values& estimate, Values* fresh) {
-  for (Key k : fresh->keys()) {
-    if (factors.IsFixed(k) || graph.IsFixed(k)) continue;
-    const VarType type = fresh->TypeOf(k);
-    const int d = TangentDim(type);
+// Moves each of the new variables `fresh` in *values to the minimum of the cost of the new
+// factors that use it once, every other variable held at its value (the old ones' estimate,
+// or a new one's value as refined so far): a few Gauss-Newton steps on that one variable.
+// Keys in `hold` (the fixed ones, the automatic gauge) are left alone, and so is a variable
+// with fewer than two such factors or one they do not determine (its information matrix
+// is singular or nearly so). Returns the keys that moved.
+std::vector<Key> RefineNewValues(const std::vector<const Factor*>& factors, const std::vector<Key>& fresh,
+                                 const std::set<Key>& hold, Values* values) {
+  std::vector<Key> moved;
+  std::unordered_map<Key, std::vector<const Factor*>> uses;
+  for (const Factor* f : factors) {
+    for (Key k : f->keys()) {
+      auto& list = uses[k];
+      if (list.empty() || list.back() != f) list.push_back(f);
+    }
+  }
+  for (Key k : fresh) {
+    if (hold.count(k) || !values->Has(k)) continue;
     std::vector<const Factor*> mine;
-    for (std::size_t i = 0; i < factors.size(); ++i) {
-      const Factor& f = factors.at(i);
-      const auto& keys = f.keys();
-      if (std::count(keys.begin(), keys.end(), k) != 1) continue;
-      bool known = true;
-      for (Key o : keys) known = known && (o == k || fresh->Has(o) || estimate.Has(o));
-      if (known) mine.push_back(&f);
+    for (const Factor* f : uses[k]) {
+      if (std::count(f->keys().begin(), f->keys().end(), k) == 1) mine.push_back(f);
     }
     if (mine.size() < 2) continue;
-    std::vector<double> x(fresh->Params(k), fresh->Params(k) + AmbientDim(type)), trial(x.size());
+    const VarType type = values->TypeOf(k);
+    const int d = TangentDim(type);
+    std::vector<double> x(values->Params(k), values->Params(k) + AmbientDim(type)), trial(x.size());
     std::vector<double> e, jac;
-    // The cost at p (and with H and g where they are not null), or infinity where a factor
-    // cannot be evaluated.
+    std::vector<const double*> params;
+    std::vector<double*> jp;
+    // The cost at p (and H and g where they are not null), or infinity where a factor cannot
+    // be evaluated there.
     auto evaluate = [&](const double* p, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
       double cost = 0;
       for (const Factor* f : mine) {
         const int m = f->dim();
         e.assign(m, 0.0);
         jac.assign(static_cast<std::size_t>(m) * d, 0.0);
-        std::vector<const double*> params;
-        std::vector<double*> jp;
+        params.clear();
+        jp.clear();
         for (Key o : f->keys()) {
-          params.push_back(o == k ? p : fresh->Has(o) ? fresh->Params(o) : estimate.Params(o));
-          jp.push_back(o == k && H != nullptr ? jac.data() : nullptr);
+          params.push_back(o == k ? p : values->Params(o));
+          jp.push_back(o == k ? jac.data() : nullptr);
         }
         if (!f->Evaluate(params.data(), e.data(), H != nullptr ? jp.data() : nullptr)) return kInfinity;
         f->noise().WhitenVector(e.data());
         double sq = 0, rho = 0;
         for (double v : e) sq += v * v;
-        const double w = RobustWeight(f->loss(), sq, &rho);
+        const double w = RobustWeight(f->loss(), sq, &rho);  // sqrt(rho'), as the solvers weigh
         cost += rho;
         if (H != nullptr) {
           f->noise().WhitenRowMajor(jac.data(), d);
@@ -77,11 +87,17 @@ void RefineNewValues(const FactorGraph& factors, const FactorGraph& graph, const
     Eigen::MatrixXd H(d, d);
     Eigen::VectorXd g(d);
     double cost = evaluate(x.data(), nullptr, nullptr);
+    bool changed = false;
     for (int it = 0; it < 5 && std::isfinite(cost); ++it) {
       H.setZero();
       g.setZero();
-      if (!std::isfinite(evaluate(x.data(), &H, &g))) break;
-      Eigen::LLT<Eigen::MatrixXd> llt(H);
+      if (!std::isfinite(evaluate(x.data(), &H, &g)) || !H.allFinite()) break;
+      if (it == 0) {
+        // Determined: every direction of the tangent space is seen by the factors.
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H, Eigen::EigenvaluesOnly);
+        if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) > 1e-9 * eig.eigenvalues()(d - 1))) break;
+      }
+      const Eigen::LLT<Eigen::MatrixXd> llt(H);
       if (llt.info() != Eigen::Success) break;
       const Eigen::VectorXd delta = -llt.solve(g);
       if (!delta.allFinite()) break;
@@ -89,12 +105,17 @@ void RefineNewValues(const FactorGraph& factors, const FactorGraph& graph, const
       const double next = evaluate(trial.data(), nullptr, nullptr);
       if (!(next < cost)) break;
       x.swap(trial);
+      changed = true;
       const bool small = next > (1 - 1e-6) * cost;
       cost = next;
       if (small) break;
     }
-    std::copy(x.begin(), x.end(), fresh->Params(k));
+    if (changed) {
+      std::copy(x.begin(), x.end(), values->Params(k));
+      moved.push_back(k);
+    }
   }
+  return moved;
 }
 
 }  // namespace
@@ -153,6 +174,11 @@ struct IncrementalSmoother::State {
     type_of.push_back(type);
     theta.emplace_back(p, p + AmbientDim(type));
     is_pending.push_back(0);
+  }
+  // A new variable's linearisation point, before any factor of it is evaluated.
+  void SetTheta(Key k, const double* p) {
+    std::vector<double>& t = theta[index_of.at(k)];
+    std::copy(p, p + t.size(), t.begin());
   }
   void Use(Key k, bool unary_factor, VarType type) {
     if (uses[k]++ == 0 && IsPose(type)) used_poses.insert(k);
@@ -386,7 +412,6 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   }
 
   // The changes. Nothing below throws for bad input any more.
-  if (options_.refine_new_values) RefineNewValues(new_factors, graph_, estimate_, &new_values);
   SmootherUpdate u;
   State& st = *state_;
   marginals_.reset();
@@ -426,6 +451,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   }
   u.new_factor_ids.reserve(new_factors.size());
   std::vector<int> new_slots;
+  std::vector<const Factor*> added;
   for (std::size_t i = 0; i < new_factors.size(); ++i) {
     std::unique_ptr<Factor> f = new_factors.at(i).Clone();
     const Factor* raw = f.get();
@@ -434,6 +460,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
       st.Use(k, f->keys().size() == 1, estimate_.TypeOf(k));
       vars.push_back(st.index_of.at(k));
     }
+    added.push_back(raw);
     const FactorId id = graph_.Add(std::move(f));
     const int slot = st.engine.AddFactor(vars, raw->dim());
     if (st.factor_of_slot.size() <= static_cast<std::size_t>(slot)) st.factor_of_slot.resize(slot + 1, nullptr);
@@ -456,6 +483,13 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
       st.RemoveVariable(k);
       if (estimate_.Erase(k)) ++u.variables_removed;
     }
+  }
+  if (options_.refine_new_values && !new_values.empty()) {
+    // Not the fixed variables, nor the one the automatic gauge will hold (as UpdateConstants
+    // chooses it): those stay where they are given.
+    std::set<Key> hold = graph_.fixed();
+    if (hold.empty() && st.unary == 0 && !st.used_poses.empty()) hold.insert(*st.used_poses.begin());
+    for (Key k : RefineNewValues(added, new_values.keys(), hold, &estimate_)) st.SetTheta(k, estimate_.Params(k));
   }
   std::string why;
   const auto t_lin = std::chrono::steady_clock::now();

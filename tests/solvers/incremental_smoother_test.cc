@@ -17,6 +17,7 @@
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/factors/between_se2.h"
+#include "tether/factors/between_se3.h"
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
@@ -631,6 +632,72 @@ TEST(IncrementalSmoother, AFixedNewVariableKeepsItsGivenValue) {
   AddAFourthPoseGuessedOff(SmootherOptions(), &v, &gap, /*fix=*/true);
   EXPECT_EQ(v.At<SE2d>(3).translation(), Eigen::Vector2d(3.3, 0.1));
   EXPECT_EQ(v.At<SE2d>(3).theta(), 0.2);
+}
+
+TEST(IncrementalSmoother, TheAutomaticGaugeIsNotRefined) {
+  // Nothing fixed, no prior: the smoother holds the lowest pose where it is given, as Optimize
+  // does. Pose 0 arrives with two factors (0-1 and a closure 0-2 that disagrees with the
+  // chain): refined, it would move to x = 0.1 and be held there, shifting the whole map.
+  FactorGraph f;
+  Values v;
+  for (int i = 0; i < 3; ++i) v.Insert(Key(i), SE2d(i, 0, 0));
+  f.Add<BetweenSE2>(Key(0), Key(1), SE2d(1, 0, 0), SqrtInformation::Identity(3));
+  f.Add<BetweenSE2>(Key(1), Key(2), SE2d(1, 0, 0), SqrtInformation::Identity(3));
+  f.Add<BetweenSE2>(Key(0), Key(2), SE2d(1.8, 0, 0), SqrtInformation::Identity(3));
+  Values batch = v;
+  ASSERT_TRUE(Optimize(f, &batch).IsSolutionUsable());
+  IncrementalSmoother smoother;
+  const SmootherUpdate u = smoother.Update(f, v, {});
+  ASSERT_TRUE(u.solved) << u.message;
+  EXPECT_EQ(smoother.Estimate().At<SE2d>(0).translation(), Eigen::Vector2d(0, 0));
+  EXPECT_LT(MaxDifference(smoother.Finish(), batch), 1e-9);
+}
+
+TEST(IncrementalSmoother, Refined3DPosesAndRobustFactorsReachTheSameOptimum) {
+  // SE3 poses (quaternion parameters, 6-dof steps) with Huber on every factor, each new pose
+  // guessed 0.2 m and 0.1 rad off where its odometry and its closure (which agree) put it:
+  // with and without refinement the estimate after each update is the optimum of the graph so
+  // far, and refinement needs fewer rounds.
+  auto run = [](bool refine, int* rounds) {
+    SmootherOptions o;
+    o.refine_new_values = refine;
+    IncrementalSmoother smoother(o);
+    const SE3d step(SO3d::Exp(Eigen::Vector3d(0, 0, 0.3)), Eigen::Vector3d(1, 0, 0.1));
+    *rounds = 0;
+    for (int i = 0; i < 12; ++i) {
+      FactorGraph f;
+      Values v;
+      const Key k = static_cast<Key>(i);
+      if (i == 0) {
+        v.Insert(k, SE3d());
+      } else {
+        const SE3d off(SO3d::Exp(Eigen::Vector3d(0.1, 0, 0)), Eigen::Vector3d(0.2, 0, 0));
+        v.Insert(k, smoother.Estimate().At<SE3d>(k - 1) * step * off);
+        f.Add<BetweenSE3>(k - 1, k, step, SqrtInformation::Identity(6));
+        f.at(f.size() - 1).set_loss(MakeLoss("huber:1"));
+      }
+      if (i >= 2) {
+        f.Add<BetweenSE3>(k - 2, k, step * step, SqrtInformation::Identity(6));
+        f.at(f.size() - 1).set_loss(MakeLoss("huber:1"));
+      }
+      const SmootherUpdate u = smoother.Update(std::move(f), std::move(v), {});
+      EXPECT_TRUE(u.solved || i == 0) << u.message;
+      *rounds += u.iterations;
+    }
+    return smoother.Estimate();
+  };
+  int rounds_refined = 0, rounds_given = 0;
+  const Values refined = run(true, &rounds_refined);
+  const Values given = run(false, &rounds_given);
+  for (Key k = 0; k < 12; ++k) {
+    // The measurements agree: the optimum is the chain of steps from pose 0.
+    SE3d expected;
+    for (Key j = 0; j < k; ++j)
+      expected = expected * SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, 0.3)), Eigen::Vector3d(1, 0, 0.1));
+    EXPECT_LT((refined.At<SE3d>(k).translation() - expected.translation()).norm(), 1e-6) << k;
+    EXPECT_LT((given.At<SE3d>(k).translation() - expected.translation()).norm(), 1e-6) << k;
+  }
+  EXPECT_LT(rounds_refined, rounds_given);
 }
 
 }  // namespace

@@ -7,9 +7,10 @@
 // a loop closure is judged against a map made of the closures accepted before it, not
 // against an odometry start that has drifted for the whole run (benchmarks/RESULTS.md,
 // "Outlier benchmark": DCS from the odometry start of input_M3500_g2o fails at 30-50% false
-// closures, and holds from the optimum without them). A chunk's solve moves only the newest
-// chunk's poses (the window, ChunkedSolveOptions::free_chunks): the older map is held, as the
-// closures accepted so far left it; one solve of the whole graph ends it.
+// closures, and holds from the optimum without them). A chunk's solve moves only the poses
+// of the newest chunks (the window, ChunkedSolveOptions::free_chunks, default the newest
+// one): the older map is held, as the closures accepted so far left it; one solve of the
+// whole graph ends it.
 //
 // The graph's own losses are used as they are (for example DCS on the loop closures).
 // Variables other than poses enter with the first chunk in which a factor ties them to a pose
@@ -48,9 +49,10 @@ struct ChunkedSolveOptions {
   /// (benchmarks/RESULTS.md, "GNC: a window").
   int free_chunks = 1;
   /// Called before each solve (chunk from 0; with a window, also before the whole graph's
-  /// solve that follows the last chunk, as chunk `chunks`) with the graph so far (the factors of
-  /// earlier chunks first, in the order they joined: the first `solved` of them were in the
-  /// last solve) and the estimate it starts from; it may change that graph's losses (a scale
+  /// solve that follows the last chunk, with chunk one more than the last chunk's) with the
+  /// graph so far (the factors of earlier chunks first, in the order they joined: the first
+  /// `solved` of them were in the graph at the last solve; a window leaves those among held
+  /// poses out of the solve itself) and the estimate it starts from; it may change that graph's losses (a scale
   /// learned from the residuals so far) or remove factors from it for the chunks to come
   /// (FactorGraph::Remove; `solved` at the next call counts what is left). Its factors are
   /// copies: the caller's graph is not touched.

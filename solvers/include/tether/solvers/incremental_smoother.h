@@ -92,7 +92,8 @@ struct SmootherOptions {
   double iterate_share = 0.2;
   /// Each new variable starts where its new factors, with every other variable held at its
   /// value, cost least (a few Gauss-Newton steps on that variable alone), not at the value
-  /// given for it, where it has at least two such factors that determine it. A new pose
+  /// given for it, where it has at least two such factors that determine it and it is not
+  /// held (fixed, or the pose the automatic gauge holds). A new pose
   /// guessed from odometry thus starts near where its loop closure puts it: the first solve
   /// then moves the map by the closure's correction, not by the guess's error, and fewer
   /// updates need a second round (sphere2500: 1048 of 2500 instead of 2035, replay 37 s ->
