@@ -48,11 +48,14 @@ class Growing {
   FactorGraph& sub() { return sub_; }
 
   // Places pose p from a present neighbour through an odometry factor (one that is not a
-  // loop closure), else from the given start's step from `previous`; then adds it.
+  // loop closure), else from the given start's step from `previous`; then adds it. A pose the
+  // graph fixes stays where it is given.
   void AddPose(Key p, Key previous) {
     std::vector<double> out(AmbientDim(given_.TypeOf(p)));
+    const bool fixed = graph_.IsFixed(p);
     bool placed = false;
     for (std::size_t i : Incident(p)) {
+      if (fixed) break;
       const Factor& f = graph_.at(i);
       if (f.loop_closure() || f.keys().size() != 2) continue;
       const std::size_t at = f.keys()[0] == p ? 0 : 1, other = 1 - at;
@@ -63,7 +66,7 @@ class Growing {
         break;
       }
     }
-    if (!placed && Present(previous) && given_.TypeOf(previous) == given_.TypeOf(p)) {
+    if (!fixed && !placed && Present(previous) && given_.TypeOf(previous) == given_.TypeOf(p)) {
       std::vector<double> delta(TangentDim(given_.TypeOf(p)));
       LocalParams(given_.TypeOf(p), given_.Params(previous), given_.Params(p), delta.data());
       RetractParams(given_.TypeOf(p), current_.Params(previous), delta.data(), out.data());

@@ -84,6 +84,28 @@ TEST(ChunkedSolve, TheWindowHoldsTheOlderPosesUntilTheWholeGraphIsSolved) {
   }
 }
 
+TEST(ChunkedSolve, APoseTheGraphFixesStaysWhereItIsGiven) {
+  // Pose 150 fixed by the graph (and so the gauge): it enters at its given value, not where
+  // its odometry from pose 149 would put it, is held by every solve, window or not, and the
+  // end is the batch optimum with it fixed.
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 300, 9);
+  FactorGraph graph = sim.graph;
+  graph.Fix(150);
+  Values batch = sim.initial;
+  const SolverSummary b = Optimize(graph, &batch);
+  ASSERT_TRUE(b.IsSolutionUsable()) << b.message;
+  for (int free_chunks : {0, 1}) {
+    Values v = sim.initial;
+    ChunkedSolveOptions o;
+    o.chunks = 5;
+    o.free_chunks = free_chunks;
+    const ChunkedSolveSummary c = SolveInChunks(graph, &v, o);
+    ASSERT_TRUE(c.usable) << c.message;
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(v.Params(150)[i], sim.initial.Params(150)[i]) << "window " << free_chunks;
+    EXPECT_NEAR(graph.Chi2(v), b.final_chi2, 1e-6 * b.final_chi2) << "window " << free_chunks;
+  }
+}
+
 TEST(ChunkedSolve, InterimSolvesStopEarlierAndTheLastReachesTheOptimum) {
   // The solves before the last stop at interim_function_tolerance: fewer iterations in all,
   // and the last solve (solver's own tolerance) still ends at the batch optimum.

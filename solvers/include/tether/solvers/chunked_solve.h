@@ -40,8 +40,9 @@ struct ChunkedSolveOptions {
   double interim_function_tolerance = 1e-5;
   /// The window: each chunk's solve moves the poses of the newest free_chunks chunks only,
   /// the older ones held where the earlier solves left them (factors among held poses alone
-  /// are left out of it); after the last chunk one more solve moves every pose. A chunk's
-  /// solve then costs about one chunk's worth, not the whole graph so far. 0: no window, each
+  /// are left out of it); after the last chunk one more solve moves every pose. On a pose
+  /// graph a chunk's solve then costs about one chunk's worth, not the whole graph so far
+  /// (landmarks are never held: their factors stay in every solve). 0: no window, each
   /// solve moves every pose so far (the last chunk's is the whole graph's). Default 1: GNC
   /// from this start makes the same decisions as with 0 on the outlier benchmark and on
   /// simulated worlds, in 0.2-0.45x the time; DCS alone in chunks is less accurate with it on
