@@ -68,14 +68,12 @@ std::vector<Key> RefineNewValues(const std::vector<const Factor*>& factors, cons
           params.push_back(o == k ? p : values->Params(o));
           jp.push_back(o == k ? jac.data() : nullptr);
         }
-        if (!f->Evaluate(params.data(), e.data(), H != nullptr ? jp.data() : nullptr)) return kInfinity;
-        f->noise().WhitenVector(e.data());
+        if (!f->Linearize(params.data(), e.data(), H != nullptr ? jp.data() : nullptr)) return kInfinity;
         double sq = 0, rho = 0;
         for (double v : e) sq += v * v;
         const double w = RobustWeight(f->loss(), sq, &rho);  // sqrt(rho'), as the solvers weigh
         cost += rho;
         if (H != nullptr) {
-          f->noise().WhitenRowMajor(jac.data(), d);
           Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, d);
           Eigen::Map<const Eigen::VectorXd> r(e.data(), m);
           H->noalias() += w * w * J.transpose() * J;
@@ -286,9 +284,16 @@ struct IncrementalSmoother::State {
   // The graph's fixed set, or where it fixes nothing and no prior anchors it, the lowest-key
   // pose some factor uses (as Optimize chooses). A variable that changes sides has its step
   // folded into its linearisation point first, so that its estimate stays where it is.
+  // The variables held constant: the graph's fixed set, or else (no prior either) the
+  // lowest pose, the automatic gauge.
+  std::set<Key> Held(const FactorGraph& graph) const {
+    std::set<Key> held = graph.fixed();
+    if (held.empty() && unary == 0 && !used_poses.empty()) held.insert(*used_poses.begin());
+    return held;
+  }
+
   bool UpdateConstants(const FactorGraph& graph, const Values& estimate) {
-    std::set<Key> want = graph.fixed();
-    if (want.empty() && unary == 0 && !used_poses.empty()) want.insert(*used_poses.begin());
+    const std::set<Key> want = Held(graph);
     if (want == constants) return true;
     std::vector<int> slots;
     auto flip = [&](Key k, bool constant) {
@@ -485,11 +490,10 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     }
   }
   if (options_.refine_new_values && !new_values.empty()) {
-    // Not the fixed variables, nor the one the automatic gauge will hold (as UpdateConstants
-    // chooses it): those stay where they are given.
-    std::set<Key> hold = graph_.fixed();
-    if (hold.empty() && st.unary == 0 && !st.used_poses.empty()) hold.insert(*st.used_poses.begin());
-    for (Key k : RefineNewValues(added, new_values.keys(), hold, &estimate_)) st.SetTheta(k, estimate_.Params(k));
+    // Not the variables held constant (fixed, or the automatic gauge): they stay as given.
+    for (Key k : RefineNewValues(added, new_values.keys(), st.Held(graph_), &estimate_)) {
+      st.SetTheta(k, estimate_.Params(k));
+    }
   }
   std::string why;
   const auto t_lin = std::chrono::steady_clock::now();
