@@ -244,6 +244,21 @@ int main(int argc, char** argv) {
   lidar->add_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan")
       ->capture_default_str();
   lidar->add_option("--min-score", lsc.min_score, "Branch and bound's score threshold")->capture_default_str();
+  lidar->add_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]")
+      ->capture_default_str();
+  lidar->add_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]")
+      ->capture_default_str();
+  lidar->add_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]")
+      ->capture_default_str();
+  lidar->add_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--rival-ratio", lsc.rival_ratio,
+                   "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
+                   "score (0: keep them)")
+      ->capture_default_str();
+  lidar->add_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)")
+      ->capture_default_str();
   lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();
   lidar->add_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   lidar->add_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();

@@ -101,6 +101,16 @@ TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
   // The truth is a candidate; the walls lie on cell boundaries, so the best may be a cell off.
   EXPECT_LT((fast.pose.translation() - truth.translation()).norm(), 1.5 * 0.05);
   EXPECT_LT(std::abs(WrapAngle(fast.pose.theta() - truth.theta())), fast.angular_step);
+  EXPECT_FALSE(fast.on_edge);
+  EXPECT_FALSE(full.on_edge);
+  // A window that does not reach the truth: the best lies on its edge.
+  FastMatcherOptions narrow = o;
+  narrow.linear_search_window = 0.5;
+  const FastCorrelativeScanMatcher2D short_reach(grid, narrow);
+  const FastMatch edge = short_reach.Match(guess, points, 0.2);
+  ASSERT_TRUE(edge.found);
+  EXPECT_TRUE(edge.on_edge);
+  EXPECT_TRUE(short_reach.MatchExhaustive(guess, points, 0.2).on_edge);
   // A threshold above the best: nothing found, the guess returned.
   const FastMatch none = matcher.Match(guess, points, fast.score + 0.01);
   EXPECT_FALSE(none.found);
@@ -144,6 +154,104 @@ TEST(FastCorrelativeScanMatcherTest, RefusesBadInput) {
   // An empty grid: every cell unknown, nothing above a threshold of 0.5.
   const ProbabilityGrid empty(0.1);
   EXPECT_FALSE(FastCorrelativeScanMatcher2D(empty).Match(SE2d(), {Eigen::Vector2d(1, 0)}, 0.5).found);
+}
+
+// The grid of a set of walls: `floor` cells (the box x0..x1, y0..y1) 0.2, wall cells 0.9.
+ProbabilityGrid WallGrid(const std::vector<Segment>& walls, double r, double x0, double y0, double x1, double y1) {
+  ProbabilityGrid grid(r);
+  for (double y = y0 + r / 2; y < y1; y += r) {
+    for (double x = x0 + r / 2; x < x1; x += r) grid.SetProbability(grid.CellOf({x, y}), 0.2);
+  }
+  for (const Segment& s : walls) {
+    const int n = static_cast<int>((s.b - s.a).norm() / (r / 4));
+    for (int i = 0; i <= n; ++i) grid.SetProbability(grid.CellOf(s.a + (s.b - s.a) * i / n), 0.9);
+  }
+  return grid;
+}
+
+// A scan from `pose`: 181 beams over 360 degrees, the nearest wall of each within max_range.
+std::vector<Eigen::Vector2d> WallScan(const std::vector<Segment>& walls, const SE2d& pose, double max_range) {
+  std::vector<Eigen::Vector2d> points;
+  const std::vector<double> ranges = testing::RayCastScan(walls, pose, 181, -M_PI, 2 * M_PI / 181);
+  for (int i = 0; i < 181; ++i) {
+    const double a = -M_PI + 2 * M_PI * i / 181;
+    const double range = ranges[static_cast<std::size_t>(i)];
+    if (std::isfinite(range) && range <= max_range) points.push_back(range * Eigen::Vector2d(std::cos(a), std::sin(a)));
+  }
+  return points;
+}
+
+// By brute force: the best score of the candidates of `m`'s window that are not within
+// `distance` (m) and `angle` (rad) of m.pose, scored as the matcher scores them.
+float BestRival(const ProbabilityGrid& grid, const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
+                const FastMatch& m, double distance, double angle) {
+  const double r = grid.resolution();
+  const int K = (m.rotations - 1) / 2, W = (m.translations - 1) / 2;
+  const double kb = WrapAngle(m.pose.theta() - guess.theta()) / m.angular_step;
+  const double xb = (m.pose.x() - guess.x()) / r, yb = (m.pose.y() - guess.y()) / r;
+  float best = 0;
+  for (int k = -K; k <= K; ++k) {
+    std::vector<Cell> cells;
+    const SE2d turned(guess.x(), guess.y(), guess.theta() + k * m.angular_step);
+    for (const Eigen::Vector2d& p : points) cells.push_back(grid.CellOf(turned * p));
+    for (int dx = -W; dx <= W; ++dx) {
+      for (int dy = -W; dy <= W; ++dy) {
+        if (std::abs(k - kb) < angle / m.angular_step && std::hypot(dx - xb, dy - yb) < distance / r) continue;
+        float sum = 0;
+        for (const Cell& c : cells) sum += static_cast<float>(grid.Probability(c + Cell(dx, dy)));
+        best = std::max(best, sum / static_cast<float>(points.size()));
+      }
+    }
+  }
+  return best;
+}
+
+// In a corridor whose ends the scan does not reach, the walls match anywhere along it: the
+// match has a rival 0.3 m away scoring about as well. HasRival finds exactly the candidates
+// the brute force finds.
+TEST(FastCorrelativeScanMatcherTest, ACorridorMatchHasARival) {
+  std::vector<Segment> walls;
+  testing::AddRectangle(0, 0, 40, 2, &walls);
+  const ProbabilityGrid grid = WallGrid(walls, 0.05, 0, 0, 40, 2);
+  FastMatcherOptions o;
+  o.linear_search_window = 1.0;
+  o.angular_search_window = 0.1;
+  const FastCorrelativeScanMatcher2D matcher(grid, o);
+  const SE2d truth(20.0, 0.9, 0.05);
+  const std::vector<Eigen::Vector2d> points = WallScan(walls, truth, 6.0);
+  ASSERT_GT(points.size(), 100u);
+  const SE2d guess(20.4, 1.1, 0.0);
+  const FastMatch m = matcher.Match(guess, points, 0.5);
+  ASSERT_TRUE(m.found);
+  EXPECT_LT(std::abs(m.pose.y() - truth.y()), 0.08);  // across the corridor: well defined
+  const float rival = BestRival(grid, guess, points, m, 0.3, 0.035);
+  EXPECT_GT(rival, 0.9 * m.score) << rival << " against " << m.score;
+  EXPECT_TRUE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, 0.9 * m.score));
+  EXPECT_TRUE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival - 1e-4));
+  EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival + 1e-4));
+}
+
+// In the room (a box inside breaks its symmetry) the best match has no rival near its score.
+TEST(FastCorrelativeScanMatcherTest, ARoomMatchHasNoRival) {
+  const ProbabilityGrid grid = RoomGrid(0.05);
+  FastMatcherOptions o;
+  o.linear_search_window = 1.0;
+  o.angular_search_window = 0.2;
+  const FastCorrelativeScanMatcher2D matcher(grid, o);
+  const SE2d truth(3.2, 2.7, 0.4);
+  const std::vector<Eigen::Vector2d> points = RoomScan(truth);
+  const SE2d guess(truth.x() + 0.6, truth.y() - 0.5, truth.theta() - 0.1);
+  const FastMatch m = matcher.Match(guess, points, 0.5);
+  ASSERT_TRUE(m.found);
+  const float rival = BestRival(grid, guess, points, m, 0.3, 0.035);
+  EXPECT_LT(rival, 0.9 * m.score) << rival << " against " << m.score;
+  EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, 0.9 * m.score));
+  EXPECT_TRUE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival - 1e-4));
+  EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival + 1e-4));
+  // A neighbourhood larger than the window leaves no candidate at all.
+  EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 10, 1, 0));
+  EXPECT_THROW(matcher.HasRival(guess, points, m.pose, -1, 0.035, 0.5), InvalidArgument);
+  EXPECT_THROW(matcher.HasRival(guess, points, m.pose, 0.3, std::nan(""), 0.5), InvalidArgument);
 }
 
 // On a real log: a map of the first 60 scans of the corrected Intel log (their scan endpoints

@@ -66,7 +66,7 @@ struct Result {
 };
 
 // The scans inserted into submaps at their local poses (30 scans a submap), fed to the graph.
-Result Slam(const Trip& trip, bool loop_closure, int threads) {
+Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio = PoseGraphOptions().rival_ratio) {
   SubmapOptions so;
   so.scans_per_submap = 30;
   ActiveSubmaps2D submaps(so);
@@ -76,6 +76,7 @@ Result Slam(const Trip& trip, bool loop_closure, int threads) {
   po.search_every_n_scans = 4;
   po.max_search_distance = 8;
   po.apply_every_n_scans = 20;
+  po.rival_ratio = rival_ratio;
   PoseGraph2D graph(po);
   for (std::size_t k = 0; k < trip.local.size(); ++k) {
     const SE2d& pose = trip.local[k];
@@ -134,6 +135,70 @@ TEST(PoseGraph2DTest, LoopClosuresUndoTheDriftAndDoNotDependOnThreads) {
       ASSERT_EQ(r.poses[i].theta(), inline_search.poses[i].theta()) << threads << " scan " << i;
     }
   }
+}
+
+// Down a corridor 2 m wide and back, with scans that reach 5 m: the walls look the same
+// anywhere along it, and the drift (each step 4% too long) puts the way back up to 3 m off the
+// way out. Every match of the way back against the way out's submaps is ambiguous along the
+// corridor; without the rival test some become closures the truth contradicts by metres.
+TEST(PoseGraph2DTest, AmbiguousMatchesInACorridorAreDropped) {
+  std::vector<Segment> world;
+  testing::AddRectangle(0, 0, 60, 2, &world);
+  Trip trip;
+  for (int k = 0; k < 2 * 176; ++k) {
+    const bool back = k >= 176;
+    const double x = back ? 50 - 0.25 * (k - 176) : 6 + 0.25 * k;
+    const SE2d truth(x, 1, back ? M_PI : 0);
+    trip.truth.push_back(truth);
+    if (k == 0) {
+      trip.local.push_back(truth);
+    } else {
+      const SE2d step = trip.truth[trip.truth.size() - 2].Inverse() * truth;
+      trip.local.push_back(trip.local.back() * SE2d(1.04 * step.x(), step.y(), step.theta()));
+    }
+    std::vector<Eigen::Vector2d> points;
+    const std::vector<double> ranges = testing::RayCastScan(world, truth, 360, -M_PI, 2 * M_PI / 360);
+    for (int i = 0; i < 360; ++i) {
+      const double b = -M_PI + 2 * M_PI * i / 360;
+      const double r = ranges[static_cast<std::size_t>(i)];
+      if (std::isfinite(r) && r < 5) points.push_back(r * Eigen::Vector2d(std::cos(b), std::sin(b)));
+    }
+    trip.points.push_back(std::move(points));
+  }
+  // The truth's verdict on a closure: its relative pose against the true one.
+  // A submap's frame is the local pose of the scan that started it (every 15th: 30 a submap).
+  const auto error = [&](const LoopClosure& c) {
+    const int first = c.submap * 15;
+    const SE2d true_relative =
+        trip.truth[static_cast<std::size_t>(first)].Inverse() * trip.truth[static_cast<std::size_t>(c.scan)];
+    return (true_relative.translation() - c.relative.translation()).norm();
+  };
+  const Result kept_all = Slam(trip, true, 0, 0.0);
+  ASSERT_GT(kept_all.closures.size(), 0u);
+  EXPECT_EQ(kept_all.stats.ambiguous, 0);
+  int wrong = 0;
+  for (const LoopClosure& c : kept_all.closures) wrong += error(c) > 0.3 ? 1 : 0;
+  EXPECT_GT(wrong, 0) << "of " << kept_all.closures.size();
+  const Result checked = Slam(trip, true, 0);
+  EXPECT_GT(checked.stats.ambiguous, 0);
+  EXPECT_GT(checked.stats.on_edge, 0);  // pushed into the submap's known part, to the window's edge
+  for (const LoopClosure& c : checked.closures) EXPECT_LT(error(c), 0.3) << c.scan << " in " << c.submap;
+}
+
+TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
+  PoseGraphOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.rival_ratio = 1.5;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("rival_ratio"), std::string::npos);
+  EXPECT_THROW(PoseGraph2D{o}, InvalidArgument);
+  o = PoseGraphOptions();
+  o.rival_distance = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  o = PoseGraphOptions();
+  o.rival_angle = std::nan("");
+  EXPECT_FALSE(o.IsValid(&why));
 }
 
 }  // namespace

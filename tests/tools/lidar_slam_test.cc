@@ -84,12 +84,44 @@ TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
   std::string sig(8, '\0');
   png.read(&sig[0], 8);
   EXPECT_EQ(sig, std::string("\x89PNG\r\n\x1a\n"));
+  // Every loop closure with its violation by the final solution: as many lines as the summary
+  // counts, each "kept" exactly where it is violated by less than 20 cm and 1 degree, and as
+  // many kept as the precision line says.
+  const std::size_t at = run.output.find("loop closures ");
+  ASSERT_NE(at, std::string::npos) << run.output;
+  const long closures = std::stol(run.output.substr(at + 14));
+  const std::size_t kept_at = run.output.find("% (");
+  ASSERT_NE(kept_at, std::string::npos) << run.output;
+  const long kept = std::stol(run.output.substr(kept_at + 3));
+  std::ifstream lines(P("out/loop_closures.txt"));
+  std::string line;
+  ASSERT_TRUE(std::getline(lines, line));
+  EXPECT_EQ(line.rfind("# scan submap score", 0), 0u) << line;
+  long rows = 0, kept_rows = 0;
+  while (std::getline(lines, line)) {
+    std::istringstream f(line);
+    double v[12];
+    for (double& x : v) ASSERT_TRUE(f >> x) << line;
+    ++rows;
+    EXPECT_GT(v[2], 0.55) << line;  // the score
+    EXPECT_EQ(v[11] == 1, v[9] < 0.2 && v[10] < 1) << line;
+    kept_rows += v[11] == 1 ? 1 : 0;
+  }
+  EXPECT_EQ(rows, closures);
+  EXPECT_EQ(kept_rows, kept);
 }
 
 TEST_F(LidarSlamTest, UsageAndInputErrors) {
   const std::string log = Write("room.log", RoomLog());
   EXPECT_EQ(Tether("lidar " + log).code, 2);  // -o is required
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --search-every 0").code, 2);
+  const auto huber = Tether("lidar " + log + " -o " + P("o") + " --huber -1");
+  EXPECT_EQ(huber.code, 2);
+  EXPECT_NE(huber.output.find("huber_delta"), std::string::npos) << huber.output;
+  const auto rival = Tether("lidar " + log + " -o " + P("o") + " --rival-ratio 1.5");
+  EXPECT_EQ(rival.code, 2);
+  EXPECT_NE(rival.output.find("rival_ratio"), std::string::npos) << rival.output;
+  EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --local-sigma-t 0").code, 2);
   const auto missing = Tether("lidar " + P("nothing.log") + " -o " + P("o"));
   EXPECT_EQ(missing.code, 1) << missing.output;
   EXPECT_NE(missing.output.find("nothing.log"), std::string::npos) << missing.output;

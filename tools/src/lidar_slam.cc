@@ -34,6 +34,15 @@ std::string Fixed(double v, int digits) {
   return s.str();
 }
 
+void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
+  po->local_translation_sigma = cmd.local_translation_sigma;
+  po->local_rotation_sigma = cmd.local_rotation_sigma;
+  po->loop_translation_sigma = cmd.loop_translation_sigma;
+  po->loop_rotation_sigma = cmd.loop_rotation_sigma;
+  po->huber_delta = cmd.huber_delta;
+  po->rival_ratio = cmd.rival_ratio;
+}
+
 }  // namespace
 
 int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
@@ -42,6 +51,15 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
     err << "tether lidar: --threads and --max-scans must not be negative, --scans-per-submap at least 2, "
            "--search-every at least 1, --resolution positive, --min-score in [0, 1), --max-range not negative\n";
     return kExitUsage;
+  }
+  {
+    lidar::PoseGraphOptions po;
+    SetConstraints(cmd, &po);
+    std::string why;
+    if (!po.IsValid(&why)) {
+      err << "tether lidar: " << why << "\n";
+      return kExitUsage;
+    }
   }
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -53,7 +71,8 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   const auto in_dir = [&](const char* name) { return (fs::path(cmd.output_dir) / name).string(); };
   OutputSet outputs;
-  OutputFile *tum = nullptr, *traj = nullptr, *graph_file = nullptr, *pgm = nullptr, *yaml = nullptr, *png = nullptr;
+  OutputFile *tum = nullptr, *traj = nullptr, *graph_file = nullptr, *pgm = nullptr, *yaml = nullptr, *png = nullptr,
+             *closures_file = nullptr;
   const int rc = CheckOutputs(
       "lidar", outputs,
       [&] {
@@ -64,6 +83,7 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
         pgm = &outputs.Add(in_dir("map.pgm"), "map image");
         yaml = &outputs.Add(in_dir("map.yaml"), "map description");
         png = &outputs.Add(in_dir("map.png"), "map picture");
+        closures_file = &outputs.Add(in_dir("loop_closures.txt"), "loop closures");
       },
       err);
   if (rc != 0) return rc;
@@ -98,6 +118,7 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   po.threads = cmd.threads;
   po.search_every_n_scans = cmd.search_every;
   po.min_score = cmd.min_score;
+  SetConstraints(cmd, &po);
   lidar::LocalSlam2D local(lo);
   lidar::PoseGraph2D graph(po);
   const auto t0 = std::chrono::steady_clock::now();
@@ -154,7 +175,25 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
     inserter.Insert(&map, laser.translation(), hits);
   }
   const double map_seconds = SecondsSince(tm);
+  // Loop-closure precision: a closure is kept when the final solution violates it by less than
+  // 20 cm and 1 degree. Every closure, with its violation, goes to loop_closures.txt.
+  std::size_t kept = 0;
+  std::ostringstream closures;
+  closures.precision(9);
+  closures << "# scan submap score measured_x measured_y measured_theta solved_x solved_y solved_theta "
+              "translation_violation_m rotation_violation_deg kept\n";
+  for (const lidar::LoopClosure& c : graph.loop_closures()) {
+    const SE2d solved = graph.SubmapPose(c.submap).Inverse() * graph.ScanPose(c.scan);
+    const double dt = (solved.translation() - c.relative.translation()).norm();
+    const double dr = std::abs(WrapAngle(solved.theta() - c.relative.theta())) * 180 / M_PI;
+    const bool ok = dt < 0.2 && dr < 1;
+    kept += ok ? 1 : 0;
+    closures << c.scan << ' ' << c.submap << ' ' << c.score << ' ' << c.relative.x() << ' ' << c.relative.y() << ' '
+             << c.relative.theta() << ' ' << solved.x() << ' ' << solved.y() << ' ' << solved.theta() << ' ' << dt
+             << ' ' << dr << ' ' << (ok ? 1 : 0) << '\n';
+  }
   try {
+    closures_file->Stage([&](std::ostream& s) { s << closures.str(); });
     tum->Stage([&](std::ostream& s) { lidar::WriteTum(s, trajectory); });
     traj->Stage([&](std::ostream& s) { WriteG2o(s, poses, chain, DefaultRegistry()); });
     graph_file->Stage([&](std::ostream& s) { WriteG2o(s, exported_values, exported, DefaultRegistry()); });
@@ -169,17 +208,9 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   const double logged = log.scans[n - 1].stamp - log.scans[0].stamp;
   const lidar::PoseGraphStats& st = graph.stats();
-  // Loop-closure precision: a closure is kept when the final solution violates it by less than
-  // 20 cm and 1 degree.
-  std::size_t kept = 0;
-  for (const lidar::LoopClosure& c : graph.loop_closures()) {
-    const SE2d solved = graph.SubmapPose(c.submap).Inverse() * graph.ScanPose(c.scan);
-    if ((solved.translation() - c.relative.translation()).norm() < 0.2 &&
-        std::abs(WrapAngle(solved.theta() - c.relative.theta())) < M_PI / 180)
-      ++kept;
-  }
   out << "scans " << n << ", submaps " << graph.submap_count() << ", loop closures " << graph.loop_closures().size()
-      << " of " << st.searches << " searches; precision "
+      << " of " << st.searches << " searches (" << st.ambiguous << " ambiguous, " << st.on_edge
+      << " on the window's edge dropped); precision "
       << (graph.loop_closures().empty()
               ? std::string("-")
               : Fixed(100.0 * static_cast<double>(kept) / static_cast<double>(graph.loop_closures().size()), 2) + "%")
@@ -196,7 +227,7 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
       << "  optimisation " << Fixed(st.optimize_seconds, 2) << " s, pose graph in all " << Fixed(graph_seconds, 2)
       << " s, map " << Fixed(map_seconds, 2) << " s\n"
       << "wrote " << cmd.output_dir
-      << "/{trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm, map.yaml, map.png}\n";
+      << "/{trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm, map.yaml, map.png, loop_closures.txt}\n";
   return 0;
 }
 

@@ -75,6 +75,9 @@ struct FastCorrelativeScanMatcher2D::Setup {
     m.translations = 2 * w + 1;
     return m;
   }
+  bool OnEdge(int k, int dx, int dy) const {
+    return (k_max > 0 && std::abs(k) == k_max) || (w > 0 && (std::abs(dx) == w || std::abs(dy) == w));
+  }
   SE2d Pose(const SE2d& guess, int k, int dx, int dy, double r) const {
     return SE2d(guess.x() + dx * r, guess.y() + dy * r, guess.theta() + k * step);
   }
@@ -141,6 +144,7 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
           m.found = true;
           m.score = score;
           m.pose = s.Pose(guess, k, dx, dy, grid_.resolution());
+          m.on_edge = s.OnEdge(k, dx, dy);
         }
       }
     }
@@ -151,18 +155,52 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
 FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                               double min_score) const {
   const Setup s = Prepare(guess, points);
+  return Search(s, guess, points.size(), min_score, nullptr);
+}
+
+bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
+                                            const SE2d& best, double min_distance, double min_angle,
+                                            double min_score) const {
+  if (!(std::isfinite(min_distance) && min_distance >= 0 && std::isfinite(min_angle) && min_angle >= 0)) {
+    throw InvalidArgument(
+        "fast correlative scan matcher: the rival's distance and angle must be finite and not negative");
+  }
+  const Setup s = Prepare(guess, points);
+  const double r = grid_.resolution();
+  Exclusion e;
+  e.k = static_cast<int>(std::lround(WrapAngle(best.theta() - guess.theta()) / s.step));
+  e.dx = static_cast<int>(std::lround((best.x() - guess.x()) / r));
+  e.dy = static_cast<int>(std::lround((best.y() - guess.y()) / r));
+  e.radius = min_distance / r;
+  e.angle = min_angle / s.step;
+  return Search(s, guess, points.size(), min_score, &e).found;
+}
+
+// Branch and bound over the candidates of s. With an exclusion, the candidates near its
+// centre (within both its radius and its angle) are left out, and the search stops at the
+// first candidate above min_score (the question is only whether one exists).
+FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess, std::size_t n_points,
+                                               double min_score, const Exclusion* exclude) const {
   FastMatch m = s.Unfound(guess);
   struct Node {
     int k, dx, dy;
     float score;
   };
-  const float n = static_cast<float>(points.size());
+  const float n = static_cast<float>(n_points);
   const auto score = [&](int h, int k, int dx, int dy) {
     float sum = 0;
     for (const Cell& c : s.cells[static_cast<std::size_t>(k + s.k_max)])
       sum += probability_[precomputed_.Value(h, c + Cell(dx, dy))];
     ++m.nodes;
     return sum / n;
+  };
+  // Whether every candidate of a node of height h is near the exclusion's centre: its
+  // rotation, and the corners of its square of translations (the disc is convex).
+  const auto excluded = [&](const Node& node, int h) {
+    if (exclude == nullptr || std::abs(node.k - exclude->k) >= exclude->angle) return false;
+    const double x0 = node.dx - exclude->dx, y0 = node.dy - exclude->dy, side = (1 << h) - 1;
+    const double fx = std::max(std::abs(x0), std::abs(x0 + side)), fy = std::max(std::abs(y0), std::abs(y0 + side));
+    return fx * fx + fy * fy < exclude->radius * exclude->radius;
   };
   const auto by_score = [](const Node& a, const Node& b) { return a.score > b.score; };
   const int top = precomputed_.depth() - 1;
@@ -176,15 +214,18 @@ FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vect
   std::stable_sort(roots.begin(), roots.end(), by_score);
   float best = static_cast<float>(min_score);
   Node best_node{0, 0, 0, 0};
+  bool stop = false;
   // Depth first: a node whose bound is not above the best leaf so far is cut, and so are the
   // nodes after it (they are sorted).
   const std::function<void(const std::vector<Node>&, int)> search = [&](const std::vector<Node>& nodes, int h) {
     for (const Node& node : nodes) {
-      if (!(node.score > best)) return;
+      if (stop || !(node.score > best)) return;
+      if (excluded(node, h)) continue;
       if (h == 0) {
         best = node.score;
         best_node = node;
         m.found = true;
+        stop = exclude != nullptr;
         continue;
       }
       const int half = 1 << (h - 1);
@@ -205,6 +246,7 @@ FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vect
   if (m.found) {
     m.score = best_node.score;
     m.pose = s.Pose(guess, best_node.k, best_node.dx, best_node.dy, grid_.resolution());
+    m.on_edge = s.OnEdge(best_node.k, best_node.dx, best_node.dy);
   }
   return m;
 }

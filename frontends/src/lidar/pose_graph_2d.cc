@@ -50,6 +50,10 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
     return fail("search_every_n_scans and apply_every_n_scans must be at least 1");
   }
   if (threads < 0) return fail("threads must not be negative");
+  if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
+  if (!PositiveFinite(rival_distance) || !PositiveFinite(rival_angle)) {
+    return fail("rival_distance and rival_angle must be positive and finite");
+  }
   std::string w;
   if (!search.IsValid(&w)) return fail("search: " + w);
   if (!refine.IsValid(&w)) return fail("refine: " + w);
@@ -176,7 +180,13 @@ void PoseGraph2D::RunSearch(Search* s) const {
   // would end the program.
   try {
     const FastMatch m = s->matcher->Match(s->guess, *s->points, options_.min_score);
-    if (m.found) {
+    if (m.found && m.on_edge) {
+      s->on_edge = true;
+    } else if (m.found && options_.rival_ratio > 0 &&
+               s->matcher->HasRival(s->guess, *s->points, m.pose, options_.rival_distance, options_.rival_angle,
+                                    std::max(options_.min_score, options_.rival_ratio * m.score))) {
+      s->ambiguous = true;
+    } else if (m.found) {
       SE2d pose = m.pose;
       const ScanRefinement r = RefineScanPose(s->grid, m.pose, m.pose, *s->points, options_.refine);
       if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
@@ -226,6 +236,8 @@ void PoseGraph2D::ApplyFinishedSearches() {
   for (const std::unique_ptr<Search>& s : done) {
     ++stats_.searches;
     stats_.search_seconds += s->seconds;
+    if (s->ambiguous) ++stats_.ambiguous;
+    if (s->on_edge) ++stats_.on_edge;
     if (!s->found) continue;
     ++stats_.found;
     stats_.found_seconds += s->seconds;

@@ -22,7 +22,13 @@ struct LidarCommand {
   double resolution = 0.05;
   int search_every = 3;     ///< loop-closure search for every N-th scan
   double min_score = 0.55;  ///< branch and bound's score threshold
-  double max_range = 0;     ///< 0: the log's
+  /// The pose graph's constraints (PoseGraphOptions): sigmas of the local constraints and of
+  /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
+  double local_translation_sigma = 0.05, local_rotation_sigma = 0.02;
+  double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
+  double huber_delta = 1;
+  double rival_ratio = 0.9;  ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
+  double max_range = 0;      ///< 0: the log's
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   long progress_every = 2000;  ///< scans between progress lines (0: none)

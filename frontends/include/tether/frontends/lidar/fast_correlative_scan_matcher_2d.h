@@ -70,6 +70,10 @@ struct FastMatch {
   double angular_step = 0;
   int rotations = 0;     ///< 2 K + 1
   int translations = 0;  ///< 2 W + 1 a side
+  /// The best candidate lies on the window's edge (its rotation or a translation at the
+  /// largest offset searched): the score may still rise beyond the window, as where a scan
+  /// overlaps the submap's known area more the further it is pushed into it.
+  bool on_edge = false;
 };
 
 class FastCorrelativeScanMatcher2D {
@@ -82,6 +86,14 @@ class FastCorrelativeScanMatcher2D {
   /// scan in its own frame), if its score is above min_score. Throws InvalidArgument for no
   /// points, or points or a guess that are not finite.
   FastMatch Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
+  /// Whether the match `best` (what Match returned for the same guess and points) is
+  /// ambiguous: some candidate at least `min_distance` (m) from it, or at least `min_angle`
+  /// (rad) turned from it, scores above `min_score` (a corridor whose walls match anywhere
+  /// along it, a repeated room). Branch and bound as Match, over the candidates outside that
+  /// neighbourhood, stopping at the first one found. Throws as Match, and InvalidArgument for
+  /// a distance or angle that is negative or not finite.
+  bool HasRival(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, const SE2d& best, double min_distance,
+                double min_angle, double min_score) const;
   /// The same candidates scored one by one: the reference for Match, and its speed-up.
   FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
 
@@ -89,7 +101,15 @@ class FastCorrelativeScanMatcher2D {
 
  private:
   struct Setup;
+  // Candidates left out of a search: within `radius` cells and `angle` rotation steps of the
+  // candidate (k, dx, dy).
+  struct Exclusion {
+    int k = 0, dx = 0, dy = 0;
+    double radius = 0, angle = 0;
+  };
   Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const;
+  FastMatch Search(const Setup& s, const SE2d& guess, std::size_t n_points, double min_score,
+                   const Exclusion* exclude) const;
 
   const ProbabilityGrid& grid_;
   FastMatcherOptions options_;

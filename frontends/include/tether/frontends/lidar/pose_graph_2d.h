@@ -42,8 +42,15 @@ struct PoseGraphOptions {
   double local_translation_sigma = 0.05;  ///< m
   double local_rotation_sigma = 0.02;     ///< rad
   bool loop_closure = true;
-  FastMatcherOptions search;        ///< the window: 7 m x 7 m x 30 degrees
-  double min_score = 0.55;          ///< a search's best must score above this (mean probability)
+  FastMatcherOptions search;  ///< the window: 7 m x 7 m x 30 degrees
+  double min_score = 0.55;    ///< a search's best must score above this (mean probability)
+  /// A match whose best candidate lies on the search window's edge is dropped (the score may
+  /// rise beyond it). A match is ambiguous, and dropped, where another candidate of its window at least
+  /// rival_distance (m) away or rival_angle (rad) turned scores above rival_ratio times its
+  /// score (a corridor that matches anywhere along it). 0 keeps every match.
+  double rival_ratio = 0.9;
+  double rival_distance = 0.3;
+  double rival_angle = 0.035;
   double max_search_distance = 15;  ///< m, from the scan to the submap's origin (estimates)
   int search_every_n_scans = 3;
   ScanRefinerOptions refine;
@@ -66,6 +73,8 @@ struct LoopClosure {
 struct PoseGraphStats {
   long searches = 0;
   long found = 0;               ///< searches above min_score (the loop closures added)
+  long ambiguous = 0;           ///< searches above min_score dropped as ambiguous (rival_ratio)
+  long on_edge = 0;             ///< searches above min_score dropped: the best on the window's edge
   double search_seconds = 0;    ///< summed over the searches (all threads)
   double found_seconds = 0;     ///< summed over the searches that found one
   double optimize_seconds = 0;  ///< the smoother's updates and Finish
@@ -120,7 +129,7 @@ class PoseGraph2D {
     std::shared_ptr<const ProbabilityGrid> grid;
     SE2d submap_local;
     const std::vector<Eigen::Vector2d>* points = nullptr;
-    bool done = false, found = false;
+    bool done = false, found = false, ambiguous = false, on_edge = false;
     LoopClosure result;
     double seconds = 0;
   };
