@@ -257,6 +257,10 @@ int main(int argc, char** argv) {
                    "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
                    "score (0: keep them)")
       ->capture_default_str();
+  lidar
+      ->add_option("--max-search-distance", lsc.max_search_distance,
+                   "Search a scan against the finished submaps whose origin lies this near it [m]")
+      ->capture_default_str();
   lidar->add_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)")
       ->capture_default_str();
   lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();

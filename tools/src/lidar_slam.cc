@@ -41,6 +41,7 @@ void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->loop_rotation_sigma = cmd.loop_rotation_sigma;
   po->huber_delta = cmd.huber_delta;
   po->rival_ratio = cmd.rival_ratio;
+  po->max_search_distance = cmd.max_search_distance;
 }
 
 }  // namespace

@@ -7,6 +7,8 @@
 //   trajectory.g2o   the same poses (id = scan index), chained by their relative poses
 //   pose_graph.g2o   the graph (scans 0..N-1, submaps N..), re-optimisable by tether optimize
 //   map.pgm, map.yaml, map.png   the occupancy map (every scan inserted at its final pose)
+//   loop_closures.txt   each loop closure: scan, submap, score, measured and solved relative
+//                       pose, the violation (m, degrees), kept (below 20 cm and 1 degree)
 #include <iosfwd>
 #include <string>
 
@@ -24,11 +26,12 @@ struct LidarCommand {
   double min_score = 0.55;  ///< branch and bound's score threshold
   /// The pose graph's constraints (PoseGraphOptions): sigmas of the local constraints and of
   /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
-  double local_translation_sigma = 0.05, local_rotation_sigma = 0.02;
+  double local_translation_sigma = 0.1, local_rotation_sigma = 0.04;
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
-  double rival_ratio = 0.9;  ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
-  double max_range = 0;      ///< 0: the log's
+  double rival_ratio = 0.9;         ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
+  double max_search_distance = 15;  ///< PoseGraphOptions::max_search_distance (m)
+  double max_range = 0;             ///< 0: the log's
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   long progress_every = 2000;  ///< scans between progress lines (0: none)
