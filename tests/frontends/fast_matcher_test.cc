@@ -55,30 +55,22 @@ std::vector<Segment> Room() {
   return s;
 }
 
-// The grid of the room: wall cells 0.9, the floor 0.2.
-ProbabilityGrid RoomGrid(double r) {
+// The grid of a set of walls: `floor` cells (the box x0..x1, y0..y1) 0.2, wall cells 0.9.
+ProbabilityGrid WallGrid(const std::vector<Segment>& walls, double r, double x0, double y0, double x1, double y1) {
   ProbabilityGrid grid(r);
-  for (double y = r / 2; y < 8; y += r) {
-    for (double x = r / 2; x < 10; x += r) grid.SetProbability(grid.CellOf({x, y}), 0.2);
+  for (double y = y0 + r / 2; y < y1; y += r) {
+    for (double x = x0 + r / 2; x < x1; x += r) grid.SetProbability(grid.CellOf({x, y}), 0.2);
   }
-  for (const Segment& s : Room()) {
+  for (const Segment& s : walls) {
     const int n = static_cast<int>((s.b - s.a).norm() / (r / 4));
     for (int i = 0; i <= n; ++i) grid.SetProbability(grid.CellOf(s.a + (s.b - s.a) * i / n), 0.9);
   }
   return grid;
 }
 
-// A scan from `pose` into the room: 181 beams over 360 degrees, the nearest wall of each.
-std::vector<Eigen::Vector2d> RoomScan(const SE2d& pose) {
-  std::vector<Eigen::Vector2d> points;
-  const std::vector<double> ranges = testing::RayCastScan(Room(), pose, 181, -M_PI, 2 * M_PI / 181);
-  for (int i = 0; i < 181; ++i) {
-    const double a = -M_PI + 2 * M_PI * i / 181;
-    if (std::isfinite(ranges[static_cast<std::size_t>(i)]))
-      points.push_back(ranges[static_cast<std::size_t>(i)] * Eigen::Vector2d(std::cos(a), std::sin(a)));
-  }
-  return points;
-}
+// The grid of the room, and a scan from `pose` into it (every beam hits a wall).
+ProbabilityGrid RoomGrid(double r) { return WallGrid(Room(), r, 0, 0, 10, 8); }
+std::vector<Eigen::Vector2d> RoomScan(const SE2d& pose) { return testing::ScanPoints(Room(), pose, 181, 1e9); }
 
 TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
   const ProbabilityGrid grid = RoomGrid(0.05);
@@ -156,31 +148,6 @@ TEST(FastCorrelativeScanMatcherTest, RefusesBadInput) {
   EXPECT_FALSE(FastCorrelativeScanMatcher2D(empty).Match(SE2d(), {Eigen::Vector2d(1, 0)}, 0.5).found);
 }
 
-// The grid of a set of walls: `floor` cells (the box x0..x1, y0..y1) 0.2, wall cells 0.9.
-ProbabilityGrid WallGrid(const std::vector<Segment>& walls, double r, double x0, double y0, double x1, double y1) {
-  ProbabilityGrid grid(r);
-  for (double y = y0 + r / 2; y < y1; y += r) {
-    for (double x = x0 + r / 2; x < x1; x += r) grid.SetProbability(grid.CellOf({x, y}), 0.2);
-  }
-  for (const Segment& s : walls) {
-    const int n = static_cast<int>((s.b - s.a).norm() / (r / 4));
-    for (int i = 0; i <= n; ++i) grid.SetProbability(grid.CellOf(s.a + (s.b - s.a) * i / n), 0.9);
-  }
-  return grid;
-}
-
-// A scan from `pose`: 181 beams over 360 degrees, the nearest wall of each within max_range.
-std::vector<Eigen::Vector2d> WallScan(const std::vector<Segment>& walls, const SE2d& pose, double max_range) {
-  std::vector<Eigen::Vector2d> points;
-  const std::vector<double> ranges = testing::RayCastScan(walls, pose, 181, -M_PI, 2 * M_PI / 181);
-  for (int i = 0; i < 181; ++i) {
-    const double a = -M_PI + 2 * M_PI * i / 181;
-    const double range = ranges[static_cast<std::size_t>(i)];
-    if (std::isfinite(range) && range <= max_range) points.push_back(range * Eigen::Vector2d(std::cos(a), std::sin(a)));
-  }
-  return points;
-}
-
 // By brute force: the best score of the candidates of `m`'s window that are not within
 // `distance` (m) and `angle` (rad) of m.pose, scored as the matcher scores them.
 float BestRival(const ProbabilityGrid& grid, const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
@@ -218,7 +185,7 @@ TEST(FastCorrelativeScanMatcherTest, ACorridorMatchHasARival) {
   o.angular_search_window = 0.1;
   const FastCorrelativeScanMatcher2D matcher(grid, o);
   const SE2d truth(20.0, 0.9, 0.05);
-  const std::vector<Eigen::Vector2d> points = WallScan(walls, truth, 6.0);
+  const std::vector<Eigen::Vector2d> points = testing::ScanPoints(walls, truth, 181, 6.0);
   ASSERT_GT(points.size(), 100u);
   const SE2d guess(20.4, 1.1, 0.0);
   const FastMatch m = matcher.Match(guess, points, 0.5);

@@ -46,14 +46,7 @@ Trip Drive() {
     trip.local.push_back(k == 0 ? truth
                                 : trip.local.back() * (trip.truth[trip.truth.size() - 2].Inverse() * truth) *
                                       SE2d(0, 0, 0.0006));
-    std::vector<Eigen::Vector2d> points;
-    const std::vector<double> ranges = testing::RayCastScan(world, truth, 360, -M_PI, 2 * M_PI / 360);
-    for (int i = 0; i < 360; ++i) {
-      const double b = -M_PI + 2 * M_PI * i / 360;
-      const double r = ranges[static_cast<std::size_t>(i)];
-      if (std::isfinite(r) && r < 15) points.push_back(r * Eigen::Vector2d(std::cos(b), std::sin(b)));
-    }
-    trip.points.push_back(std::move(points));
+    trip.points.push_back(testing::ScanPoints(world, truth, 360, 15));
   }
   return trip;
 }
@@ -156,14 +149,7 @@ TEST(PoseGraph2DTest, AmbiguousMatchesInACorridorAreDropped) {
       const SE2d step = trip.truth[trip.truth.size() - 2].Inverse() * truth;
       trip.local.push_back(trip.local.back() * SE2d(1.04 * step.x(), step.y(), step.theta()));
     }
-    std::vector<Eigen::Vector2d> points;
-    const std::vector<double> ranges = testing::RayCastScan(world, truth, 360, -M_PI, 2 * M_PI / 360);
-    for (int i = 0; i < 360; ++i) {
-      const double b = -M_PI + 2 * M_PI * i / 360;
-      const double r = ranges[static_cast<std::size_t>(i)];
-      if (std::isfinite(r) && r < 5) points.push_back(r * Eigen::Vector2d(std::cos(b), std::sin(b)));
-    }
-    trip.points.push_back(std::move(points));
+    trip.points.push_back(testing::ScanPoints(world, truth, 360, 5));
   }
   // The truth's verdict on a closure: its relative pose against the true one.
   // A submap's frame is the local pose of the scan that started it (every 15th: 30 a submap).

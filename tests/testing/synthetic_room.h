@@ -49,5 +49,19 @@ inline std::vector<double> RayCastScan(const std::vector<Segment>& walls, const 
   return ranges;
 }
 
+/// The points (the sensor's frame) of a scan of `beams` beams over 360 degrees from -pi seen
+/// from `pose`: the nearest wall of each beam closer than max_range.
+inline std::vector<Eigen::Vector2d> ScanPoints(const std::vector<Segment>& walls, const SE2d& pose, int beams,
+                                               double max_range) {
+  std::vector<Eigen::Vector2d> points;
+  const std::vector<double> ranges = RayCastScan(walls, pose, beams, -M_PI, 2 * M_PI / beams);
+  for (int i = 0; i < beams; ++i) {
+    const double a = -M_PI + 2 * M_PI * i / beams;
+    const double r = ranges[static_cast<std::size_t>(i)];
+    if (std::isfinite(r) && r < max_range) points.push_back(r * Eigen::Vector2d(std::cos(a), std::sin(a)));
+  }
+  return points;
+}
+
 }  // namespace testing
 }  // namespace tether
