@@ -30,7 +30,7 @@ struct LidarCommand {
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
   double rival_ratio = 0.9;         ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
-  double max_search_distance = 15;  ///< PoseGraphOptions::max_search_distance (m)
+  double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
   double max_range = 0;             ///< 0: the log's
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
