@@ -29,9 +29,9 @@ struct LidarCommand {
   double local_translation_sigma = 0.1, local_rotation_sigma = 0.04;
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
-  double rival_ratio = 0.9;         ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
+  double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
   double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
-  double max_range = 0;             ///< 0: the log's
+  double max_range = 0;            ///< 0: the log's
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   long progress_every = 2000;  ///< scans between progress lines (0: none)
