@@ -196,6 +196,16 @@ TEST(FastCorrelativeScanMatcherTest, ACorridorMatchHasARival) {
   EXPECT_TRUE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, 0.9 * m.score));
   EXPECT_TRUE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival - 1e-4));
   EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival + 1e-4));
+  // Both in one call, the candidates prepared once: the same match, found ambiguous where it
+  // is not on the window's edge (there the rival search is skipped; along a uniform corridor
+  // the best may lie anywhere, the edge too). The pose graph's corridor test sees both.
+  const FastMatch checked = matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0.9);
+  EXPECT_EQ(checked.score, m.score);
+  EXPECT_EQ(checked.pose.translation(), m.pose.translation());
+  EXPECT_EQ(checked.on_edge, m.on_edge);
+  EXPECT_EQ(checked.ambiguous, !m.on_edge);
+  EXPECT_FALSE(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0).ambiguous);  // ratio 0: not checked
+  EXPECT_FALSE(m.ambiguous);                                                        // Match never checks
 }
 
 // In the room (a box inside breaks its symmetry) the best match has no rival near its score.
@@ -217,6 +227,10 @@ TEST(FastCorrelativeScanMatcherTest, ARoomMatchHasNoRival) {
   EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 0.3, 0.035, rival + 1e-4));
   // A neighbourhood larger than the window leaves no candidate at all.
   EXPECT_FALSE(matcher.HasRival(guess, points, m.pose, 10, 1, 0));
+  const FastMatch checked = matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0.9);
+  EXPECT_EQ(checked.score, m.score);
+  EXPECT_FALSE(checked.ambiguous);
+  EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 1.5), InvalidArgument);
   EXPECT_THROW(matcher.HasRival(guess, points, m.pose, -1, 0.035, 0.5), InvalidArgument);
   EXPECT_THROW(matcher.HasRival(guess, points, m.pose, 0.3, std::nan(""), 0.5), InvalidArgument);
 }

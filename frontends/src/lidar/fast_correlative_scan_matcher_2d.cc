@@ -165,7 +165,29 @@ bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector
     throw InvalidArgument(
         "fast correlative scan matcher: the rival's distance and angle must be finite and not negative");
   }
+  return Rival(Prepare(guess, points), guess, points.size(), best, min_distance, min_angle, min_score);
+}
+
+FastMatch FastCorrelativeScanMatcher2D::MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
+                                                     double min_score, double rival_distance, double rival_angle,
+                                                     double rival_ratio) const {
+  if (!(std::isfinite(rival_distance) && rival_distance >= 0 && std::isfinite(rival_angle) && rival_angle >= 0 &&
+        rival_ratio >= 0 && rival_ratio <= 1)) {
+    throw InvalidArgument(
+        "fast correlative scan matcher: the rival's distance and angle must be finite and not negative, its ratio "
+        "in [0, 1]");
+  }
   const Setup s = Prepare(guess, points);
+  FastMatch m = Search(s, guess, points.size(), min_score, nullptr);
+  if (m.found && !m.on_edge && rival_ratio > 0) {
+    m.ambiguous = Rival(s, guess, points.size(), m.pose, rival_distance, rival_angle,
+                        std::max(min_score, rival_ratio * static_cast<double>(m.score)));
+  }
+  return m;
+}
+
+bool FastCorrelativeScanMatcher2D::Rival(const Setup& s, const SE2d& guess, std::size_t n_points, const SE2d& best,
+                                         double min_distance, double min_angle, double min_score) const {
   const double r = grid_.resolution();
   Exclusion e;
   e.k = static_cast<int>(std::lround(WrapAngle(best.theta() - guess.theta()) / s.step));
@@ -173,7 +195,7 @@ bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector
   e.dy = static_cast<int>(std::lround((best.y() - guess.y()) / r));
   e.radius = min_distance / r;
   e.angle = min_angle / s.step;
-  return Search(s, guess, points.size(), min_score, &e).found;
+  return Search(s, guess, n_points, min_score, &e).found;
 }
 
 // Branch and bound over the candidates of s. With an exclusion, the candidates near its

@@ -179,12 +179,11 @@ void PoseGraph2D::RunSearch(Search* s) const {
   // A search that throws (a degenerate scan) finds nothing; on a worker thread an exception
   // would end the program.
   try {
-    const FastMatch m = s->matcher->Match(s->guess, *s->points, options_.min_score);
+    const FastMatch m = s->matcher->MatchChecked(s->guess, *s->points, options_.min_score, options_.rival_distance,
+                                                 options_.rival_angle, options_.rival_ratio);
     if (m.found && m.on_edge) {
       s->on_edge = true;
-    } else if (m.found && options_.rival_ratio > 0 &&
-               s->matcher->HasRival(s->guess, *s->points, m.pose, options_.rival_distance, options_.rival_angle,
-                                    std::max(options_.min_score, options_.rival_ratio * m.score))) {
+    } else if (m.found && m.ambiguous) {
       s->ambiguous = true;
     } else if (m.found) {
       SE2d pose = m.pose;

@@ -74,6 +74,8 @@ struct FastMatch {
   /// largest offset searched): the score may still rise beyond the window, as where a scan
   /// overlaps the submap's known area more the further it is pushed into it.
   bool on_edge = false;
+  /// Set by MatchChecked only: a candidate away from the best scores nearly as well.
+  bool ambiguous = false;
 };
 
 class FastCorrelativeScanMatcher2D {
@@ -94,6 +96,12 @@ class FastCorrelativeScanMatcher2D {
   /// a distance or angle that is negative or not finite.
   bool HasRival(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, const SE2d& best, double min_distance,
                 double min_angle, double min_score) const;
+  /// Match, and where its best is found and not on the window's edge, HasRival on the same
+  /// candidates (prepared once) with min_score max(min_score, rival_ratio * score):
+  /// FastMatch::ambiguous. rival_ratio 0 skips the rival search. Throws as Match and HasRival,
+  /// and for a ratio outside [0, 1].
+  FastMatch MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score,
+                         double rival_distance, double rival_angle, double rival_ratio) const;
   /// The same candidates scored one by one: the reference for Match, and its speed-up.
   FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
 
@@ -110,6 +118,8 @@ class FastCorrelativeScanMatcher2D {
   Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const;
   FastMatch Search(const Setup& s, const SE2d& guess, std::size_t n_points, double min_score,
                    const Exclusion* exclude) const;
+  bool Rival(const Setup& s, const SE2d& guess, std::size_t n_points, const SE2d& best, double min_distance,
+             double min_angle, double min_score) const;
 
   const ProbabilityGrid& grid_;
   FastMatcherOptions options_;
