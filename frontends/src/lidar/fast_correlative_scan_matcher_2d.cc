@@ -152,6 +152,17 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
   return m;
 }
 
+namespace {
+
+void CheckRivalNeighbourhood(double distance, double angle) {
+  if (!(std::isfinite(distance) && distance >= 0 && std::isfinite(angle) && angle >= 0)) {
+    throw InvalidArgument(
+        "fast correlative scan matcher: the rival's distance and angle must be finite and not negative");
+  }
+}
+
+}  // namespace
+
 FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                               double min_score) const {
   const Setup s = Prepare(guess, points);
@@ -161,21 +172,16 @@ FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vect
 bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                             const SE2d& best, double min_distance, double min_angle,
                                             double min_score) const {
-  if (!(std::isfinite(min_distance) && min_distance >= 0 && std::isfinite(min_angle) && min_angle >= 0)) {
-    throw InvalidArgument(
-        "fast correlative scan matcher: the rival's distance and angle must be finite and not negative");
-  }
+  CheckRivalNeighbourhood(min_distance, min_angle);
   return Rival(Prepare(guess, points), guess, points.size(), best, min_distance, min_angle, min_score);
 }
 
 FastMatch FastCorrelativeScanMatcher2D::MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                      double min_score, double rival_distance, double rival_angle,
                                                      double rival_ratio) const {
-  if (!(std::isfinite(rival_distance) && rival_distance >= 0 && std::isfinite(rival_angle) && rival_angle >= 0 &&
-        rival_ratio >= 0 && rival_ratio <= 1)) {
-    throw InvalidArgument(
-        "fast correlative scan matcher: the rival's distance and angle must be finite and not negative, its ratio "
-        "in [0, 1]");
+  CheckRivalNeighbourhood(rival_distance, rival_angle);
+  if (!(rival_ratio >= 0 && rival_ratio <= 1)) {
+    throw InvalidArgument("fast correlative scan matcher: the rival ratio must lie in [0, 1]");
   }
   const Setup s = Prepare(guess, points);
   FastMatch m = Search(s, guess, points.size(), min_score, nullptr);

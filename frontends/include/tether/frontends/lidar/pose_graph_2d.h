@@ -48,9 +48,10 @@ struct PoseGraphOptions {
   FastMatcherOptions search;  ///< the window: 7 m x 7 m x 30 degrees
   double min_score = 0.55;    ///< a search's best must score above this (mean probability)
   /// A match whose best candidate lies on the search window's edge is dropped (the score may
-  /// rise beyond it). A match is ambiguous, and dropped, where another candidate of its window at least
-  /// rival_distance (m) away or rival_angle (rad) turned scores above rival_ratio times its
-  /// score (a corridor that matches anywhere along it). 0 keeps every match.
+  /// rise beyond it). A match is ambiguous, and dropped, where another candidate of its window
+  /// at least rival_distance (m) away or rival_angle (rad) turned scores above rival_ratio
+  /// times its score (a corridor that matches anywhere along it). rival_ratio 0 keeps
+  /// ambiguous matches.
   double rival_ratio = 0.9;
   double rival_distance = 0.3;
   double rival_angle = 0.035;
