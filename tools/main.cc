@@ -263,6 +263,32 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   lidar->add_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)")
       ->capture_default_str();
+  lidar
+      ->add_option("--match-translation-weight", lsc.match_translation_weight,
+                   "Local matching: the scan-match factor's weight on the distance to the odometry's prediction "
+                   "[1/m]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--match-rotation-weight", lsc.match_rotation_weight,
+                   "Local matching: the scan-match factor's weight on the turn from the odometry's prediction [1/rad]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--correlative-translation-weight", lsc.correlative_translation_weight,
+                   "Local matching: the correlative search's preference for the prediction's translation [1/m]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--correlative-rotation-weight", lsc.correlative_rotation_weight,
+                   "Local matching: the correlative search's preference for the prediction's heading [1/rad]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--correlative-angle", lsc.correlative_angle_deg,
+                   "Local matching: the correlative search's rotations, +- this many degrees around the prediction")
+      ->capture_default_str();
+  lidar
+      ->add_option("--min-match-probability", lsc.min_match_probability,
+                   "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
+                   "the odometry's prediction (0: always trust the match)")
+      ->capture_default_str();
   lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();
   lidar->add_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   lidar->add_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();

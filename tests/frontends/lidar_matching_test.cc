@@ -265,6 +265,60 @@ TEST(LocalSlam2D, FollowsASeededPathThroughTheRoomDespiteOdometryDrift) {
             << worst_angle * 180 / kPi << " deg\n";
 }
 
+// A scan whose points the submap cannot place is not trusted: the scan keeps the odometry's
+// prediction. Here it sees a box around the robot: three of its walls lie in the room's free
+// space, the fourth 4.5 cm beside the room's wall y = 0, which pulls the matchers (with the
+// gate off they move the scan towards it). A scan of the room itself is trusted.
+TEST(LocalSlam2D, AMatchTheSubmapCannotSupportTakesThePrediction) {
+  const Room room;
+  Room box;
+  box.walls.clear();
+  const Eigen::Vector2d c(2.225, 2.025);
+  const Eigen::Vector2d corners[4] = {Eigen::Vector2d(c.x() - 0.8, 0.045), Eigen::Vector2d(c.x() + 0.8, 0.045),
+                                      c + Eigen::Vector2d(0.8, 0.8), c + Eigen::Vector2d(-0.8, 0.8)};
+  for (int i = 0; i < 4; ++i) box.walls.emplace_back(corners[i], corners[(i + 1) % 4]);
+  const std::vector<SE2d> truth = {SE2d(2.025, 2.025, 0), SE2d(2.125, 2.025, 0), SE2d(2.225, 2.025, 0)};
+
+  for (const double gate : {0.52, 0.0}) {
+    LocalSlamOptions options;
+    options.min_match_probability = gate;
+    LocalSlam2D slam(options);
+    // Odometry 5% long: the prediction differs from the truth, so a match is seen to move it.
+    const SE2d odometry[3] = {truth[0], SE2d(2.130, 2.025, 0), SE2d(2.235, 2.025, 0)};
+    slam.AddScan(RoomLaserScan(room, truth[0], odometry[0], 0.0));
+    const LocalScanResult room_scan = slam.AddScan(RoomLaserScan(room, truth[1], odometry[1], 0.1));
+    ASSERT_TRUE(room_scan.matched);
+    EXPECT_TRUE(room_scan.trusted) << "gate " << gate << ": a scan of the mapped room, probability "
+                                   << room_scan.match_probability;
+    EXPECT_GE(room_scan.match_probability, 0.52);
+    EXPECT_LT(TranslationError(room_scan.pose, truth[1]), 0.015);
+
+    const LocalScanResult box_scan = slam.AddScan(RoomLaserScan(box, truth[2], odometry[2], 0.2));
+    ASSERT_TRUE(box_scan.matched);
+    EXPECT_LT(box_scan.match_probability, 0.52) << "three of the box's walls lie in the room's free space";
+    const double moved =
+        TranslationError(box_scan.pose, box_scan.predicted) + AngleError(box_scan.pose, box_scan.predicted);
+    if (gate > 0) {
+      EXPECT_FALSE(box_scan.trusted);
+      EXPECT_EQ(moved, 0.0) << "an untrusted match keeps the prediction";
+    } else {
+      EXPECT_TRUE(box_scan.trusted);
+      EXPECT_GT(moved, 0.02) << "without the gate the matchers pull the scan to the room's wall";
+    }
+  }
+}
+
+TEST(LocalSlam2D, MinMatchProbabilityIsValidated) {
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    LocalSlamOptions options;
+    options.min_match_probability = bad;
+    std::string why;
+    EXPECT_FALSE(options.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("min_match_probability"), std::string::npos) << why;
+    EXPECT_THROW(LocalSlam2D{options}, InvalidArgument);
+  }
+}
+
 // Intel: scans sorted by time (the log is not), matched one after another.
 TEST(LocalScanMatching, IntelLogRelationsAndTiming) {
   const std::string path = testing::LidarDataset("raw/intel.clf.gz");

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -122,6 +123,20 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   EXPECT_EQ(rival.code, 2);
   EXPECT_NE(rival.output.find("rival_ratio"), std::string::npos) << rival.output;
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --local-sigma-t 0").code, 2);
+  // Local matching's options, checked by LocalSlamOptions::IsValid before anything is written.
+  const struct {
+    const char* option;
+    const char* field;
+  } local[] = {{"--min-match-probability 1.5", "min_match_probability"},
+               {"--correlative-rotation-weight -1", "rotation_delta_cost_weight"},
+               {"--correlative-angle -5", "angular_search_window"},
+               {"--match-rotation-weight 0", "rotation"}};
+  for (const auto& l : local) {
+    const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
+    EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;
+    EXPECT_NE(r.output.find(l.field), std::string::npos) << l.option << ": " << r.output;
+    EXPECT_FALSE(std::filesystem::exists(P("o_local"))) << l.option << ": nothing is written";
+  }
   const auto missing = Tether("lidar " + P("nothing.log") + " -o " + P("o"));
   EXPECT_EQ(missing.code, 1) << missing.output;
   EXPECT_NE(missing.output.find("nothing.log"), std::string::npos) << missing.output;

@@ -1,6 +1,7 @@
 #include "tether/tools/lidar_slam.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <ostream>
 #include <sstream>
@@ -44,6 +45,15 @@ void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->max_search_distance = cmd.max_search_distance;
 }
 
+void SetMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {
+  lo->refiner.weights.translation = cmd.match_translation_weight;
+  lo->refiner.weights.rotation = cmd.match_rotation_weight;
+  lo->correlative.translation_delta_cost_weight = cmd.correlative_translation_weight;
+  lo->correlative.rotation_delta_cost_weight = cmd.correlative_rotation_weight;
+  lo->correlative.angular_search_window = cmd.correlative_angle_deg * M_PI / 180;
+  lo->min_match_probability = cmd.min_match_probability;
+}
+
 }  // namespace
 
 int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
@@ -59,6 +69,12 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
     std::string why;
     if (!po.IsValid(&why)) {
       err << "tether lidar: " << why << "\n";
+      return kExitUsage;
+    }
+    lidar::LocalSlamOptions lo;
+    SetMatching(cmd, &lo);
+    if (!lo.IsValid(&why)) {
+      err << "tether lidar: local matching: " << why << "\n";
       return kExitUsage;
     }
   }
@@ -114,6 +130,7 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   lo.submaps.resolution = cmd.resolution;
   lo.submaps.scans_per_submap = cmd.scans_per_submap;
   lo.limits = ro.limits;
+  SetMatching(cmd, &lo);
   lidar::PoseGraphOptions po;
   po.loop_closure = cmd.loop_closure;
   po.threads = cmd.threads;
@@ -124,10 +141,12 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   lidar::PoseGraph2D graph(po);
   const auto t0 = std::chrono::steady_clock::now();
   double matching_seconds = 0, insert_seconds = 0, graph_seconds = 0;
+  long untrusted = 0;  // matched scans whose match fell below min_match_probability
   for (std::size_t i = 0; i < n; ++i) {
     const lidar::LaserScan& scan = log.scans[i];
     const lidar::LocalScanResult r = local.AddScan(scan);
     matching_seconds += r.correlative_seconds + r.refine_seconds;
+    untrusted += r.matched && !r.trusted;
     insert_seconds += r.insert_seconds;
     std::vector<Eigen::Vector2d> points = lidar::ScanToPoints(scan, ro.limits);
     for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
@@ -219,7 +238,8 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
       << "time " << Fixed(total, 2) << " s for " << Fixed(logged, 1) << " s of log: real-time factor "
       << Fixed(logged / std::max(total, 1e-9), 1) << "\n"
       << "  local matching " << Fixed(1e3 * matching_seconds / static_cast<double>(n), 3) << " ms per scan, insertion "
-      << Fixed(1e3 * insert_seconds / static_cast<double>(n), 3) << " ms per scan\n"
+      << Fixed(1e3 * insert_seconds / static_cast<double>(n), 3) << " ms per scan; " << untrusted
+      << " scans below the match probability took the odometry's prediction\n"
       << "  branch and bound "
       << Fixed(st.searches > 0 ? 1e3 * st.search_seconds / static_cast<double>(st.searches) : 0, 2)
       << " ms per search, " << Fixed(st.found > 0 ? 1e3 * st.search_seconds / static_cast<double>(st.found) : 0, 2)

@@ -16,6 +16,13 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+double MeanProbability(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
+                       double unknown) {
+  double sum = 0;
+  for (const Eigen::Vector2d& p : points) sum += grid.Probability(grid.CellOf(pose * p), unknown);
+  return sum / static_cast<double>(points.size());
+}
+
 LocalSlamOptions Checked(const LocalSlamOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("LocalSlamOptions: " + why);
@@ -29,6 +36,11 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
     if (why != nullptr) {
       *why = "matching_voxel_size is " + FormatDouble(matching_voxel_size) + "; it must be finite and not negative";
     }
+    return false;
+  }
+  if (!(min_match_probability >= 0 && min_match_probability <= 1)) {
+    if (why != nullptr)
+      *why = "min_match_probability is " + FormatDouble(min_match_probability) + "; it must lie in [0, 1]";
     return false;
   }
   for (double v : {insert_min_distance, insert_min_angle, insert_max_seconds}) {
@@ -75,9 +87,13 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     }
     result.correlative_seconds = SecondsSince(t0);
     t0 = std::chrono::steady_clock::now();
-    result.pose = RefineScanPose(target->grid(), start, result.predicted, matching, options_.refiner).pose;
+    const SE2d refined = RefineScanPose(target->grid(), start, result.predicted, matching, options_.refiner).pose;
     result.refine_seconds = SecondsSince(t0);
     result.matched = true;
+    result.match_probability =
+        MeanProbability(*target->grid(), refined, matching, options_.correlative.unknown_probability);
+    result.trusted = result.match_probability >= options_.min_match_probability;
+    if (result.trusted) result.pose = refined;
   }
   const SE2d moved = inserted_any_ ? last_inserted_.pose.Inverse() * result.pose : SE2d();
   const bool insert = !inserted_any_ || moved.translation().norm() >= options_.insert_min_distance ||

@@ -12,6 +12,8 @@
 #include <iosfwd>
 #include <string>
 
+#include "tether/frontends/lidar/local_slam_2d.h"
+
 namespace tether {
 
 struct LidarCommand {
@@ -32,6 +34,17 @@ struct LidarCommand {
   double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
   double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
   double max_range = 0;            ///< 0: the log's
+  /// Local matching (LocalSlamOptions' defaults): the scan-match factor's regulariser weights
+  /// towards the odometry's prediction (ScanMatchWeights translation, rotation), the correlative
+  /// search's preference for it (CorrelativeMatcherOptions *_delta_cost_weight) and its half
+  /// window of rotations (degrees), and min_match_probability.
+  double match_translation_weight = lidar::LocalSlamOptions{}.refiner.weights.translation;
+  double match_rotation_weight = lidar::LocalSlamOptions{}.refiner.weights.rotation;
+  double correlative_translation_weight = lidar::LocalSlamOptions{}.correlative.translation_delta_cost_weight;
+  double correlative_rotation_weight = lidar::LocalSlamOptions{}.correlative.rotation_delta_cost_weight;
+  double correlative_angle_deg =
+      lidar::LocalSlamOptions{}.correlative.angular_search_window * 180 / 3.14159265358979323846;
+  double min_match_probability = lidar::LocalSlamOptions{}.min_match_probability;
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   long progress_every = 2000;  ///< scans between progress lines (0: none)

@@ -17,7 +17,7 @@ namespace tether {
 namespace lidar {
 
 struct ScanRefinerOptions {
-  ScanMatchWeights weights;  ///< the factor's weights (occupied space 1, translation 10, rotation 40)
+  ScanMatchWeights weights;  ///< the factor's weights (ScanMatchWeights: 1, 1 and 1)
   int max_iterations = 20;
   bool IsValid(std::string* why) const;
 };
