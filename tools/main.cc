@@ -289,6 +289,13 @@ int main(int argc, char** argv) {
                    "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
                    "the odometry's prediction (0: always trust the match)")
       ->capture_default_str();
+  lidar
+      ->add_option("--still-distance", lsc.still_distance,
+                   "Local matching: where the odometry moved less than this [m] and turned less than --still-angle "
+                   "since the scan before, the scan keeps the pose before, unmatched (0: always match)")
+      ->capture_default_str();
+  lidar->add_option("--still-angle", lsc.still_angle, "Local matching: see --still-distance [rad]")
+      ->capture_default_str();
   lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();
   lidar->add_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   lidar->add_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();

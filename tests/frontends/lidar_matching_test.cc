@@ -236,7 +236,7 @@ TEST(LocalSlam2D, FollowsASeededPathThroughTheRoomDespiteOdometryDrift) {
   }
   LocalSlam2D slam(OptionsFromEnvironment());
   SE2d odometry = truth[0];
-  int inserted = 0, matched = 0;
+  int inserted = 0, matched = 0, still = 0;
   double worst = 0, worst_angle = 0;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     if (i > 0) {
@@ -250,11 +250,13 @@ TEST(LocalSlam2D, FollowsASeededPathThroughTheRoomDespiteOdometryDrift) {
       EXPECT_FALSE(r.inserted) << "scan " << i << " while the robot stands still";
     }
     matched += r.matched;
+    still += r.still;
     worst = std::max(worst, TranslationError(r.pose, truth[i]));
     worst_angle = std::max(worst_angle, AngleError(r.pose, truth[i]));
   }
   ASSERT_EQ(slam.trajectory().size(), truth.size());
   EXPECT_EQ(matched, static_cast<int>(truth.size()) - 1);
+  EXPECT_EQ(still, 0) << "off by default";
   // The motion filter: 0.2 m or 1 degree between inserted scans; the pause inserts nothing.
   EXPECT_LT(inserted, static_cast<int>(truth.size()) * 6 / 10);
   EXPECT_GT(inserted, 100);
@@ -308,7 +310,51 @@ TEST(LocalSlam2D, AMatchTheSubmapCannotSupportTakesThePrediction) {
   }
 }
 
-TEST(LocalSlam2D, MinMatchProbabilityIsValidated) {
+// A robot standing in a corridor (walls 2 m apart, longer than the laser's reach; ranges with
+// 2 cm of noise): with the odometry still, the scans are not matched and keep the first pose
+// exactly; matched anyway (still_* 0, the default), they slide along the corridor, where
+// nothing holds them.
+TEST(LocalSlam2D, ScansWhileTheOdometryStandsStillKeepThePose) {
+  Room corridor;
+  corridor.walls = {{Eigen::Vector2d(-60, 0), Eigen::Vector2d(60, 0)},
+                    {Eigen::Vector2d(-60, 2), Eigen::Vector2d(60, 2)}};
+  const SE2d truth(0.025, 1.025, 0.0);
+  double slide[2] = {0, 0};
+  for (const bool still_rule : {true, false}) {
+    LocalSlamOptions options;
+    if (still_rule) {
+      options.still_distance = 0.001;
+      options.still_angle = 0.001;
+    }
+    LocalSlam2D slam(options);
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0, 0.02);
+    int matched = 0, still = 0;
+    for (int i = 0; i < 60; ++i) {
+      LaserScan scan = RoomLaserScan(corridor, truth, truth, 0.1 * i);
+      for (float& r : scan.ranges) {
+        if (std::isfinite(r)) r += static_cast<float>(noise(rng));
+      }
+      const LocalScanResult r = slam.AddScan(scan);
+      matched += r.matched;
+      still += r.still;
+      slide[still_rule ? 0 : 1] = std::max(slide[still_rule ? 0 : 1], std::abs(r.pose.x() - truth.x()));
+      if (still_rule && i > 0) {
+        EXPECT_TRUE(r.still) << "scan " << i;
+        EXPECT_EQ(r.pose.x(), slam.trajectory().front().pose.x()) << "scan " << i;
+        EXPECT_EQ(r.pose.theta(), slam.trajectory().front().pose.theta()) << "scan " << i;
+      }
+    }
+    EXPECT_EQ(matched, still_rule ? 0 : 59);
+    EXPECT_EQ(still, still_rule ? 59 : 0);
+  }
+  EXPECT_EQ(slide[0], 0.0);
+  // 8 mm with this seed; the rule's pose does not move at all.
+  EXPECT_GT(slide[1], 0.004) << "matched while standing still, the pose slides along the corridor";
+  std::cout << "standing in a corridor: matched anyway, the pose slides up to " << slide[1] * 100 << " cm\n";
+}
+
+TEST(LocalSlam2D, MinMatchProbabilityAndStillThresholdsAreValidated) {
   for (const double bad : {-0.1, 1.5, std::nan("")}) {
     LocalSlamOptions options;
     options.min_match_probability = bad;
@@ -316,6 +362,13 @@ TEST(LocalSlam2D, MinMatchProbabilityIsValidated) {
     EXPECT_FALSE(options.IsValid(&why)) << bad;
     EXPECT_NE(why.find("min_match_probability"), std::string::npos) << why;
     EXPECT_THROW(LocalSlam2D{options}, InvalidArgument);
+  }
+  for (const double bad : {-0.1, std::nan("")}) {
+    LocalSlamOptions options;
+    options.still_angle = bad;
+    std::string why;
+    EXPECT_FALSE(options.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("still_"), std::string::npos) << why;
   }
 }
 

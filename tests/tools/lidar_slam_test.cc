@@ -130,7 +130,8 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   } local[] = {{"--min-match-probability 1.5", "min_match_probability"},
                {"--correlative-rotation-weight -1", "rotation_delta_cost_weight"},
                {"--correlative-angle -5", "angular_search_window"},
-               {"--match-rotation-weight 0", "rotation"}};
+               {"--match-rotation-weight 0", "rotation"},
+               {"--still-angle -1", "still_"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

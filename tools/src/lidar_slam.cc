@@ -52,6 +52,8 @@ void SetMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {
   lo->correlative.rotation_delta_cost_weight = cmd.correlative_rotation_weight;
   lo->correlative.angular_search_window = cmd.correlative_angle_deg * M_PI / 180;
   lo->min_match_probability = cmd.min_match_probability;
+  lo->still_distance = cmd.still_distance;
+  lo->still_angle = cmd.still_angle;
 }
 
 }  // namespace

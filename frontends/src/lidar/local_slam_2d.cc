@@ -43,9 +43,9 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
       *why = "min_match_probability is " + FormatDouble(min_match_probability) + "; it must lie in [0, 1]";
     return false;
   }
-  for (double v : {insert_min_distance, insert_min_angle, insert_max_seconds}) {
+  for (double v : {insert_min_distance, insert_min_angle, insert_max_seconds, still_distance, still_angle}) {
     if (!(std::isfinite(v) && v >= 0)) {
-      if (why != nullptr) *why = "the motion filter's thresholds must be finite and not negative";
+      if (why != nullptr) *why = "the motion filter's and still_* thresholds must be finite and not negative";
       return false;
     }
   }
@@ -62,8 +62,12 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     result.predicted = has_odometry ? scan.odometry : SE2d();
   } else {
     result.predicted = trajectory_.back().pose;
-    if (has_odometry && last_has_odometry_)
-      result.predicted = result.predicted * (last_odometry_.Inverse() * scan.odometry);
+    if (has_odometry && last_has_odometry_) {
+      const SE2d motion = last_odometry_.Inverse() * scan.odometry;
+      result.predicted = result.predicted * motion;
+      result.still =
+          motion.translation().norm() < options_.still_distance && std::abs(motion.theta()) < options_.still_angle;
+    }
   }
   last_odometry_ = scan.odometry;
   last_has_odometry_ = has_odometry;
@@ -73,7 +77,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
   for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
   const std::shared_ptr<const Submap2D> target = submaps_.matching_submap();
-  if (target != nullptr && !points.empty()) {
+  if (target != nullptr && !points.empty() && !result.still) {
     std::vector<Eigen::Vector2d> matching =
         options_.matching_voxel_size > 0 ? VoxelFilter(points, options_.matching_voxel_size) : points;
     result.matching_points = static_cast<int>(matching.size());

@@ -45,6 +45,8 @@ struct LidarCommand {
   double correlative_angle_deg =
       lidar::LocalSlamOptions{}.correlative.angular_search_window * 180 / 3.14159265358979323846;
   double min_match_probability = lidar::LocalSlamOptions{}.min_match_probability;
+  double still_distance = lidar::LocalSlamOptions{}.still_distance;  ///< m
+  double still_angle = lidar::LocalSlamOptions{}.still_angle;        ///< rad
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   long progress_every = 2000;  ///< scans between progress lines (0: none)

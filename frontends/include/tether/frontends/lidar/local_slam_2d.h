@@ -47,6 +47,14 @@ struct LocalSlamOptions {
   /// (fr079: turns of 10-17 degrees a scan against the odometry's 0.4); the scan then takes the
   /// prediction. 0: always trust the match. benchmarks/RESULTS.md, "LiDAR V".
   double min_match_probability = 0.52;
+  /// A scan whose odometry moved less than still_distance (m) and turned less than still_angle
+  /// (rad) since the scan before is not matched: it takes the prediction, the pose before. A
+  /// robot standing in a corridor otherwise slides along it, every match a few centimetres from
+  /// the last (aces: 2-10 cm a scan over 8 s of standing still). Off by default (0, 0: always
+  /// match): at 1 mm and 1 mrad the slide on aces is gone, but the relations error with loop
+  /// closures grows on Intel and aces (benchmarks/RESULTS.md, "LiDAR V").
+  double still_distance = 0;
+  double still_angle = 0;
   bool IsValid(std::string* why) const;
 };
 
@@ -60,6 +68,8 @@ struct LocalScanResult {
   /// min_match_probability (false: `pose` is the prediction).
   double match_probability = 0;
   bool trusted = false;
+  /// The odometry stood still (LocalSlamOptions::still_*): not matched, `pose` is the prediction.
+  bool still = false;
   bool inserted = false;          ///< inserted into the submaps (the motion filter let it through)
   InsertedSubmaps inserted_into;  ///< the submaps it went into (empty where not inserted)
   int matching_points = 0;
