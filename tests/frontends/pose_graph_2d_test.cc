@@ -171,6 +171,54 @@ TEST(PoseGraph2DTest, AmbiguousMatchesInACorridorAreDropped) {
   for (const LoopClosure& c : checked.closures) EXPECT_LT(error(c), 0.3) << c.scan << " in " << c.submap;
 }
 
+// Scans left out of the submaps (every second one here, as the motion filter would) are tied to
+// the submaps the scan before them went into, by the local poses, and to no scan: no run of them
+// hangs from one end only.
+TEST(PoseGraph2DTest, ScansLeftOutOfTheSubmapsAreTiedToTheActiveOnes) {
+  const Trip trip = Drive();
+  SubmapOptions so;
+  so.scans_per_submap = 30;
+  ActiveSubmaps2D submaps(so);
+  PoseGraphOptions po;
+  po.loop_closure = false;
+  PoseGraph2D graph(po);
+  std::vector<std::vector<int>> active(trip.local.size());
+  for (std::size_t k = 0; k < trip.local.size(); ++k) {
+    const SE2d& pose = trip.local[k];
+    InsertedSubmaps inserted;
+    if (k % 2 == 0) {
+      std::vector<Eigen::Vector2d> in_map;
+      for (const Eigen::Vector2d& p : trip.points[k]) in_map.push_back(pose * p);
+      inserted = submaps.InsertScan(pose, pose.translation(), in_map);
+      for (const auto& [j, submap] : inserted) active[k].push_back(j);
+    } else {
+      active[k] = active[k - 1];
+    }
+    graph.AddScan(pose, trip.points[k], inserted);
+  }
+  graph.Finish();
+  FactorGraph g;
+  Values v;
+  graph.Export(&g, &v);
+  const Key n = static_cast<Key>(graph.scan_count());
+  std::vector<std::vector<int>> tied(trip.local.size());
+  for (std::size_t f = 0; f < g.size(); ++f) {
+    const auto* b = dynamic_cast<const BetweenSE2*>(&g.at(f));
+    if (b == nullptr) continue;
+    const Key a = b->keys()[0], c = b->keys()[1];
+    ASSERT_TRUE(a >= n && c < n) << "every edge runs from a submap to a scan, not " << a << " -> " << c;
+    tied[c].push_back(static_cast<int>(a - n));
+    // The measurement is local SLAM's relative pose.
+    const SE2d expected = submaps.submaps()[a - n]->local_pose().Inverse() * trip.local[c];
+    EXPECT_NEAR((b->measured().translation() - expected.translation()).norm(), 0, 1e-12);
+  }
+  for (std::size_t k = 0; k < trip.local.size(); ++k) EXPECT_EQ(tied[k], active[k]) << "scan " << k;
+  // Without loop closures the graph keeps local SLAM's poses (up to the first scan's frame).
+  for (std::size_t k = 0; k < trip.local.size(); ++k) {
+    EXPECT_LT((graph.ScanPose(static_cast<int>(k)).translation() - trip.local[k].translation()).norm(), 1e-6);
+  }
+}
+
 TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   PoseGraphOptions o;
   std::string why;

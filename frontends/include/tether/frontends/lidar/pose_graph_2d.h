@@ -98,9 +98,11 @@ class PoseGraph2D {
 
   /// The next scan (index = scans so far): its pose from local SLAM, its points (the robot's
   /// frame) and the submaps it was inserted into (index in the order of creation, and the
-  /// submap, as ActiveSubmaps2D::InsertScan gives them). Submaps must come with increasing indices; a finished one
-  /// stays finished. A scan in no submap (no points) is tied to the previous scan by the local poses. Throws
-  /// InvalidArgument for a null submap or one that skips an index.
+  /// submap, as ActiveSubmaps2D::InsertScan gives them). Submaps must come with increasing
+  /// indices; a finished one stays finished. A scan in no submap (the motion filter left it
+  /// out, or no points) is tied to the submaps the last scan with any went into, by the local
+  /// poses (before any submap: to the previous scan). Throws InvalidArgument for a null submap
+  /// or one that skips an index.
   void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points, const InsertedSubmaps& inserted_into);
   /// Waits for every search, applies the results and solves the graph to convergence.
   void Finish();
@@ -152,6 +154,7 @@ class PoseGraph2D {
   std::deque<ScanNode> scans_;  // a deque: searches hold pointers to the points
   std::deque<SubmapNode> submaps_;
   std::vector<LoopClosure> closures_;
+  std::vector<int> active_;  ///< the submaps the last scan given any went into
   PoseGraphStats stats_;
 
   // Searches in the order started; the workers take them from `queue_`.
