@@ -19,6 +19,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -37,6 +38,22 @@ namespace lidar {
 
 inline Key ScanKey(int i) { return Symbol('s', static_cast<std::uint64_t>(i)); }
 inline Key SubmapKey(int j) { return Symbol('m', static_cast<std::uint64_t>(j)); }
+
+/// The smoother settings of the pose graph. Its estimate between loop closures only places the
+/// search windows, and Finish() solves to the batch optimum all the same, so it re-linearises
+/// less than the smoother's defaults (a step beyond 0.05, no sigma rule, no extra rounds for
+/// many small steps) and stops back substitution below 1e-6: the optimisation takes half the
+/// time (Intel 19.9 s against 40 s) with the same maps within the run-to-run spread; iSAM2's
+/// 0.1 and 1e-3 cut it to 11.8 s but moved fr079's closures enough to give 0.72 m against
+/// 0.28 m (benchmarks/RESULTS.md, "LiDAR V").
+inline SmootherOptions PoseGraphSmootherOptions() {
+  SmootherOptions o;
+  o.relinearize_threshold = 0.05;
+  o.relinearize_sigmas = std::numeric_limits<double>::infinity();
+  o.iterate_share = 1;
+  o.wildfire_threshold = 1e-6;
+  return o;
+}
 
 struct PoseGraphOptions {
   /// The local constraints' sigmas: looser than the loop closures', as measured on Intel
@@ -66,7 +83,7 @@ struct PoseGraphOptions {
   double huber_delta = 1;                ///< on the whitened error's norm
   int apply_every_n_scans = 30;
   int threads = 1;  ///< background search threads; 0: search in AddScan's thread
-  SmootherOptions smoother;
+  SmootherOptions smoother = PoseGraphSmootherOptions();
   bool IsValid(std::string* why) const;
 };
 
