@@ -261,6 +261,14 @@ int main(int argc, char** argv) {
       ->add_option("--max-search-distance", lsc.max_search_distance,
                    "Search a scan against the finished submaps whose origin lies this near it [m]")
       ->capture_default_str();
+  lidar
+      ->add_option("--search-window", lsc.search_window,
+                   "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]")
+      ->capture_default_str();
+  lidar
+      ->add_option("--search-angle", lsc.search_angle_deg,
+                   "Loop closures: branch and bound searches +- this many degrees around the estimate")
+      ->capture_default_str();
   lidar->add_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)")
       ->capture_default_str();
   lidar

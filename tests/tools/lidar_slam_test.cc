@@ -123,7 +123,8 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   EXPECT_EQ(rival.code, 2);
   EXPECT_NE(rival.output.find("rival_ratio"), std::string::npos) << rival.output;
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --local-sigma-t 0").code, 2);
-  // Local matching's options, checked by LocalSlamOptions::IsValid before anything is written.
+  // Local matching's and the search window's options, checked by LocalSlamOptions::IsValid and
+  // PoseGraphOptions::IsValid before anything is written.
   const struct {
     const char* option;
     const char* field;
@@ -131,7 +132,9 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
                {"--correlative-rotation-weight -1", "rotation_delta_cost_weight"},
                {"--correlative-angle -5", "angular_search_window"},
                {"--match-rotation-weight 0", "rotation"},
-               {"--still-angle -1", "still_"}};
+               {"--still-angle -1", "still_"},
+               {"--search-window -1", "linear_search_window"},
+               {"--search-angle 200", "angular_search_window"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

@@ -43,6 +43,8 @@ void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->huber_delta = cmd.huber_delta;
   po->rival_ratio = cmd.rival_ratio;
   po->max_search_distance = cmd.max_search_distance;
+  po->search.linear_search_window = cmd.search_window;
+  po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
 }
 
 void SetMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {

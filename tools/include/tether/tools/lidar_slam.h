@@ -33,7 +33,10 @@ struct LidarCommand {
   double huber_delta = 1;
   double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
   double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
-  double max_range = 0;            ///< 0: the log's
+  /// Branch and bound's window (PoseGraphOptions::search): half its side (m) and half its
+  /// rotations (degrees).
+  double search_window = 3.5, search_angle_deg = 15;
+  double max_range = 0;  ///< 0: the log's
   /// Local matching (LocalSlamOptions' defaults): the scan-match factor's regulariser weights
   /// towards the odometry's prediction (ScanMatchWeights translation, rotation), the correlative
   /// search's preference for it (CorrelativeMatcherOptions *_delta_cost_weight) and its half
