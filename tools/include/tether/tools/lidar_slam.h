@@ -13,6 +13,7 @@
 #include <string>
 
 #include "tether/frontends/lidar/local_slam_2d.h"
+#include "tether/frontends/lidar/pose_graph_2d.h"
 
 namespace tether {
 
@@ -35,7 +36,8 @@ struct LidarCommand {
   double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
   /// Branch and bound's window (PoseGraphOptions::search): half its side (m) and half its
   /// rotations (degrees).
-  double search_window = 3.5, search_angle_deg = 15;
+  double search_window = lidar::PoseGraphOptions{}.search.linear_search_window;
+  double search_angle_deg = lidar::PoseGraphOptions{}.search.angular_search_window * 180 / 3.14159265358979323846;
   double max_range = 0;  ///< 0: the log's
   /// Local matching (LocalSlamOptions' defaults): the scan-match factor's regulariser weights
   /// towards the odometry's prediction (ScanMatchWeights translation, rotation), the correlative

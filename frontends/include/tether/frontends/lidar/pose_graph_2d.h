@@ -55,6 +55,17 @@ inline SmootherOptions PoseGraphSmootherOptions() {
   return o;
 }
 
+/// Branch and bound's window for loop closures: 10 m x 10 m x 30 degrees (FastMatcherOptions
+/// has 7 m x 7 m). On fr079 the corridor after the door sits 4 m off the first pass, beyond a
+/// 3.5 m half window: 5 m brings fr079 from 0.303 m to 0.087 m, Intel and aces unchanged
+/// within the run-to-run spread, at 30% more time (benchmarks/RESULTS.md, "LiDAR V").
+/// Cartographer searches +-7 m and +-30 degrees.
+inline FastMatcherOptions PoseGraphSearchOptions() {
+  FastMatcherOptions o;
+  o.linear_search_window = 5;
+  return o;
+}
+
 struct PoseGraphOptions {
   /// The local constraints' sigmas: looser than the loop closures', as measured on Intel
   /// (benchmarks/RESULTS.md, "LiDAR IV": 0.05 m / 0.02 rad gave 90.7% precision and 0.050 m,
@@ -62,8 +73,8 @@ struct PoseGraphOptions {
   double local_translation_sigma = 0.1;  ///< m
   double local_rotation_sigma = 0.04;    ///< rad
   bool loop_closure = true;
-  FastMatcherOptions search;  ///< the window: 7 m x 7 m x 30 degrees
-  double min_score = 0.55;    ///< a search's best must score above this (mean probability)
+  FastMatcherOptions search = PoseGraphSearchOptions();  ///< the window: 10 m x 10 m x 30 degrees
+  double min_score = 0.55;                               ///< a search's best must score above this (mean probability)
   /// A match whose best candidate lies on the search window's edge is dropped (the score may
   /// rise beyond it). A match is ambiguous, and dropped, where another candidate of its window
   /// at least rival_distance (m) away or rival_angle (rad) turned scores above rival_ratio
