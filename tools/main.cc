@@ -262,6 +262,11 @@ int main(int argc, char** argv) {
                    "Search a scan against the finished submaps whose origin lies this near it [m]")
       ->capture_default_str();
   lidar
+      ->add_option("--search-voxel", lsc.search_voxel_size,
+                   "Loop closures: branch and bound scores the scan's points thinned by a voxel filter of this edge "
+                   "[m] (0: the matching points)")
+      ->capture_default_str();
+  lidar
       ->add_option("--search-window", lsc.search_window,
                    "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]")
       ->capture_default_str();

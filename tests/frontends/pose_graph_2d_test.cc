@@ -233,6 +233,11 @@ TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   o = PoseGraphOptions();
   o.rival_angle = std::nan("");
   EXPECT_FALSE(o.IsValid(&why));
+  o = PoseGraphOptions();
+  o.search_voxel_size = -0.1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("search_voxel_size"), std::string::npos) << why;
+  EXPECT_THROW(PoseGraph2D{o}, InvalidArgument);
 }
 
 }  // namespace

@@ -134,7 +134,8 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
                {"--match-rotation-weight 0", "rotation"},
                {"--still-angle -1", "still_"},
                {"--search-window -1", "linear_search_window"},
-               {"--search-angle 200", "angular_search_window"}};
+               {"--search-angle 200", "angular_search_window"},
+               {"--search-voxel -1", "search_voxel_size"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

@@ -44,6 +44,7 @@ void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->rival_ratio = cmd.rival_ratio;
   po->max_search_distance = cmd.max_search_distance;
   po->search.linear_search_window = cmd.search_window;
+  po->search_voxel_size = cmd.search_voxel_size;
   po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
 }
 

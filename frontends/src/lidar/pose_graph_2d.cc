@@ -8,6 +8,7 @@
 #include "tether/core/robust_kernels.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
+#include "tether/frontends/lidar/voxel_filter.h"
 
 namespace tether {
 namespace lidar {
@@ -45,6 +46,9 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (!(min_score >= 0 && min_score < 1)) return fail("min_score must lie in [0, 1)");
   if (!(std::isfinite(max_search_distance) && max_search_distance >= 0)) {
     return fail("max_search_distance must be finite and not negative");
+  }
+  if (!(std::isfinite(search_voxel_size) && search_voxel_size >= 0)) {
+    return fail("search_voxel_size must be finite and not negative");
   }
   if (search_every_n_scans < 1 || apply_every_n_scans < 1) {
     return fail("search_every_n_scans and apply_every_n_scans must be at least 1");
@@ -109,6 +113,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   ScanNode scan;
   scan.local_pose = local_pose;
   scan.points = std::move(points);
+  if (options_.search_voxel_size > 0) scan.search_points = VoxelFilter(scan.points, options_.search_voxel_size);
   if (!inserted_into.empty()) {
     active_.clear();
     for (const auto& [j, submap] : inserted_into) active_.push_back(j);
@@ -167,7 +172,9 @@ void PoseGraph2D::StartSearch(int scan, int submap) {
   s->matcher = node.matcher.get();
   s->grid = node.submap->grid();
   s->submap_local = node.submap->local_pose();
-  s->points = &scans_[static_cast<std::size_t>(scan)].points;
+  const ScanNode& node_scan = scans_[static_cast<std::size_t>(scan)];
+  s->points = &node_scan.points;
+  s->search_points = node_scan.search_points.empty() ? &node_scan.points : &node_scan.search_points;
   // The scan's pose in the submap's grid (the local map frame it was built in).
   s->guess = s->submap_local * (SubmapPose(submap).Inverse() * ScanPose(scan));
   Search* raw = s.get();
@@ -188,8 +195,8 @@ void PoseGraph2D::RunSearch(Search* s) const {
   // A search that throws (a degenerate scan) finds nothing; on a worker thread an exception
   // would end the program.
   try {
-    const FastMatch m = s->matcher->MatchChecked(s->guess, *s->points, options_.min_score, options_.rival_distance,
-                                                 options_.rival_angle, options_.rival_ratio);
+    const FastMatch m = s->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score,
+                                                 options_.rival_distance, options_.rival_angle, options_.rival_ratio);
     if (m.found && m.on_edge) {
       s->on_edge = true;
     } else if (m.found && m.ambiguous) {

@@ -36,6 +36,7 @@ struct LidarCommand {
   double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
   /// Branch and bound's window (PoseGraphOptions::search): half its side (m) and half its
   /// rotations (degrees).
+  double search_voxel_size = lidar::PoseGraphOptions{}.search_voxel_size;  ///< m
   double search_window = lidar::PoseGraphOptions{}.search.linear_search_window;
   double search_angle_deg = lidar::PoseGraphOptions{}.search.angular_search_window * 180 / 3.14159265358979323846;
   double max_range = 0;  ///< 0: the log's
