@@ -35,7 +35,7 @@ std::string Fixed(double v, int digits) {
   return s.str();
 }
 
-void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
+void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->local_translation_sigma = cmd.local_translation_sigma;
   po->local_rotation_sigma = cmd.local_rotation_sigma;
   po->loop_translation_sigma = cmd.loop_translation_sigma;
@@ -48,7 +48,7 @@ void SetConstraints(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
 }
 
-void SetMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {
+void SetLocalMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {
   lo->refiner.weights.translation = cmd.match_translation_weight;
   lo->refiner.weights.rotation = cmd.match_rotation_weight;
   lo->correlative.translation_delta_cost_weight = cmd.correlative_translation_weight;
@@ -70,14 +70,14 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   }
   {
     lidar::PoseGraphOptions po;
-    SetConstraints(cmd, &po);
+    SetPoseGraph(cmd, &po);
     std::string why;
     if (!po.IsValid(&why)) {
       err << "tether lidar: " << why << "\n";
       return kExitUsage;
     }
     lidar::LocalSlamOptions lo;
-    SetMatching(cmd, &lo);
+    SetLocalMatching(cmd, &lo);
     if (!lo.IsValid(&why)) {
       err << "tether lidar: local matching: " << why << "\n";
       return kExitUsage;
@@ -135,13 +135,13 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   lo.submaps.resolution = cmd.resolution;
   lo.submaps.scans_per_submap = cmd.scans_per_submap;
   lo.limits = ro.limits;
-  SetMatching(cmd, &lo);
+  SetLocalMatching(cmd, &lo);
   lidar::PoseGraphOptions po;
   po.loop_closure = cmd.loop_closure;
   po.threads = cmd.threads;
   po.search_every_n_scans = cmd.search_every;
   po.min_score = cmd.min_score;
-  SetConstraints(cmd, &po);
+  SetPoseGraph(cmd, &po);
   lidar::LocalSlam2D local(lo);
   lidar::PoseGraph2D graph(po);
   const auto t0 = std::chrono::steady_clock::now();
