@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <ostream>
 #include <sstream>
+#include <utility>
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
@@ -16,7 +17,6 @@
 #include "tether/frontends/lidar/occupancy_map.h"
 #include "tether/frontends/lidar/pose_graph_2d.h"
 #include "tether/frontends/lidar/tum_trajectory.h"
-#include "tether/frontends/lidar/voxel_filter.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
@@ -149,15 +149,12 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   long untrusted = 0;  // matched scans whose match fell below min_match_probability
   for (std::size_t i = 0; i < n; ++i) {
     const lidar::LaserScan& scan = log.scans[i];
-    const lidar::LocalScanResult r = local.AddScan(scan);
+    lidar::LocalScanResult r = local.AddScan(scan);
     matching_seconds += r.correlative_seconds + r.refine_seconds;
     untrusted += r.matched && !r.trusted;
     insert_seconds += r.insert_seconds;
-    std::vector<Eigen::Vector2d> points = lidar::ScanToPoints(scan, ro.limits);
-    for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
     const auto tg = std::chrono::steady_clock::now();
-    graph.AddScan(r.pose, lo.matching_voxel_size > 0 ? lidar::VoxelFilter(points, lo.matching_voxel_size) : points,
-                  r.inserted_into);
+    graph.AddScan(r.pose, std::move(r.matching), r.inserted_into);
     graph_seconds += SecondsSince(tg);
     if (!cmd.quiet && cmd.progress_every > 0 && (i + 1) % static_cast<std::size_t>(cmd.progress_every) == 0) {
       const double logged = log.scans[i].stamp - log.scans[0].stamp;

@@ -76,10 +76,11 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   // Points in the robot's frame.
   std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
   for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+  result.matching =
+      options_.matching_voxel_size > 0 && !points.empty() ? VoxelFilter(points, options_.matching_voxel_size) : points;
+  const std::vector<Eigen::Vector2d>& matching = result.matching;
   const std::shared_ptr<const Submap2D> target = submaps_.matching_submap();
   if (target != nullptr && !points.empty() && !result.still) {
-    std::vector<Eigen::Vector2d> matching =
-        options_.matching_voxel_size > 0 ? VoxelFilter(points, options_.matching_voxel_size) : points;
     result.matching_points = static_cast<int>(matching.size());
     auto t0 = std::chrono::steady_clock::now();
     SE2d start = result.predicted;

@@ -72,7 +72,10 @@ struct LocalScanResult {
   bool still = false;
   bool inserted = false;          ///< inserted into the submaps (the motion filter let it through)
   InsertedSubmaps inserted_into;  ///< the submaps it went into (empty where not inserted)
-  int matching_points = 0;
+  int matching_points = 0;        ///< matching.size() where matched, else 0
+  /// The scan's valid points in the robot's frame through the matching voxel filter (what the
+  /// matchers used; a pose graph's loop-closure search takes the same points).
+  std::vector<Eigen::Vector2d> matching;
   double correlative_score = 0;
   long correlative_candidates = 0;  ///< poses the correlative search scored
   double correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
