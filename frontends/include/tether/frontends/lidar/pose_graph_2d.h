@@ -88,10 +88,10 @@ struct PoseGraphOptions {
   /// precision (94.0% and 98.7% against 94.0% and 97.9%), 0.0444 m against 0.0431 m on Intel.
   double max_search_distance = 8;
   /// Branch and bound scores a scan's points thinned by a voxel filter of this edge (m; 0: the
-  /// points as given); the refinement after it uses them all. 0.2 m against the 5 cm matching
-  /// points: a search half as dear (Intel 2.99 ms against 5.65, fr079 5.9 against 12.6) with
+  /// points as given); the refinement after it uses them all. 0.1 m against the 5 cm matching
+  /// points: a search 25-30% cheaper (Intel 4.27 ms against 5.65, fr079 8.6 against 12.6) with
   /// the same maps within the run-to-run spread (benchmarks/RESULTS.md, "LiDAR V").
-  double search_voxel_size = 0.2;
+  double search_voxel_size = 0.1;
   int search_every_n_scans = 3;
   ScanRefinerOptions refine;
   double loop_translation_sigma = 0.05;  ///< m
