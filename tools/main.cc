@@ -236,84 +236,55 @@ int main(int argc, char** argv) {
   lidar->add_flag_function(
       "--no-loop-closure", [&lsc](std::int64_t) { lsc.loop_closure = false; },
       "Local SLAM and the pose graph without loop closures");
-  lidar->add_option("--threads", lsc.threads, "Background loop-closure search threads (0: inline)")
-      ->capture_default_str();
-  lidar->add_option("--max-scans", lsc.max_scans, "Only the first N scans (0: all)")->capture_default_str();
-  lidar->add_option("--scans-per-submap", lsc.scans_per_submap, "Scans in a finished submap")->capture_default_str();
-  lidar->add_option("--resolution", lsc.resolution, "Grid resolution [m]")->capture_default_str();
-  lidar->add_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan")
-      ->capture_default_str();
-  lidar->add_option("--min-score", lsc.min_score, "Branch and bound's score threshold")->capture_default_str();
-  lidar->add_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]")
-      ->capture_default_str();
-  lidar->add_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]")
-      ->capture_default_str();
-  lidar->add_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]")
-      ->capture_default_str();
-  lidar->add_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--rival-ratio", lsc.rival_ratio,
-                   "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
-                   "score (0: keep them)")
-      ->capture_default_str();
-  lidar
-      ->add_option("--max-search-distance", lsc.max_search_distance,
-                   "Search a scan against the finished submaps whose origin lies this near it [m]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--search-voxel", lsc.search_voxel_size,
-                   "Loop closures: branch and bound scores the scan's points thinned by a voxel filter of this edge "
-                   "[m] (0: the matching points)")
-      ->capture_default_str();
-  lidar
-      ->add_option("--search-window", lsc.search_window,
-                   "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--search-angle", lsc.search_angle_deg,
-                   "Loop closures: branch and bound searches +- this many degrees around the estimate")
-      ->capture_default_str();
-  lidar->add_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)")
-      ->capture_default_str();
-  lidar
-      ->add_option("--match-translation-weight", lsc.match_translation_weight,
-                   "Local matching: the scan-match factor's weight on the distance to the odometry's prediction "
-                   "[1/m]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--match-rotation-weight", lsc.match_rotation_weight,
-                   "Local matching: the scan-match factor's weight on the turn from the odometry's prediction [1/rad]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--correlative-translation-weight", lsc.correlative_translation_weight,
-                   "Local matching: the correlative search's preference for the prediction's translation [1/m]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--correlative-rotation-weight", lsc.correlative_rotation_weight,
-                   "Local matching: the correlative search's preference for the prediction's heading [1/rad]")
-      ->capture_default_str();
-  lidar
-      ->add_option("--correlative-angle", lsc.correlative_angle_deg,
-                   "Local matching: the correlative search's rotations, +- this many degrees around the prediction")
-      ->capture_default_str();
-  lidar
-      ->add_option("--min-match-probability", lsc.min_match_probability,
-                   "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
-                   "the odometry's prediction (0: always trust the match)")
-      ->capture_default_str();
-  lidar
-      ->add_option("--still-distance", lsc.still_distance,
-                   "Local matching: where the odometry moved less than this [m] and turned less than --still-angle "
-                   "since the scan before, the scan keeps the pose before, unmatched (0: always match)")
-      ->capture_default_str();
-  lidar->add_option("--still-angle", lsc.still_angle, "Local matching: see --still-distance [rad]")
-      ->capture_default_str();
-  lidar->add_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)")->capture_default_str();
-  lidar->add_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
-  lidar->add_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
-  lidar->add_option("--progress-every", lsc.progress_every, "Scans between progress lines (0: none)")
-      ->capture_default_str();
+  // An option of `tether lidar` with its default shown in --help.
+  const auto lidar_option = [lidar](const char* name, auto& value, const char* help) {
+    lidar->add_option(name, value, help)->capture_default_str();
+  };
+  lidar_option("--threads", lsc.threads, "Background loop-closure search threads (0: inline)");
+  lidar_option("--max-scans", lsc.max_scans, "Only the first N scans (0: all)");
+  lidar_option("--scans-per-submap", lsc.scans_per_submap, "Scans in a finished submap");
+  lidar_option("--resolution", lsc.resolution, "Grid resolution [m]");
+  lidar_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan");
+  lidar_option("--min-score", lsc.min_score, "Branch and bound's score threshold");
+  lidar_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]");
+  lidar_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]");
+  lidar_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]");
+  lidar_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
+  lidar_option("--rival-ratio", lsc.rival_ratio,
+               "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
+               "score (0: keep them)");
+  lidar_option("--max-search-distance", lsc.max_search_distance,
+               "Search a scan against the finished submaps whose origin lies this near it [m]");
+  lidar_option("--search-voxel", lsc.search_voxel_size,
+               "Loop closures: branch and bound scores the scan's points thinned by a voxel filter of this edge "
+               "[m] (0: the matching points)");
+  lidar_option("--search-window", lsc.search_window,
+               "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]");
+  lidar_option("--search-angle", lsc.search_angle_deg,
+               "Loop closures: branch and bound searches +- this many degrees around the estimate");
+  lidar_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)");
+  lidar_option("--match-translation-weight", lsc.match_translation_weight,
+               "Local matching: the scan-match factor's weight on the distance to the odometry's prediction "
+               "[1/m]");
+  lidar_option("--match-rotation-weight", lsc.match_rotation_weight,
+               "Local matching: the scan-match factor's weight on the turn from the odometry's prediction [1/rad]");
+  lidar_option("--correlative-translation-weight", lsc.correlative_translation_weight,
+               "Local matching: the correlative search's preference for the prediction's translation [1/m]");
+  lidar_option("--correlative-rotation-weight", lsc.correlative_rotation_weight,
+               "Local matching: the correlative search's preference for the prediction's heading [1/rad]");
+  lidar_option("--correlative-angle", lsc.correlative_angle_deg,
+               "Local matching: the correlative search's rotations, +- this many degrees around the prediction");
+  lidar_option("--min-match-probability", lsc.min_match_probability,
+               "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
+               "the odometry's prediction (0: always trust the match)");
+  lidar_option("--still-distance", lsc.still_distance,
+               "Local matching: where the odometry moved less than this [m] and turned less than --still-angle "
+               "since the scan before, the scan keeps the pose before, unmatched (0: always match)");
+  lidar_option("--still-angle", lsc.still_angle, "Local matching: see --still-distance [rad]");
+  lidar_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)");
+  lidar_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic");
+  lidar_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic");
+  lidar_option("--progress-every", lsc.progress_every, "Scans between progress lines (0: none)");
   lidar->add_flag("-q,--quiet", lsc.quiet, "No progress lines");
   CLI::App* lidar_eval = app.add_subcommand(
       "lidar-eval",
