@@ -10,6 +10,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "blas_threads.h"
 #include "incremental_cholesky.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
@@ -364,6 +365,9 @@ IncrementalSmoother::~IncrementalSmoother() = default;
 SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_values,
                                            std::vector<FactorId> factors_to_remove) {
   const auto t0 = std::chrono::steady_clock::now();
+  // The update runs on the caller's thread, BLAS kernels included: its fronts are small, and
+  // a threaded BLAS's idle threads spinning between them cost more than they give.
+  internal::ScopedBlasThreads one_blas_thread(1);
 
   // Every check comes first: an invalid update throws before anything changes.
   std::set<FactorId> removing;
