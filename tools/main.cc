@@ -260,6 +260,11 @@ int main(int argc, char** argv) {
                "[m] (0: the matching points)");
   lidar_option("--search-window", lsc.search_window,
                "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]");
+  lidar_option("--search-window-growth", lsc.search_window_growth,
+               "Loop closures: the window's half side grows by this many metres per metre between the scan and "
+               "the submap in the graph (0: fixed)");
+  lidar_option("--max-search-window", lsc.max_search_window,
+               "Loop closures: the window's half side grows up to this [m]");
   lidar_option("--search-angle", lsc.search_angle_deg,
                "Loop closures: branch and bound searches +- this many degrees around the estimate");
   lidar_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)");

@@ -109,6 +109,40 @@ TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
   EXPECT_EQ(none.pose.translation(), guess.translation());
 }
 
+// MatchChecked searches the window it is given for the call, and counts a best whose
+// translation lies within the rival distance of that window's edge as on the edge: the
+// candidates that count as the same match reach past it.
+TEST(FastCorrelativeScanMatcherTest, ACallsWindowAndABestNearItsEdge) {
+  const ProbabilityGrid grid = RoomGrid(0.05);
+  FastMatcherOptions o;
+  o.linear_search_window = 0.5;
+  o.angular_search_window = 0.3;
+  const FastCorrelativeScanMatcher2D matcher(grid, o);
+  const SE2d truth(3.2, 2.7, 0.4);
+  const std::vector<Eigen::Vector2d> points = RoomScan(truth);
+  const SE2d guess(truth.x() + 1.1, truth.y() - 0.8, truth.theta() - 0.2);  // 1.1 m off in x
+  // The options' window does not reach the truth; 1.5 m for this call does, 0.4 m inside.
+  EXPECT_GT((matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0).pose.translation() - truth.translation()).norm(),
+            0.3);
+  const FastMatch wide = matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, 1.5);
+  ASSERT_TRUE(wide.found);
+  EXPECT_LT((wide.pose.translation() - truth.translation()).norm(), 1.5 * 0.05);
+  EXPECT_EQ(wide.translations, 2 * 30 + 1);
+  EXPECT_FALSE(wide.on_edge);
+  // 1.3 m: the truth is found 0.2 m inside the edge, nearer than the rival distance (0.3 m);
+  // Match alone does not call that the edge, MatchChecked does.
+  const FastMatch near = matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, 1.3);
+  ASSERT_TRUE(near.found);
+  EXPECT_LT((near.pose.translation() - truth.translation()).norm(), 1.5 * 0.05);
+  EXPECT_TRUE(near.on_edge);
+  EXPECT_FALSE(near.ambiguous);  // not searched for rivals
+  FastMatcherOptions o13 = o;
+  o13.linear_search_window = 1.3;
+  EXPECT_FALSE(FastCorrelativeScanMatcher2D(grid, o13).Match(guess, points, 0.5).on_edge);
+  EXPECT_FALSE(matcher.MatchChecked(guess, points, 0.5, 0.15, 0.035, 0, 1.3).on_edge);  // a smaller neighbourhood
+  EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, std::nan("")), InvalidArgument);
+}
+
 TEST(FastCorrelativeScanMatcherTest, EveryDepthGivesTheSameAnswer) {
   const ProbabilityGrid grid = RoomGrid(0.1);
   const SE2d truth(7.0, 3.0, -2.0);

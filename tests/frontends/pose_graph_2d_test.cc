@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "testing/synthetic_room.h"
 #include "tether/core/error.h"
@@ -59,7 +60,8 @@ struct Result {
 };
 
 // The scans inserted into submaps at their local poses (30 scans a submap), fed to the graph.
-Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio = PoseGraphOptions().rival_ratio) {
+Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio = PoseGraphOptions().rival_ratio,
+            double window_growth = PoseGraphOptions().search_window_growth) {
   SubmapOptions so;
   so.scans_per_submap = 30;
   ActiveSubmaps2D submaps(so);
@@ -70,6 +72,7 @@ Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio
   po.max_search_distance = 8;
   po.apply_every_n_scans = 20;
   po.rival_ratio = rival_ratio;
+  po.search_window_growth = window_growth;
   PoseGraph2D graph(po);
   for (std::size_t k = 0; k < trip.local.size(); ++k) {
     const SE2d& pose = trip.local[k];
@@ -171,6 +174,75 @@ TEST(PoseGraph2DTest, AmbiguousMatchesInACorridorAreDropped) {
   for (const LoopClosure& c : checked.closures) EXPECT_LT(error(c), 0.3) << c.scan << " in " << c.submap;
 }
 
+// Once around a block: a corridor 5 m wide between a 40 m x 30 m outer wall and the block,
+// with pillars along both sides, driven along its centre line in 0.25 m steps and on past the
+// start. Local SLAM creeps 1.25 cm east a step (turns exact): back at the start it is 6 m off,
+// beyond branch and bound's 5 m half window. A search window that grows with the graph
+// distance between the scan and the submap (a lap, 120 m) finds the way back; a fixed one
+// does not.
+Trip Lap() {
+  std::vector<Segment> world;
+  testing::AddRectangle(0, 0, 40, 30, &world);
+  testing::AddRectangle(5, 5, 35, 25, &world);
+  const auto pillar = [&](double x, double y) {
+    testing::AddRectangle(x - 0.25, y - 0.25, x + 0.25, y + 0.25, &world);
+  };
+  for (double x : {3.1, 8.7, 12.2, 19.5, 24.1, 31.8, 36.3}) pillar(x, 0.25);
+  for (double x : {4.4, 10.9, 17.3, 22.6, 29.9, 34.2}) pillar(x, 29.75);
+  for (double y : {6.2, 11.8, 17.1, 23.4}) pillar(0.25, y);
+  for (double y : {5.3, 9.9, 15.6, 21.7, 26.8}) pillar(39.75, y);
+  for (double x : {7.5, 14.4, 21.1, 27.7, 33.0}) pillar(x, 4.75);
+  for (double x : {9.2, 16.8, 25.3, 30.6}) pillar(x, 25.25);
+  for (double y : {8.1, 13.9, 20.2}) pillar(4.75, y);
+  for (double y : {7.4, 12.6, 18.8, 22.9}) pillar(35.25, y);
+  const std::vector<Eigen::Vector2d> corners = {{2.5, 2.5},  {37.5, 2.5}, {37.5, 27.5},
+                                                {2.5, 27.5}, {2.5, 2.5},  {17.5, 2.5}};
+  Trip trip;
+  for (std::size_t c = 0; c + 1 < corners.size(); ++c) {
+    const Eigen::Vector2d d = corners[c + 1] - corners[c];
+    const int n = static_cast<int>(std::lround(d.norm() / 0.25));
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector2d at = corners[c] + d * (static_cast<double>(k) / n);
+      const SE2d truth(at.x(), at.y(), std::atan2(d.y(), d.x()));
+      const double creep = 0.0125 * static_cast<double>(trip.truth.size());
+      trip.truth.push_back(truth);
+      trip.local.push_back(SE2d(truth.x() + creep, truth.y(), truth.theta()));
+      trip.points.push_back(testing::ScanPoints(world, truth, 360, 10));
+    }
+  }
+  return trip;
+}
+
+TEST(PoseGraph2DTest, AFarRevisitIsSearchedWithAWiderWindow) {
+  const Trip lap = Lap();
+  const std::size_t back = 480;  // the first scan back at the start
+  // Closures of the way back against the first two submaps, and the worst of them against the
+  // truth (a submap's frame is the local pose of the scan that started it: every 15th).
+  const auto way_back = [&](const Result& r, double* worst) {
+    int n = 0;
+    *worst = 0;
+    for (const LoopClosure& c : r.closures) {
+      if (static_cast<std::size_t>(c.scan) < back || c.submap > 1) continue;
+      ++n;
+      const std::size_t first = static_cast<std::size_t>(c.submap) * 15;
+      const SE2d truth = lap.truth[first].Inverse() * lap.truth[static_cast<std::size_t>(c.scan)];
+      *worst = std::max(*worst, (truth.translation() - c.relative.translation()).norm());
+    }
+    return n;
+  };
+  const auto error = [&](const Result& r) {
+    return (r.poses.back().translation() - lap.truth.back().translation()).norm();
+  };
+  double worst = 0;
+  const Result fixed = Slam(lap, true, 0, PoseGraphOptions().rival_ratio, 0.0);
+  EXPECT_EQ(way_back(fixed, &worst), 0);
+  EXPECT_GT(error(fixed), 3.0);  // measured 5.8 m
+  const Result growing = Slam(lap, true, 0);
+  EXPECT_GT(way_back(growing, &worst), 3);
+  EXPECT_LT(worst, 0.5);           // the submaps themselves are stretched by the creep, 0.37 m over one
+  EXPECT_LT(error(growing), 1.0);  // measured 0.54 m
+}
+
 // Scans left out of the submaps (every second one here, as the motion filter would) are tied to
 // the submaps the scan before them went into, by the local poses, and to no scan: no run of them
 // hangs from one end only.
@@ -238,6 +310,17 @@ TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("search_voxel_size"), std::string::npos) << why;
   EXPECT_THROW(PoseGraph2D{o}, InvalidArgument);
+  o = PoseGraphOptions();
+  o.search_window_growth = -0.01;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("search_window_growth"), std::string::npos) << why;
+  o = PoseGraphOptions();
+  o.max_search_window = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("max_search_window"), std::string::npos) << why;
+  o = PoseGraphOptions();
+  o.max_search_window = 1;  // below the base window: the base window is searched
+  EXPECT_TRUE(o.IsValid(&why)) << why;
 }
 
 }  // namespace

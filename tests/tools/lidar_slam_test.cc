@@ -135,7 +135,9 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
                {"--still-angle -1", "still_"},
                {"--search-window -1", "linear_search_window"},
                {"--search-angle 200", "angular_search_window"},
-               {"--search-voxel -1", "search_voxel_size"}};
+               {"--search-voxel -1", "search_voxel_size"},
+               {"--search-window-growth -0.1", "search_window_growth"},
+               {"--max-search-window nan", "max_search_window"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

@@ -44,6 +44,8 @@ void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->rival_ratio = cmd.rival_ratio;
   po->max_search_distance = cmd.max_search_distance;
   po->search.linear_search_window = cmd.search_window;
+  po->search_window_growth = cmd.search_window_growth;
+  po->max_search_window = cmd.max_search_window;
   po->search_voxel_size = cmd.search_voxel_size;
   po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
 }

@@ -95,8 +95,9 @@ FastCorrelativeScanMatcher2D::FastCorrelativeScanMatcher2D(const ProbabilityGrid
     probability_[v] = static_cast<float>(grid.ValueToProbability(static_cast<std::uint16_t>(v)));
 }
 
-FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(
-    const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const {
+FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const SE2d& guess,
+                                                                          const std::vector<Eigen::Vector2d>& points,
+                                                                          double linear_window) const {
   if (points.empty()) throw InvalidArgument("fast correlative scan matcher: the scan has no points");
   if (!std::isfinite(guess.x()) || !std::isfinite(guess.y()) || !std::isfinite(guess.theta())) {
     throw InvalidArgument("fast correlative scan matcher: the guess is not finite");
@@ -114,7 +115,8 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(
     s.step = d_max > r / 2 ? std::acos(std::max(-1.0, 1 - r * r / (2 * d_max * d_max))) : M_PI / 2;
   }
   s.k_max = static_cast<int>(std::ceil(options_.angular_search_window / s.step - 1e-9));
-  s.w = static_cast<int>(std::ceil(options_.linear_search_window / r - 1e-9));
+  const double window = linear_window < 0 ? options_.linear_search_window : linear_window;
+  s.w = static_cast<int>(std::ceil(window / r - 1e-9));
   s.cells.resize(static_cast<std::size_t>(2 * s.k_max + 1));
   for (int k = -s.k_max; k <= s.k_max; ++k) {
     const SE2d pose(guess.x(), guess.y(), guess.theta() + k * s.step);
@@ -127,7 +129,7 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(
 
 FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                         double min_score) const {
-  const Setup s = Prepare(guess, points);
+  const Setup s = Prepare(guess, points, -1);
   FastMatch m = s.Unfound(guess);
   float best = static_cast<float>(min_score);
   const float n = static_cast<float>(points.size());
@@ -165,7 +167,7 @@ void CheckRivalNeighbourhood(double distance, double angle) {
 
 FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                               double min_score) const {
-  const Setup s = Prepare(guess, points);
+  const Setup s = Prepare(guess, points, -1);
   return Search(s, guess, points.size(), min_score, nullptr);
 }
 
@@ -173,18 +175,30 @@ bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector
                                             const SE2d& best, double min_distance, double min_angle,
                                             double min_score) const {
   CheckRivalNeighbourhood(min_distance, min_angle);
-  return Rival(Prepare(guess, points), guess, points.size(), best, min_distance, min_angle, min_score);
+  return Rival(Prepare(guess, points, -1), guess, points.size(), best, min_distance, min_angle, min_score);
 }
 
 FastMatch FastCorrelativeScanMatcher2D::MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                      double min_score, double rival_distance, double rival_angle,
-                                                     double rival_ratio) const {
+                                                     double rival_ratio, double linear_window) const {
   CheckRivalNeighbourhood(rival_distance, rival_angle);
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) {
     throw InvalidArgument("fast correlative scan matcher: the rival ratio must lie in [0, 1]");
   }
-  const Setup s = Prepare(guess, points);
+  if (!std::isfinite(linear_window)) {
+    throw InvalidArgument("fast correlative scan matcher: the search window must be finite");
+  }
+  const Setup s = Prepare(guess, points, linear_window);
   FastMatch m = Search(s, guess, points.size(), min_score, nullptr);
+  if (m.found && !m.on_edge) {
+    // The best's neighbourhood (what counts as the same match) reaches past the window's
+    // translations: the score may still rise beyond them (a scan pushed into the submap's
+    // known part), as on the edge itself. Rotations near the edge stay: a turn of a few
+    // degrees changes the score a lot, and local SLAM's worst turns lie there (fr079).
+    const double r = grid_.resolution();
+    const double d = std::max(std::abs(m.pose.x() - guess.x()), std::abs(m.pose.y() - guess.y())) / r;
+    m.on_edge = s.w > 0 && s.w - d < rival_distance / r - 1e-9;
+  }
   if (m.found && !m.on_edge && rival_ratio > 0) {
     m.ambiguous = Rival(s, guess, points.size(), m.pose, rival_distance, rival_angle,
                         std::max(min_score, rival_ratio * static_cast<double>(m.score)));

@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <utility>
 
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
@@ -46,6 +50,12 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (!(min_score >= 0 && min_score < 1)) return fail("min_score must lie in [0, 1)");
   if (!(std::isfinite(max_search_distance) && max_search_distance >= 0)) {
     return fail("max_search_distance must be finite and not negative");
+  }
+  if (!(std::isfinite(search_window_growth) && search_window_growth >= 0)) {
+    return fail("search_window_growth must be finite and not negative");
+  }
+  if (!(std::isfinite(max_search_window) && max_search_window >= 0)) {
+    return fail("max_search_window must be finite and not negative");
   }
   if (!(std::isfinite(search_voxel_size) && search_voxel_size >= 0)) {
     return fail("search_voxel_size must be finite and not negative");
@@ -101,7 +111,10 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   FactorGraph g;
   Values v;
   for (const auto& [j, submap] : inserted_into) {
-    if (j == submap_count()) submaps_.push_back(SubmapNode{});
+    if (j == submap_count()) {
+      submaps_.push_back(SubmapNode{});
+      links_.emplace_back();
+    }
     SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
     if (node.submap == nullptr) {
       node.submap = submap;
@@ -117,6 +130,9 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   if (!inserted_into.empty()) {
     active_.clear();
     for (const auto& [j, submap] : inserted_into) active_.push_back(j);
+    for (std::size_t a = 0; a < active_.size(); ++a) {
+      for (std::size_t b = a + 1; b < active_.size(); ++b) Link(active_[a], active_[b]);
+    }
   }
   // A scan left out of the submaps (the motion filter; no points) was matched against the
   // active ones all the same: it is tied to them as an inserted scan would be. Tied to the scan
@@ -139,10 +155,15 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   stats_.optimize_seconds += SecondsSince(t0);
 
   if (options_.loop_closure) {
-    const auto near = [&](int k, int j) {
+    // Scan k against submap j, with the window for their graph distance (a scan in no submap,
+    // before the first, is as near as the submaps it follows).
+    const double base = options_.search.linear_search_window;
+    const auto search = [&](int k, int j, double distance) {
       const ScanNode& s = scans_[static_cast<std::size_t>(k)];
-      if (std::find(s.submaps.begin(), s.submaps.end(), j) != s.submaps.end()) return false;
-      return (ScanPose(k).translation() - SubmapPose(j).translation()).norm() <= options_.max_search_distance;
+      if (std::find(s.submaps.begin(), s.submaps.end(), j) != s.submaps.end()) return;
+      const double window = Window(s.submaps.empty() ? 0.0 : distance);
+      const double reach = options_.max_search_distance + (window - base);
+      if ((ScanPose(k).translation() - SubmapPose(j).translation()).norm() <= reach) StartSearch(k, j, window);
     };
     // Submaps finished by this scan: every earlier sampled scan near them.
     for (const auto& [j, submap] : inserted_into) {
@@ -150,24 +171,68 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
       if (node.finished || !submap->finished()) continue;
       node.finished = true;
       node.matcher = std::make_unique<FastCorrelativeScanMatcher2D>(*submap->grid(), options_.search);
+      const std::vector<double> d = GraphDistances({j});
       for (int k = 0; k < i; k += options_.search_every_n_scans) {
-        if (near(k, j)) StartSearch(k, j);
+        double distance = std::numeric_limits<double>::infinity();
+        for (int m : scans_[static_cast<std::size_t>(k)].submaps) distance = std::min(distance, d[m]);
+        search(k, j, distance);
       }
     }
     // This scan, if sampled, against every finished submap near it.
     if (i % options_.search_every_n_scans == 0) {
+      const std::vector<double> d = GraphDistances(scans_.back().submaps);
       for (int j = 0; j < submap_count(); ++j) {
-        if (submaps_[static_cast<std::size_t>(j)].finished && near(i, j)) StartSearch(i, j);
+        if (submaps_[static_cast<std::size_t>(j)].finished) search(i, j, d[static_cast<std::size_t>(j)]);
       }
     }
   }
   if ((i + 1) % options_.apply_every_n_scans == 0) ApplyFinishedSearches();
 }
 
-void PoseGraph2D::StartSearch(int scan, int submap) {
+void PoseGraph2D::Link(int a, int b) {
+  std::vector<int>& la = links_[static_cast<std::size_t>(a)];
+  if (a == b || std::find(la.begin(), la.end(), b) != la.end()) return;
+  la.push_back(b);
+  links_[static_cast<std::size_t>(b)].push_back(a);
+}
+
+std::vector<double> PoseGraph2D::GraphDistances(const std::vector<int>& from) const {
+  const int n = submap_count();
+  std::vector<Eigen::Vector2d> origin(static_cast<std::size_t>(n));
+  for (int j = 0; j < n; ++j) origin[static_cast<std::size_t>(j)] = SubmapPose(j).translation();
+  std::vector<double> d(static_cast<std::size_t>(n), std::numeric_limits<double>::infinity());
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  for (int j : from) {
+    d[static_cast<std::size_t>(j)] = 0;
+    queue.emplace(0.0, j);
+  }
+  while (!queue.empty()) {
+    const auto [dj, j] = queue.top();
+    queue.pop();
+    if (dj > d[static_cast<std::size_t>(j)]) continue;
+    for (int m : links_[static_cast<std::size_t>(j)]) {
+      const double dm = dj + (origin[static_cast<std::size_t>(m)] - origin[static_cast<std::size_t>(j)]).norm();
+      if (dm < d[static_cast<std::size_t>(m)]) {
+        d[static_cast<std::size_t>(m)] = dm;
+        queue.emplace(dm, m);
+      }
+    }
+  }
+  return d;
+}
+
+double PoseGraph2D::Window(double distance) const {
+  const double base = options_.search.linear_search_window;
+  if (!(options_.search_window_growth > 0)) return base;
+  return std::max(base, std::min(options_.max_search_window, base + options_.search_window_growth * distance));
+}
+
+void PoseGraph2D::StartSearch(int scan, int submap, double window) {
   auto s = std::make_unique<Search>();
   s->scan = scan;
   s->submap = submap;
+  s->window = window;
   const SubmapNode& node = submaps_[static_cast<std::size_t>(submap)];
   s->matcher = node.matcher.get();
   s->grid = node.submap->grid();
@@ -195,8 +260,9 @@ void PoseGraph2D::RunSearch(Search* s) const {
   // A search that throws (a degenerate scan) finds nothing; on a worker thread an exception
   // would end the program.
   try {
-    const FastMatch m = s->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score,
-                                                 options_.rival_distance, options_.rival_angle, options_.rival_ratio);
+    const FastMatch m =
+        s->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score, options_.rival_distance,
+                                 options_.rival_angle, options_.rival_ratio, s->window);
     if (m.found && m.on_edge) {
       s->on_edge = true;
     } else if (m.found && m.ambiguous) {
@@ -257,6 +323,7 @@ void PoseGraph2D::ApplyFinishedSearches() {
     ++stats_.found;
     stats_.found_seconds += s->seconds;
     closures_.push_back(s->result);
+    for (int m : scans_[static_cast<std::size_t>(s->scan)].submaps) Link(m, s->submap);
     BetweenSE2& f = g.Add<BetweenSE2>(SubmapKey(s->submap), ScanKey(s->scan), s->result.relative,
                                       Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
     f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));

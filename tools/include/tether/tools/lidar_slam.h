@@ -38,6 +38,8 @@ struct LidarCommand {
   /// rotations (degrees).
   double search_voxel_size = lidar::PoseGraphOptions{}.search_voxel_size;  ///< m
   double search_window = lidar::PoseGraphOptions{}.search.linear_search_window;
+  double search_window_growth = lidar::PoseGraphOptions{}.search_window_growth;  ///< m per m of graph distance
+  double max_search_window = lidar::PoseGraphOptions{}.max_search_window;        ///< m
   double search_angle_deg = lidar::PoseGraphOptions{}.search.angular_search_window * 180 / 3.14159265358979323846;
   double max_range = 0;  ///< 0: the log's
   /// Local matching (LocalSlamOptions' defaults): the scan-match factor's regulariser weights

@@ -72,7 +72,9 @@ struct FastMatch {
   int translations = 0;  ///< 2 W + 1 a side
   /// The best candidate lies on the window's edge (its rotation or a translation at the
   /// largest offset searched): the score may still rise beyond the window, as where a scan
-  /// overlaps the submap's known area more the further it is pushed into it.
+  /// overlaps the submap's known area more the further it is pushed into it. MatchChecked
+  /// also sets it where the best's translation lies within rival_distance of the edge: the
+  /// candidates that count as the same match then reach past the window.
   bool on_edge = false;
   /// Set by MatchChecked only: a candidate away from the best scores nearly as well.
   bool ambiguous = false;
@@ -98,10 +100,13 @@ class FastCorrelativeScanMatcher2D {
                 double min_angle, double min_score) const;
   /// Match, and where its best is found and not on the window's edge, HasRival on the same
   /// candidates (prepared once) with min_score max(min_score, rival_ratio * score):
-  /// FastMatch::ambiguous. rival_ratio 0 skips the rival search. Throws as Match and HasRival,
-  /// and for a ratio outside [0, 1].
+  /// FastMatch::ambiguous. rival_ratio 0 skips the rival search. linear_window: the half side
+  /// of the square of translations searched by this call (m); negative: the options'
+  /// linear_search_window. Throws as Match and HasRival, for a ratio outside [0, 1] and for a
+  /// window that is not finite.
   FastMatch MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score,
-                         double rival_distance, double rival_angle, double rival_ratio) const;
+                         double rival_distance, double rival_angle, double rival_ratio,
+                         double linear_window = -1) const;
   /// The same candidates scored one by one: the reference for Match, and its speed-up.
   FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
 
@@ -115,7 +120,7 @@ class FastCorrelativeScanMatcher2D {
     int k = 0, dx = 0, dy = 0;
     double radius = 0, angle = 0;
   };
-  Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points) const;
+  Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double linear_window) const;
   FastMatch Search(const Setup& s, const SE2d& guess, std::size_t n_points, double min_score,
                    const Exclusion* exclude) const;
   bool Rival(const Setup& s, const SE2d& guess, std::size_t n_points, const SE2d& best, double min_distance,

@@ -9,7 +9,9 @@
 //   refined by the scan-match factor (scan_refiner_2d.h), and added as a BetweenSE2 with a Huber
 //   loss (loop_*_sigma, huber_delta) marked as a loop closure. Searched: every
 //   search_every_n_scans-th scan against the finished submaps within max_search_distance of it,
-//   and every earlier such scan against a submap when it is finished.
+//   and every earlier such scan against a submap when it is finished. The window (and the
+//   search distance) widens with the graph distance between the scan and the submap
+//   (search_window_growth): a place reached again only after a long loop is searched wider.
 // - Searches run on `threads` background threads. Their results are applied in the order the
 //   searches were started, at fixed scan counts (every apply_every_n_scans scans, waiting for
 //   every search started until then) and at Finish(): the result does not depend on the
@@ -87,6 +89,17 @@ struct PoseGraphOptions {
   /// logs (benchmarks/RESULTS.md, "LiDAR IV"): half the searches on Intel and aces, the same
   /// precision (94.0% and 98.7% against 94.0% and 97.9%), 0.0444 m against 0.0431 m on Intel.
   double max_search_distance = 8;
+  /// The window widens with how far apart the scan and the submap are in the graph, as the
+  /// drift between them can grow: its half side (and the search distance above) grows by
+  /// search_window_growth metres per metre of graph distance, up to max_search_window. Graph
+  /// distance: the shortest path from a submap that holds the scan to the searched submap,
+  /// through submaps that share a scan or are joined by a loop closure, each step the
+  /// distance between their origins (estimates). A revisit after a long loop that no closure
+  /// shortened is searched wide; a place revisited often stays at search's window.
+  /// aces returns to its start after 175 m with 7 m of drift, beyond the 5 m half window
+  /// (benchmarks/RESULTS.md, "LiDAR VI"). 0: a fixed window.
+  double search_window_growth = 0.02;
+  double max_search_window = 10;  ///< m, half side (never below search.linear_search_window)
   /// Branch and bound scores a scan's points thinned by a voxel filter of this edge (m; 0: the
   /// points as given); the refinement after it uses them all. 0.1 m against the 5 cm matching
   /// points: a search 25-30% cheaper (Intel 4.27 ms against 5.65, fr079 8.6 against 12.6) with
@@ -173,12 +186,18 @@ class PoseGraph2D {
     SE2d submap_local;
     const std::vector<Eigen::Vector2d>* points = nullptr;
     const std::vector<Eigen::Vector2d>* search_points = nullptr;
+    double window = 0;  // half side of the translations searched (m)
     bool done = false, found = false, ambiguous = false, on_edge = false;
     LoopClosure result;
     double seconds = 0;
   };
 
-  void StartSearch(int scan, int submap);
+  void StartSearch(int scan, int submap, double window);
+  void Link(int a, int b);
+  /// Graph distances from the given submaps to every submap (infinity where no path).
+  std::vector<double> GraphDistances(const std::vector<int>& from) const;
+  /// The search window's half side for a scan whose submaps lie `distance` from the submap.
+  double Window(double distance) const;
   void RunSearch(Search* s) const;
   void ApplyFinishedSearches();
   void Worker();
@@ -189,7 +208,8 @@ class PoseGraph2D {
   std::deque<ScanNode> scans_;  // a deque: searches hold pointers to the points
   std::deque<SubmapNode> submaps_;
   std::vector<LoopClosure> closures_;
-  std::vector<int> active_;  ///< the submaps the last scan given any went into
+  std::vector<int> active_;              ///< the submaps the last scan given any went into
+  std::vector<std::vector<int>> links_;  ///< per submap: submaps sharing a scan or a loop closure
   PoseGraphStats stats_;
 
   // Searches in the order started; the workers take them from `queue_`.
