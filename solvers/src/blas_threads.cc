@@ -1,37 +1,21 @@
 #include "blas_threads.h"
 
-#include <dlfcn.h>
-
 #include <algorithm>
+
+#include "loaded_library.h"
 
 namespace tether::internal {
 namespace {
 
-using GetThreads = int (*)();
-using SetThreads = void (*)(int);
-
-struct BlasThreadCalls {
-  GetThreads get = nullptr;
-  SetThreads set = nullptr;
-};
-
-// The setters of the threaded BLAS libraries Debian ships (OpenBLAS, BLIS), found among the
-// symbols the process has loaded. Looked up once.
-const BlasThreadCalls& Calls() {
-  static const BlasThreadCalls calls = [] {
-    BlasThreadCalls c;
-    const char* const names[][2] = {{"openblas_get_num_threads", "openblas_set_num_threads"},
-                                    {"bli_thread_get_num_threads", "bli_thread_set_num_threads"}};
-    for (const auto& n : names) {
-      void* get = dlsym(RTLD_DEFAULT, n[0]);
-      void* set = dlsym(RTLD_DEFAULT, n[1]);
-      if (get != nullptr && set != nullptr) {
-        c.get = reinterpret_cast<GetThreads>(get);
-        c.set = reinterpret_cast<SetThreads>(set);
-        break;
-      }
-    }
-    return c;
+// The thread count of the threaded BLAS libraries Debian ships (OpenBLAS, BLIS), looked up
+// once.
+const LoadedIntSetting& Calls() {
+  static const LoadedIntSetting calls = [] {
+    const LoadedIntSetting openblas =
+        FindLoadedIntSetting("openblas_get_num_threads", "openblas_set_num_threads", {"libopenblas.so.0"});
+    if (openblas.found()) return openblas;
+    return FindLoadedIntSetting("bli_thread_get_num_threads", "bli_thread_set_num_threads",
+                                {"libblis.so.4", "libblis.so.3"});
   }();
   return calls;
 }
@@ -39,13 +23,13 @@ const BlasThreadCalls& Calls() {
 }  // namespace
 
 int BlasThreads() {
-  const BlasThreadCalls& c = Calls();
-  return c.get != nullptr ? c.get() : 0;
+  const LoadedIntSetting& c = Calls();
+  return c.found() ? c.get() : 0;
 }
 
 ScopedBlasThreads::ScopedBlasThreads(int threads) {
-  const BlasThreadCalls& c = Calls();
-  if (c.get == nullptr) return;
+  const LoadedIntSetting& c = Calls();
+  if (!c.found()) return;
   const int wanted = std::max(1, threads);
   const int now = c.get();
   if (now == wanted) return;

@@ -72,16 +72,25 @@ ProbabilityGrid WallGrid(const std::vector<Segment>& walls, double r, double x0,
 ProbabilityGrid RoomGrid(double r) { return WallGrid(Room(), r, 0, 0, 10, 8); }
 std::vector<Eigen::Vector2d> RoomScan(const SE2d& pose) { return testing::ScanPoints(Room(), pose, 181, 1e9); }
 
+// The room case of the tests below: the truth, a guess 1.1 m, 0.8 m and 0.2 rad off it, and
+// a window of +-`linear` m and +-0.3 rad.
+const SE2d kRoomTruth(3.2, 2.7, 0.4);
+const SE2d kRoomGuess(kRoomTruth.x() + 1.1, kRoomTruth.y() - 0.8, kRoomTruth.theta() - 0.2);
+FastMatcherOptions RoomWindow(double linear) {
+  FastMatcherOptions o;
+  o.linear_search_window = linear;
+  o.angular_search_window = 0.3;
+  return o;
+}
+
 TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
   const ProbabilityGrid grid = RoomGrid(0.05);
-  FastMatcherOptions o;
-  o.linear_search_window = 1.5;
-  o.angular_search_window = 0.3;
+  const FastMatcherOptions o = RoomWindow(1.5);
   const FastCorrelativeScanMatcher2D matcher(grid, o);
-  const SE2d truth(3.2, 2.7, 0.4);
+  const SE2d& truth = kRoomTruth;
   const std::vector<Eigen::Vector2d> points = RoomScan(truth);
   ASSERT_GT(points.size(), 150u);
-  const SE2d guess(truth.x() + 1.1, truth.y() - 0.8, truth.theta() - 0.2);
+  const SE2d& guess = kRoomGuess;
   const FastMatch fast = matcher.Match(guess, points, 0.5);
   const FastMatch full = matcher.MatchExhaustive(guess, points, 0.5);
   ASSERT_TRUE(fast.found);
@@ -96,9 +105,7 @@ TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
   EXPECT_FALSE(fast.on_edge);
   EXPECT_FALSE(full.on_edge);
   // A window that does not reach the truth: the best lies on its edge.
-  FastMatcherOptions narrow = o;
-  narrow.linear_search_window = 0.5;
-  const FastCorrelativeScanMatcher2D short_reach(grid, narrow);
+  const FastCorrelativeScanMatcher2D short_reach(grid, RoomWindow(0.5));
   const FastMatch edge = short_reach.Match(guess, points, 0.2);
   ASSERT_TRUE(edge.found);
   EXPECT_TRUE(edge.on_edge);
@@ -114,13 +121,10 @@ TEST(FastCorrelativeScanMatcherTest, FindsTheExhaustiveBestInARoom) {
 // candidates that count as the same match reach past it.
 TEST(FastCorrelativeScanMatcherTest, ACallsWindowAndABestNearItsEdge) {
   const ProbabilityGrid grid = RoomGrid(0.05);
-  FastMatcherOptions o;
-  o.linear_search_window = 0.5;
-  o.angular_search_window = 0.3;
-  const FastCorrelativeScanMatcher2D matcher(grid, o);
-  const SE2d truth(3.2, 2.7, 0.4);
+  const FastCorrelativeScanMatcher2D matcher(grid, RoomWindow(0.5));
+  const SE2d& truth = kRoomTruth;
   const std::vector<Eigen::Vector2d> points = RoomScan(truth);
-  const SE2d guess(truth.x() + 1.1, truth.y() - 0.8, truth.theta() - 0.2);  // 1.1 m off in x
+  const SE2d& guess = kRoomGuess;  // 1.1 m off in x
   // The options' window does not reach the truth; 1.5 m for this call does, 0.4 m inside.
   EXPECT_GT((matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0).pose.translation() - truth.translation()).norm(),
             0.3);
@@ -136,9 +140,7 @@ TEST(FastCorrelativeScanMatcherTest, ACallsWindowAndABestNearItsEdge) {
   EXPECT_LT((near.pose.translation() - truth.translation()).norm(), 1.5 * 0.05);
   EXPECT_TRUE(near.on_edge);
   EXPECT_FALSE(near.ambiguous);  // not searched for rivals
-  FastMatcherOptions o13 = o;
-  o13.linear_search_window = 1.3;
-  EXPECT_FALSE(FastCorrelativeScanMatcher2D(grid, o13).Match(guess, points, 0.5).on_edge);
+  EXPECT_FALSE(FastCorrelativeScanMatcher2D(grid, RoomWindow(1.3)).Match(guess, points, 0.5).on_edge);
   EXPECT_FALSE(matcher.MatchChecked(guess, points, 0.5, 0.15, 0.035, 0, 1.3).on_edge);  // a smaller neighbourhood
   EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, std::nan("")), InvalidArgument);
 }
