@@ -101,6 +101,25 @@ void SubtractTransposedProduct(double* x, const double* B, int ld, const double*
   Eigen::Map<Eigen::VectorXd>(x, dj).noalias() -= b.transpose() * Eigen::Map<const Eigen::VectorXd>(d, dr);
 }
 
+// x (dj) = L^-T x for the lower triangular diagonal block L (dj x dj, column-major, leading
+// dimension ld): fixed sizes for the built-in widths.
+template <int D>
+void SolveTransposedDiagonalFixed(const double* L, int ld, double* x) {
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const Eigen::Matrix<double, D, D>, 0, Stride> l(L, D, D, Stride(ld));
+  Eigen::Map<Eigen::Matrix<double, D, 1>> v(x);
+  l.transpose().template triangularView<Eigen::Upper>().solveInPlace(v);
+}
+
+void SolveTransposedDiagonal(const double* L, int ld, double* x, int dj) {
+  if (dj == 3) return SolveTransposedDiagonalFixed<3>(L, ld, x);
+  if (dj == 6) return SolveTransposedDiagonalFixed<6>(L, ld, x);
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const Eigen::MatrixXd, 0, Stride> l(L, dj, dj, Stride(ld));
+  Eigen::Map<Eigen::VectorXd> v(x, dj);
+  l.transpose().triangularView<Eigen::Upper>().solveInPlace(v);
+}
+
 }  // namespace
 
 int IncrementalCholesky::AddVariable(int dim) {
@@ -724,7 +743,7 @@ void IncrementalCholesky::BackSubstitute(const std::vector<int>& columns, double
       }
       x.noalias() -= c.L.bottomRows(below).transpose() * above;
     }
-    c.L.topRows(dj).triangularView<Eigen::Lower>().transpose().solveInPlace(x);
+    SolveTransposedDiagonal(c.L.data(), static_cast<int>(c.L.rows()), x.data(), dj);
     const double diff = (x - c.delta).lpNorm<Eigen::Infinity>();
     c.delta = x;
     ++stats_.back_substituted;
