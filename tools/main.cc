@@ -248,6 +248,10 @@ int main(int argc, char** argv) {
   lidar_option("--min-score", lsc.min_score, "Branch and bound's score threshold");
   lidar_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]");
   lidar_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]");
+  lidar_option("--consecutive-sigma-t", lsc.consecutive_translation_sigma,
+               "Consecutive scans' constraints (local SLAM's relative pose): translation sigma [m] (0: none)");
+  lidar_option("--consecutive-sigma-r", lsc.consecutive_rotation_sigma,
+               "Consecutive scans' constraints: rotation sigma [rad] (0: none)");
   lidar_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]");
   lidar_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
   lidar_option("--rival-ratio", lsc.rival_ratio,

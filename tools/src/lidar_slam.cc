@@ -38,6 +38,8 @@ std::string Fixed(double v, int digits) {
 void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->local_translation_sigma = cmd.local_translation_sigma;
   po->local_rotation_sigma = cmd.local_rotation_sigma;
+  po->consecutive_translation_sigma = cmd.consecutive_translation_sigma;
+  po->consecutive_rotation_sigma = cmd.consecutive_rotation_sigma;
   po->loop_translation_sigma = cmd.loop_translation_sigma;
   po->loop_rotation_sigma = cmd.loop_rotation_sigma;
   po->huber_delta = cmd.huber_delta;

@@ -46,6 +46,11 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
       !PositiveFinite(loop_translation_sigma) || !PositiveFinite(loop_rotation_sigma)) {
     return fail("the constraints' sigmas must be positive and finite");
   }
+  if ((consecutive_translation_sigma > 0) != (consecutive_rotation_sigma > 0) ||
+      !(std::isfinite(consecutive_translation_sigma) && consecutive_translation_sigma >= 0) ||
+      !(std::isfinite(consecutive_rotation_sigma) && consecutive_rotation_sigma >= 0)) {
+    return fail("the consecutive constraints' sigmas must both be positive and finite, or both 0 (none)");
+  }
   if (!PositiveFinite(huber_delta)) return fail("huber_delta must be positive and finite");
   if (!(min_score >= 0 && min_score < 1)) return fail("min_score must lie in [0, 1)");
   if (!(std::isfinite(max_search_distance) && max_search_distance >= 0)) {
@@ -144,7 +149,10 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
                       Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
     scan.submaps.push_back(j);
   }
-  if (active_.empty() && i > 0) {
+  if (i > 0 && options_.consecutive_translation_sigma > 0) {
+    g.Add<BetweenSE2>(ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
+                      Noise(options_.consecutive_translation_sigma, options_.consecutive_rotation_sigma));
+  } else if (active_.empty() && i > 0) {
     // Before the first submap: tied to the previous scan by the local poses.
     g.Add<BetweenSE2>(ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
                       Noise(options_.local_translation_sigma, options_.local_rotation_sigma));

@@ -25,11 +25,12 @@ struct LidarCommand {
   long max_scans = 0;  ///< 0: every scan
   int scans_per_submap = 90;
   double resolution = 0.05;
-  int search_every = 3;     ///< loop-closure search for every N-th scan
+  int search_every = 10;    ///< loop-closure search for every N-th scan
   double min_score = 0.55;  ///< branch and bound's score threshold
   /// The pose graph's constraints (PoseGraphOptions): sigmas of the local constraints and of
   /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
   double local_translation_sigma = 0.1, local_rotation_sigma = 0.04;
+  double consecutive_translation_sigma = 0.01, consecutive_rotation_sigma = 0.002;
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
   double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
