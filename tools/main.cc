@@ -252,6 +252,8 @@ int main(int argc, char** argv) {
                "Consecutive scans' constraints (local SLAM's relative pose): translation sigma [m] (0: none)");
   lidar_option("--consecutive-sigma-r", lsc.consecutive_rotation_sigma,
                "Consecutive scans' constraints: rotation sigma [rad] (0: none)");
+  lidar_option("--local-huber", lsc.local_huber_delta,
+               "Huber loss on the local and consecutive constraints: delta on the whitened error (0: none)");
   lidar_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]");
   lidar_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
   lidar_option("--rival-ratio", lsc.rival_ratio,

@@ -139,7 +139,8 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
                {"--search-voxel -1", "search_voxel_size"},
                {"--search-window-growth -0.1", "search_window_growth"},
                {"--max-search-window nan", "max_search_window"},
-               {"--consecutive-sigma-r 0", "consecutive"}};
+               {"--consecutive-sigma-r 0", "consecutive"},
+               {"--local-huber -1", "local_huber_delta"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

@@ -40,6 +40,7 @@ void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->local_rotation_sigma = cmd.local_rotation_sigma;
   po->consecutive_translation_sigma = cmd.consecutive_translation_sigma;
   po->consecutive_rotation_sigma = cmd.consecutive_rotation_sigma;
+  po->local_huber_delta = cmd.local_huber_delta;
   po->loop_translation_sigma = cmd.loop_translation_sigma;
   po->loop_rotation_sigma = cmd.loop_rotation_sigma;
   po->huber_delta = cmd.huber_delta;

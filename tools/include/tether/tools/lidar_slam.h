@@ -31,6 +31,7 @@ struct LidarCommand {
   /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
   double local_translation_sigma = 0.1, local_rotation_sigma = 0.04;
   double consecutive_translation_sigma = 0.01, consecutive_rotation_sigma = 0.002;
+  double local_huber_delta = 0.25;
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
   double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
