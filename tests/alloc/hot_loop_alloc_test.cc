@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "problem.h"
-#include "tether/solvers/optimizer.h"
 #include "tether/frontends/simulation/simulate.h"
+#include "tether/solvers/optimizer.h"
 
 namespace {
 std::atomic<long> g_news{0};
