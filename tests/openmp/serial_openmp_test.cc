@@ -9,9 +9,9 @@
 
 #include "gtest/gtest.h"
 #include "tether/core/graph_io.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -16,9 +16,9 @@
 #include "tether/factors/between_se3.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/solvers/ceres_problem.h"
 #include "tether/solvers/optimizer.h"
-#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "testing/simulated.h"
-#include "tether/solvers/optimizer.h"
 #include "tether/frontends/simulation/simulate.h"
+#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {

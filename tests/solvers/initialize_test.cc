@@ -8,8 +8,8 @@
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
-#include "tether/solvers/optimizer.h"
 #include "tether/frontends/simulation/simulate.h"
+#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {

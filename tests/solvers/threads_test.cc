@@ -9,8 +9,8 @@
 
 #include "testing/simulated.h"
 #include "tether/factors/between_se2.h"
-#include "tether/solvers/optimizer.h"
 #include "tether/frontends/simulation/simulate.h"
+#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {

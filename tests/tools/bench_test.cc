@@ -25,9 +25,9 @@
 #include "testing/cli.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/tools/replay.h"
 #include "tether/tools/replay_bench.h"
-#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {

@@ -11,11 +11,11 @@
 #include "tether/core/graph_io.h"
 #include "tether/core/output_file.h"
 #include "tether/factors/builtin.h"
+#include "tether/frontends/simulation/simulate.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/pipeline.h"
-#include "tether/frontends/simulation/simulate.h"
 #include "tether/tools/svg_plot.h"
 #include "tether/tools/trajectory_error.h"
 
