@@ -100,12 +100,14 @@ bool SqrtInformation::FromLarge(const Eigen::MatrixXd& omega, double scale, Sqrt
   return true;
 }
 
-void SqrtInformation::Resize(int dim) {
+void SqrtInformation::Resize(int dim, bool diagonal) {
   dim_ = dim;
   given_ = false;
+  diagonal_ = diagonal && dim > kInlineResidualDim;
   std::fill(r_, r_ + kInlineResidualDim * kInlineResidualDim, 0.0);
   std::fill(given_diag_, given_diag_ + kInlineResidualDim, 0.0);
-  big_.assign(dim > kInlineResidualDim ? static_cast<std::size_t>(dim) * (dim + 1) : 0, 0.0);
+  const std::size_t n = static_cast<std::size_t>(dim);
+  big_.assign(diagonal_ ? n : dim > kInlineResidualDim ? n * (n + 1) : 0, 0.0);
 }
 
 void SqrtInformation::KeepGiven(const double* omega) {
@@ -123,7 +125,7 @@ SqrtInformation SqrtInformation::FromSigmas(const Eigen::VectorXd& sigmas) {
   const int n = static_cast<int>(sigmas.size());
   if (n < 1) throw InvalidArgument("SqrtInformation::FromSigmas: give at least one sigma");
   SqrtInformation r;
-  r.Resize(n);
+  r.Resize(n, /*diagonal=*/true);
   for (int i = 0; i < n; ++i) {
     if (!(sigmas[i] > 0) || !std::isfinite(sigmas[i])) {
       std::ostringstream s;
@@ -131,7 +133,7 @@ SqrtInformation SqrtInformation::FromSigmas(const Eigen::VectorXd& sigmas) {
         << "; every sigma must be finite and positive";
       throw InvalidArgument(s.str());
     }
-    r.data()[i * n + i] = 1.0 / sigmas[i];
+    r.SetDiagonal(i, 1.0 / sigmas[i]);
   }
   return r;
 }
@@ -150,12 +152,13 @@ SqrtInformation SqrtInformation::Isotropic(int dim, double sigma) {
     throw InvalidArgument("SqrtInformation::Isotropic: need dim >= 1 and a finite sigma > 0");
   }
   SqrtInformation r;
-  r.Resize(dim);
-  for (int i = 0; i < dim; ++i) r.data()[i * dim + i] = 1.0 / sigma;
+  r.Resize(dim, /*diagonal=*/true);
+  for (int i = 0; i < dim; ++i) r.SetDiagonal(i, 1.0 / sigma);
   return r;
 }
 
 Eigen::MatrixXd SqrtInformation::R() const {
+  if (diagonal_) return Eigen::Map<const Eigen::VectorXd>(big_.data(), dim_).asDiagonal();
   Eigen::MatrixXd m(dim_, dim_);
   for (int i = 0; i < dim_; ++i)
     for (int j = 0; j < dim_; ++j) m(i, j) = j >= i ? data()[i * dim_ + j] : 0.0;
@@ -219,7 +222,16 @@ WhitenFn KernelFor(int dim, int cols) {
 
 void SqrtInformation::WhitenVector(double* v) const { WhitenRowMajor(v, 1); }
 
-void SqrtInformation::WhitenRowMajor(double* m, int cols) const { KernelFor(dim_, cols)(data(), dim_, m, cols); }
+void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
+  if (diagonal_) {
+    for (int i = 0; i < dim_; ++i) {
+      const double d = big_[static_cast<std::size_t>(i)];
+      for (int c = 0; c < cols; ++c) m[i * cols + c] *= d;
+    }
+    return;
+  }
+  KernelFor(dim_, cols)(data(), dim_, m, cols);
+}
 
 namespace {
 constexpr EnumName<InformationRepair> kRepairNames[] = {{InformationRepair::kNone, "none"},

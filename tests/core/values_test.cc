@@ -86,6 +86,38 @@ TEST(SqrtInformationTest, WhiteningMatchesInformation) {
   EXPECT_TRUE(n.R().isUpperTriangular());
 }
 
+// A large diagonal noise (a scan-match factor's hundreds of rows) keeps only its diagonal; it
+// whitens, and reports R and the information, exactly as the same matrix given in full does.
+TEST(SqrtInformationTest, LargeDiagonalNoiseWhitensAsTheFullMatrix) {
+  const int n = 40, cols = 4;
+  Eigen::VectorXd sigmas(n);
+  for (int i = 0; i < n; ++i) sigmas(i) = 0.1 + 0.05 * i;
+  const SqrtInformation diag = SqrtInformation::FromSigmas(sigmas);
+  const Eigen::MatrixXd omega = sigmas.cwiseInverse().cwiseAbs2().asDiagonal();
+  const SqrtInformation full = SqrtInformation::FromInformation(omega);
+  EXPECT_EQ(diag.dim(), n);
+  EXPECT_TRUE(diag.R().isApprox(full.R(), 1e-15));
+  EXPECT_TRUE(diag.Information().isApprox(omega, 1e-12));
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m(n, cols), a, b;
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < cols; ++c) m(i, c) = std::sin(1.0 + i * cols + c);
+  a = m;
+  b = m;
+  diag.WhitenRowMajor(a.data(), cols);
+  full.WhitenRowMajor(b.data(), cols);
+  EXPECT_TRUE(a.isApprox(b, 1e-15));
+  EXPECT_NEAR(a(7, 2), m(7, 2) / sigmas(7), 1e-15);
+  Eigen::VectorXd v = m.col(0), w = m.col(0);
+  diag.WhitenVector(v.data());
+  full.WhitenVector(w.data());
+  EXPECT_TRUE(v.isApprox(w, 1e-15));
+  const SqrtInformation iso = SqrtInformation::Isotropic(n, 0.5);
+  Eigen::VectorXd u = Eigen::VectorXd::Ones(n);
+  iso.WhitenVector(u.data());
+  EXPECT_TRUE(u.isApprox(Eigen::VectorXd::Constant(n, 2.0)));
+  EXPECT_TRUE(iso.R().isApprox(2.0 * Eigen::MatrixXd::Identity(n, n)));
+}
+
 TEST(SqrtInformationTest, RejectsAndRepairsNonPositiveDefinite) {
   Eigen::Matrix2d bad;
   bad << 1, 2, 2, 1;  // eigenvalues 3 and -1

@@ -48,7 +48,9 @@ class SqrtInformation {
   static bool FromLarge(const Eigen::MatrixXd& omega, double scale, SqrtInformation* out, std::string* why);
   const double* data() const { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   double* data() { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
-  void Resize(int dim);
+  void Resize(int dim, bool diagonal = false);
+  // Sets R(i, i) of a fresh (Resize'd) diagonal or dense R.
+  void SetDiagonal(int i, double v) { data()[diagonal_ ? i : i * dim_ + i] = v; }
 
   void KeepGiven(const double* omega_row_major);
 
@@ -60,6 +62,10 @@ class SqrtInformation {
   double given_diag_[kInlineResidualDim] = {};
   std::vector<double> big_;  // the same, for dim_ > kInlineResidualDim: n x n, then n diagonal entries
   bool given_ = false;
+  // Above kInlineResidualDim, a diagonal R (FromSigmas, Isotropic) keeps only its n diagonal
+  // entries in big_, and whitening scales rows: a scan-match factor has hundreds of rows, and a
+  // dense R would cost n^2 storage and n^2 work per column.
+  bool diagonal_ = false;
 };
 
 /// How non-positive-definite information matrices in input files are treated.
