@@ -59,22 +59,23 @@ struct Result {
   int submaps = 0;
 };
 
-// The scans inserted into submaps at their local poses (30 scans a submap), fed to the graph.
-Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio = PoseGraphOptions().rival_ratio,
-            double window_growth = PoseGraphOptions().search_window_growth,
-            double local_huber = PoseGraphOptions().local_huber_delta) {
-  SubmapOptions so;
-  so.scans_per_submap = 30;
-  ActiveSubmaps2D submaps(so);
+// The options of these tests: closures searched for every 4th scan, applied every 20.
+PoseGraphOptions TestOptions(bool loop_closure, int threads) {
   PoseGraphOptions po;
   po.loop_closure = loop_closure;
   po.threads = threads;
   po.search_every_n_scans = 4;
   po.max_search_distance = 8;
   po.apply_every_n_scans = 20;
-  po.rival_ratio = rival_ratio;
-  po.search_window_growth = window_growth;
-  po.local_huber_delta = local_huber;
+  return po;
+}
+
+// The scans inserted into submaps at their local poses (30 scans a submap), fed to the graph;
+// the graph exported too where `exported` is given.
+Result SlamWith(const Trip& trip, const PoseGraphOptions& po, FactorGraph* exported = nullptr) {
+  SubmapOptions so;
+  so.scans_per_submap = 30;
+  ActiveSubmaps2D submaps(so);
   PoseGraph2D graph(po);
   for (std::size_t k = 0; k < trip.local.size(); ++k) {
     const SE2d& pose = trip.local[k];
@@ -90,7 +91,21 @@ Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio
   out.closures = graph.loop_closures();
   out.stats = graph.stats();
   out.submaps = graph.submap_count();
+  if (exported != nullptr) {
+    Values v;
+    graph.Export(exported, &v);
+  }
   return out;
+}
+
+Result Slam(const Trip& trip, bool loop_closure, int threads, double rival_ratio = PoseGraphOptions().rival_ratio,
+            double window_growth = PoseGraphOptions().search_window_growth,
+            double local_huber = PoseGraphOptions().local_huber_delta) {
+  PoseGraphOptions po = TestOptions(loop_closure, threads);
+  po.rival_ratio = rival_ratio;
+  po.search_window_growth = window_growth;
+  po.local_huber_delta = local_huber;
+  return SlamWith(trip, po);
 }
 
 double Rmse(const std::vector<SE2d>& a, const std::vector<SE2d>& b) {
@@ -300,27 +315,12 @@ TEST(PoseGraph2DTest, ScansLeftOutOfTheSubmapsAreTiedToTheActiveOnes) {
 TEST(PoseGraph2DTest, ConsecutiveScansAreTiedByLocalSlamsRelativePose) {
   const Trip trip = Drive();
   const auto run = [&](double sigma_t, double sigma_r, std::vector<SE2d>* poses, FactorGraph* g) {
-    SubmapOptions so;
-    so.scans_per_submap = 30;
-    ActiveSubmaps2D submaps(so);
-    PoseGraphOptions po;
-    po.threads = 0;
-    po.search_every_n_scans = 4;
-    po.apply_every_n_scans = 20;
+    PoseGraphOptions po = TestOptions(true, 0);
     po.consecutive_translation_sigma = sigma_t;
     po.consecutive_rotation_sigma = sigma_r;
-    PoseGraph2D graph(po);
-    for (std::size_t k = 0; k < trip.local.size(); ++k) {
-      const SE2d& pose = trip.local[k];
-      std::vector<Eigen::Vector2d> in_map;
-      for (const Eigen::Vector2d& p : trip.points[k]) in_map.push_back(pose * p);
-      graph.AddScan(pose, trip.points[k], submaps.InsertScan(pose, pose.translation(), in_map));
-    }
-    graph.Finish();
-    for (int i = 0; i < graph.scan_count(); ++i) poses->push_back(graph.ScanPose(i));
-    Values v;
-    graph.Export(g, &v);
-    return graph.loop_closures().size();
+    const Result r = SlamWith(trip, po, g);
+    *poses = r.poses;
+    return r.closures.size();
   };
   // The RMS difference between the solution's consecutive relative poses and local SLAM's.
   const auto local_gap = [&](const std::vector<SE2d>& poses) {
