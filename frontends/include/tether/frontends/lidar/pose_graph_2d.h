@@ -77,7 +77,7 @@ struct PoseGraphOptions {
   /// Consecutive scans are also tied to each other by local SLAM's relative pose between
   /// them, with these sigmas (both 0: no such constraint). Local SLAM's relative pose between
   /// neighbouring scans is far better than 0.1 m: tied, the loop closures cannot pull single
-  /// scans out of line. 0.01 m / 0.002 rad against none, every 10th scan searched
+  /// scans out of line. 0.01 m / 0.002 rad against none, quadratic ties, every 10th scan searched
   /// (benchmarks/RESULTS.md, "LiDAR VII"): Intel 0.0355 -> 0.0282 m and 0.337 -> 0.289 deg,
   /// aces 0.0738 -> 0.0711 m and 0.490 -> 0.414 deg, fr079 0.0915 -> 0.0889 m and 0.869 ->
   /// 0.823 deg; the stiffer solution keeps fewer loop closures within 20 cm and 1 deg (89.4%,
