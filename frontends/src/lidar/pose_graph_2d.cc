@@ -155,13 +155,15 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
                                  Noise(options_.local_translation_sigma, options_.local_rotation_sigma)));
     scan.submaps.push_back(j);
   }
-  if (i > 0 && options_.consecutive_translation_sigma > 0) {
-    local_loss(g.Add<BetweenSE2>(ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
-                                 Noise(options_.consecutive_translation_sigma, options_.consecutive_rotation_sigma)));
-  } else if (active_.empty() && i > 0) {
-    // Before the first submap: tied to the previous scan by the local poses.
-    g.Add<BetweenSE2>(ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
-                      Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
+  // Tied to the scan before it by the local poses: always with the consecutive ties on, and
+  // before the first submap (then as a local constraint, quadratic) where they are off.
+  const bool consecutive = options_.consecutive_translation_sigma > 0;
+  if (i > 0 && (consecutive || active_.empty())) {
+    Factor& f = g.Add<BetweenSE2>(
+        ScanKey(i - 1), ScanKey(i), scans_.back().local_pose.Inverse() * local_pose,
+        consecutive ? Noise(options_.consecutive_translation_sigma, options_.consecutive_rotation_sigma)
+                    : Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
+    if (consecutive) local_loss(f);
   }
   scans_.push_back(std::move(scan));
   const auto t0 = std::chrono::steady_clock::now();
