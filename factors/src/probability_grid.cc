@@ -30,6 +30,18 @@ ProbabilityGrid::Cell ProbabilityGrid::CellOf(const Eigen::Vector2d& p) const {
   return Cell(static_cast<int>(std::floor(u.x())), static_cast<int>(std::floor(u.y())));
 }
 
+void ProbabilityGrid::CellsOf(const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
+                              std::vector<Cell>* cells) const {
+  // pose * p, with the rotation's sine and cosine computed once.
+  const double angle = pose.rotation().angle();
+  const double c = std::cos(angle), s = std::sin(angle);
+  cells->resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d& p = points[i];
+    (*cells)[i] = CellOf(pose.translation() + Eigen::Vector2d(c * p.x() - s * p.y(), s * p.x() + c * p.y()));
+  }
+}
+
 Eigen::Vector2d ProbabilityGrid::CellCenter(const Cell& c) const {
   return origin_ + resolution_ * Eigen::Vector2d(c.x() + 0.5, c.y() + 0.5);
 }

@@ -31,32 +31,51 @@ bool FastMatcherOptions::IsValid(std::string* why) const {
 
 PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth) {
   if (depth < 1 || depth > 16) throw InvalidArgument("PrecomputationGrids: depth must lie in [1, 16]");
-  Level base;
-  base.min_cell = grid.min_cell();
-  base.size = grid.size();
-  base.values.resize(static_cast<std::size_t>(base.size.x()) * static_cast<std::size_t>(base.size.y()));
-  for (int y = 0; y < base.size.y(); ++y) {
-    for (int x = 0; x < base.size.x(); ++x)
-      base.values[static_cast<std::size_t>(y * base.size.x() + x)] = grid.Value(base.min_cell + Cell(x, y));
+  const int margin = (1 << (depth - 1)) - 1;
+  if (grid.size().x() > 0) {
+    min_cell_ = grid.min_cell() - Cell(margin, margin);
+    size_ = grid.size() + Cell(margin, margin);
   }
-  levels_.push_back(std::move(base));
+  const std::size_t n = static_cast<std::size_t>(size_.x()) * static_cast<std::size_t>(size_.y());
+  levels_.assign(static_cast<std::size_t>(depth), std::vector<std::uint16_t>(n, ProbabilityGrid::kUnknownValue));
+  for (int y = 0; y < size_.y(); ++y) {
+    for (int x = 0; x < size_.x(); ++x)
+      levels_[0][static_cast<std::size_t>(y * size_.x() + x)] = grid.Value(min_cell_ + Cell(x, y));
+  }
   for (int h = 1; h < depth; ++h) {
     // The window of height h is four windows of height h - 1, s cells apart.
     const int s = 1 << (h - 1);
-    const Level& below = levels_.back();
-    Level l;
-    l.min_cell = below.min_cell - Cell(s, s);
-    l.size = below.size.x() == 0 ? Cell::Zero() : Cell(below.size + Cell(s, s));
-    l.values.resize(static_cast<std::size_t>(l.size.x()) * static_cast<std::size_t>(l.size.y()));
-    levels_.push_back(std::move(l));
-    Level& top = levels_.back();
-    for (int y = 0; y < top.size.y(); ++y) {
-      for (int x = 0; x < top.size.x(); ++x) {
-        const Cell c = top.min_cell + Cell(x, y);
-        top.values[static_cast<std::size_t>(y * top.size.x() + x)] =
+    std::vector<std::uint16_t>& top = levels_[static_cast<std::size_t>(h)];
+    for (int y = 0; y < size_.y(); ++y) {
+      for (int x = 0; x < size_.x(); ++x) {
+        const Cell c = min_cell_ + Cell(x, y);
+        top[static_cast<std::size_t>(y * size_.x() + x)] =
             std::max(std::max(Value(h - 1, c), Value(h - 1, c + Cell(s, 0))),
                      std::max(Value(h - 1, c + Cell(0, s)), Value(h - 1, c + Cell(s, s))));
       }
+    }
+  }
+}
+
+void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
+                                     const std::vector<float>& table, float* sums) const {
+  if (count < 1 || count > kMaxOffsets) throw InvalidArgument("PrecomputationGrids::Accumulate: 1 to 64 offsets");
+  Cell lo = offsets[0], hi = offsets[0];
+  for (int j = 1; j < count; ++j) {
+    lo = lo.min(offsets[j]);
+    hi = hi.max(offsets[j]);
+  }
+  // Offset j's index from the index of c + lo.
+  int delta[kMaxOffsets];
+  for (int j = 0; j < count; ++j) delta[j] = (offsets[j].y() - lo.y()) * size_.x() + (offsets[j].x() - lo.x());
+  const std::uint16_t* values = levels_[static_cast<std::size_t>(h)].data();
+  for (const Cell& c : cells) {
+    const Cell a = c + lo - min_cell_, b = c + hi - min_cell_;
+    if (a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y()) {
+      const std::uint16_t* at = values + a.y() * size_.x() + a.x();
+      for (int j = 0; j < count; ++j) sums[j] += table[at[delta[j]]];
+    } else {
+      for (int j = 0; j < count; ++j) sums[j] += table[Value(h, c + offsets[j])];
     }
   }
 }
@@ -120,9 +139,7 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const 
   s.cells.resize(static_cast<std::size_t>(2 * s.k_max + 1));
   for (int k = -s.k_max; k <= s.k_max; ++k) {
     const SE2d pose(guess.x(), guess.y(), guess.theta() + k * s.step);
-    std::vector<Cell>& c = s.cells[static_cast<std::size_t>(k + s.k_max)];
-    c.reserve(points.size());
-    for (const Eigen::Vector2d& p : points) c.push_back(grid_.CellOf(pose * p));
+    grid_.CellsOf(pose, points, &s.cells[static_cast<std::size_t>(k + s.k_max)]);
   }
   return s;
 }
@@ -133,21 +150,27 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
   FastMatch m = s.Unfound(guess);
   float best = static_cast<float>(min_score);
   const float n = static_cast<float>(points.size());
+  std::vector<Cell> offsets;
+  for (int dx = -s.w; dx <= s.w; ++dx) {
+    for (int dy = -s.w; dy <= s.w; ++dy) offsets.emplace_back(dx, dy);
+  }
+  std::vector<float> sums(offsets.size());
   for (int k = -s.k_max; k <= s.k_max; ++k) {
     const std::vector<Cell>& cells = s.cells[static_cast<std::size_t>(k + s.k_max)];
-    for (int dx = -s.w; dx <= s.w; ++dx) {
-      for (int dy = -s.w; dy <= s.w; ++dy) {
-        float sum = 0;
-        for (const Cell& c : cells) sum += probability_[precomputed_.Value(0, c + Cell(dx, dy))];
-        const float score = sum / n;
-        ++m.nodes;
-        if (score > best) {
-          best = score;
-          m.found = true;
-          m.score = score;
-          m.pose = s.Pose(guess, k, dx, dy, grid_.resolution());
-          m.on_edge = s.OnEdge(k, dx, dy);
-        }
+    std::fill(sums.begin(), sums.end(), 0.0f);
+    for (std::size_t j = 0; j < offsets.size(); j += PrecomputationGrids::kMaxOffsets) {
+      const int count = static_cast<int>(std::min<std::size_t>(PrecomputationGrids::kMaxOffsets, offsets.size() - j));
+      precomputed_.Accumulate(0, cells, &offsets[j], count, probability_, &sums[j]);
+    }
+    for (std::size_t j = 0; j < offsets.size(); ++j) {
+      const float score = sums[j] / n;
+      ++m.nodes;
+      if (score > best) {
+        best = score;
+        m.found = true;
+        m.score = score;
+        m.pose = s.Pose(guess, k, offsets[j].x(), offsets[j].y(), grid_.resolution());
+        m.on_edge = s.OnEdge(k, offsets[j].x(), offsets[j].y());
       }
     }
   }
@@ -229,12 +252,15 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
     float score;
   };
   const float n = static_cast<float>(n_points);
-  const auto score = [&](int h, int k, int dx, int dy) {
-    float sum = 0;
-    for (const Cell& c : s.cells[static_cast<std::size_t>(k + s.k_max)])
-      sum += probability_[precomputed_.Value(h, c + Cell(dx, dy))];
-    ++m.nodes;
-    return sum / n;
+  // Scores nodes of height h that share one rotation (at most kMaxOffsets of them).
+  std::vector<Cell> offsets(PrecomputationGrids::kMaxOffsets, Cell::Zero());
+  const auto score = [&](int h, Node* nodes, int count) {
+    float sums[PrecomputationGrids::kMaxOffsets] = {};
+    for (int j = 0; j < count; ++j) offsets[j] = Cell(nodes[j].dx, nodes[j].dy);
+    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count, probability_,
+                            sums);
+    for (int j = 0; j < count; ++j) nodes[j].score = sums[j] / n;
+    m.nodes += count;
   };
   // Whether every candidate of a node of height h is near the exclusion's centre: its
   // rotation, and the corners of its square of translations (the disc is convex).
@@ -249,8 +275,12 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
   const int width = 1 << top;
   std::vector<Node> roots;
   for (int k = -s.k_max; k <= s.k_max; ++k) {
+    const std::size_t first = roots.size();
     for (int dx = -s.w; dx <= s.w; dx += width) {
-      for (int dy = -s.w; dy <= s.w; dy += width) roots.push_back(Node{k, dx, dy, score(top, k, dx, dy)});
+      for (int dy = -s.w; dy <= s.w; dy += width) roots.push_back(Node{k, dx, dy, 0});
+    }
+    for (std::size_t j = first; j < roots.size(); j += PrecomputationGrids::kMaxOffsets) {
+      score(top, &roots[j], static_cast<int>(std::min<std::size_t>(PrecomputationGrids::kMaxOffsets, roots.size() - j)));
     }
   }
   std::stable_sort(roots.begin(), roots.end(), by_score);
@@ -277,9 +307,10 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
         for (int oy : {0, half}) {
           const int dx = node.dx + ox, dy = node.dy + oy;
           if (dx > s.w || dy > s.w) continue;
-          children.push_back(Node{node.k, dx, dy, score(h - 1, node.k, dx, dy)});
+          children.push_back(Node{node.k, dx, dy, 0});
         }
       }
+      score(h - 1, children.data(), static_cast<int>(children.size()));
       std::stable_sort(children.begin(), children.end(), by_score);
       search(children, h - 1);
     }

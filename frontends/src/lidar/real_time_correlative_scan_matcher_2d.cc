@@ -49,21 +49,44 @@ CorrelativeMatch MatchCorrelative(const ProbabilityGrid& grid, const SE2d& guess
   best.score = -1;
   best.angular_step = step;
   const double inv_n = 1.0 / static_cast<double>(points.size());
-  std::vector<ProbabilityGrid::Cell> cells(points.size());
+  const double unknown = options.unknown_probability;
+  const auto probability = [&](std::uint16_t v) {
+    return v == ProbabilityGrid::kUnknownValue ? unknown : grid.ValueToProbability(v);
+  };
+  // Per rotation, the sums of all (2 L + 1)^2 translations at once: each point reads its
+  // neighbourhood's rows, and every sum still adds the points in order.
+  const int side = 2 * linear_steps + 1;
+  const ProbabilityGrid::Cell reach(linear_steps, linear_steps);
+  std::vector<double> sums(static_cast<std::size_t>(side * side));
+  std::vector<ProbabilityGrid::Cell> cells;
   for (int a = -angular_steps; a <= angular_steps; ++a) {
     const double dtheta = a * step;
     const SE2d rotated(guess.x(), guess.y(), guess.theta() + dtheta);
-    for (std::size_t k = 0; k < points.size(); ++k) cells[k] = grid.CellOf(rotated * points[k]);
+    grid.CellsOf(rotated, points, &cells);
+    std::fill(sums.begin(), sums.end(), 0.0);
+    for (const ProbabilityGrid::Cell& c : cells) {
+      const int base = grid.BoxIndex(c - reach, c + reach);
+      double* sum = sums.data();
+      if (base >= 0) {
+        for (int iy = 0; iy < side; ++iy, sum += side) {
+          const int row = base + iy * grid.stride();
+          for (int ix = 0; ix < side; ++ix) sum[ix] += probability(grid.ValueAt(row + ix));
+        }
+      } else {
+        for (int iy = 0; iy < side; ++iy, sum += side) {
+          for (int ix = 0; ix < side; ++ix) sum[ix] += probability(grid.Value(c - reach + ProbabilityGrid::Cell(ix, iy)));
+        }
+      }
+    }
     for (int iy = -linear_steps; iy <= linear_steps; ++iy) {
       for (int ix = -linear_steps; ix <= linear_steps; ++ix) {
-        const ProbabilityGrid::Cell offset(ix, iy);
-        double sum = 0;
-        for (const ProbabilityGrid::Cell& c : cells) sum += grid.Probability(c + offset, options.unknown_probability);
-        const double mean = sum * inv_n;
+        ++best.candidates;
+        const double mean = sums[static_cast<std::size_t>((iy + linear_steps) * side + ix + linear_steps)] * inv_n;
+        // The weight below is at most 1: a mean not above the best cannot win.
+        if (!(mean > best.score)) continue;
         const double penalty = options.translation_delta_cost_weight * r * std::hypot(ix, iy) +
                                options.rotation_delta_cost_weight * std::abs(dtheta);
         const double score = mean * std::exp(-penalty * penalty);
-        ++best.candidates;
         if (score > best.score) {
           best.score = score;
           best.mean_probability = mean;

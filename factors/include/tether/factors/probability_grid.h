@@ -15,6 +15,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "tether/core/se2.h"
+
 namespace tether {
 
 /// odds(p) = p / (1 - p).
@@ -45,6 +47,9 @@ class ProbabilityGrid {
 
   /// The cell holding point p (map frame).
   Cell CellOf(const Eigen::Vector2d& p) const;
+  /// The cells holding pose * p for each of `points` (the same cells as CellOf, one rotation
+  /// for all points).
+  void CellsOf(const SE2d& pose, const std::vector<Eigen::Vector2d>& points, std::vector<Cell>* cells) const;
   /// The centre of a cell (map frame).
   Eigen::Vector2d CellCenter(const Cell& c) const;
 
@@ -59,6 +64,11 @@ class ProbabilityGrid {
     const int i = Index(c);
     return i < 0 ? kUnknownValue : static_cast<std::uint16_t>(cells_[i] & kMaxValue);
   }
+  /// Where the whole box lo .. hi (inclusive corners) lies in the stored box, the index of lo:
+  /// cell lo + (x, y) is then at index + y * stride() + x, read by ValueAt. -1 otherwise.
+  int BoxIndex(const Cell& lo, const Cell& hi) const { return Index(hi) < 0 ? -1 : Index(lo); }
+  int stride() const { return size_.x(); }
+  std::uint16_t ValueAt(int index) const { return static_cast<std::uint16_t>(cells_[index] & kMaxValue); }
   bool IsKnown(const Cell& c) const { return Value(c) != kUnknownValue; }
   /// The cell's probability; an unknown cell reads as min_probability() (it supports no hit).
   double Probability(const Cell& c) const { return ValueToProbability(Value(c)); }

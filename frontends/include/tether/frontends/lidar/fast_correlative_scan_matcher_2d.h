@@ -42,24 +42,29 @@ struct FastMatcherOptions {
 /// them; a cell outside the grid's stored box is unknown).
 class PrecomputationGrids {
  public:
+  /// The most offsets Accumulate takes at once.
+  static constexpr int kMaxOffsets = 64;
   /// Throws InvalidArgument for depth < 1 or above 16.
   PrecomputationGrids(const ProbabilityGrid& grid, int depth);
   int depth() const { return static_cast<int>(levels_.size()); }
   /// max over c + [0, 2^h)^2 of the grid's values.
   std::uint16_t Value(int h, const ProbabilityGrid::Cell& c) const {
-    const Level& l = levels_[static_cast<std::size_t>(h)];
-    const ProbabilityGrid::Cell d = c - l.min_cell;
-    if (d.x() < 0 || d.y() < 0 || d.x() >= l.size.x() || d.y() >= l.size.y()) return ProbabilityGrid::kUnknownValue;
-    return l.values[static_cast<std::size_t>(d.y() * l.size.x() + d.x())];
+    const ProbabilityGrid::Cell d = c - min_cell_;
+    if (d.x() < 0 || d.y() < 0 || d.x() >= size_.x() || d.y() >= size_.y()) return ProbabilityGrid::kUnknownValue;
+    return levels_[static_cast<std::size_t>(h)][static_cast<std::size_t>(d.y() * size_.x() + d.x())];
   }
+  /// For each of `count` offsets o_j (count <= kMaxOffsets), adds table[Value(h, c + o_j)] to
+  /// sums[j] over the cells c in order: the same sums as one offset at a time, with the offsets'
+  /// additions independent of each other.
+  void Accumulate(int h, const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets,
+                  int count, const std::vector<float>& table, float* sums) const;
 
  private:
-  struct Level {
-    ProbabilityGrid::Cell min_cell = ProbabilityGrid::Cell::Zero();
-    ProbabilityGrid::Cell size = ProbabilityGrid::Cell::Zero();
-    std::vector<std::uint16_t> values;
-  };
-  std::vector<Level> levels_;
+  // Every level covers the same box (the top level's: the grid's stored box widened by
+  // 2^(depth - 1) - 1 cells below), row-major.
+  ProbabilityGrid::Cell min_cell_ = ProbabilityGrid::Cell::Zero();
+  ProbabilityGrid::Cell size_ = ProbabilityGrid::Cell::Zero();
+  std::vector<std::vector<std::uint16_t>> levels_;
 };
 
 struct FastMatch {
