@@ -105,6 +105,30 @@ void ProbabilityGrid::FinishUpdate() {
   updated_.clear();
 }
 
+void ProbabilityGrid::ShrinkToKnown() {
+  if (!updated_.empty()) {
+    throw Error("ProbabilityGrid::ShrinkToKnown: " + std::to_string(updated_.size()) +
+                " cells are marked as updated; call FinishUpdate first");
+  }
+  Cell lo, hi;
+  if (!KnownBounds(&lo, &hi)) {
+    min_cell_ = Cell::Zero();
+    size_ = Cell::Zero();
+    std::vector<std::uint16_t>().swap(cells_);
+    return;
+  }
+  const Cell size = hi - lo + 1;
+  if ((size == size_).all()) return;
+  std::vector<std::uint16_t> kept(static_cast<std::size_t>(size.x()) * size.y());
+  for (int y = 0; y < size.y(); ++y) {
+    const auto from = cells_.begin() + Index(Cell(lo.x(), lo.y() + y));
+    std::copy(from, from + size.x(), kept.begin() + static_cast<std::ptrdiff_t>(y) * size.x());
+  }
+  cells_.swap(kept);
+  min_cell_ = lo;
+  size_ = size;
+}
+
 int ProbabilityGrid::GrowToInclude(const Cell& c) {
   const int existing = Index(c);
   if (existing >= 0) return existing;

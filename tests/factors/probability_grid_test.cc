@@ -46,6 +46,77 @@ TEST(ProbabilityGrid, UnknownReadsAsMinimumAndQuantisationIsFine) {
   EXPECT_THROW(g.SetProbability(Cell(0, 0), std::nan("")), InvalidArgument);
 }
 
+TEST(ProbabilityGrid, CellsOfAPoseAreTheCellsOfEachTransformedPoint) {
+  const ProbabilityGrid g(0.05, Eigen::Vector2d(0.3, -0.7));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-30, 30), a(-4, 4);
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < 200; ++i) points.emplace_back(u(rng), u(rng));
+  std::vector<Cell> cells;
+  for (int trial = 0; trial < 20; ++trial) {
+    const SE2d pose(u(rng), u(rng), a(rng));
+    g.CellsOf(pose, points, &cells);
+    ASSERT_EQ(cells.size(), points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) ASSERT_TRUE((cells[i] == g.CellOf(pose * points[i])).all()) << i;
+  }
+}
+
+// Cropping the stored box to the known cells changes no cell's value, and the box becomes the
+// known bounds; a box index reads the same values as the cells.
+TEST(ProbabilityGrid, ShrinkToKnownKeepsEveryValueInTheKnownBounds) {
+  ProbabilityGrid g(0.05);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> p(0.12, 0.97);
+  std::uniform_int_distribution<int> c(-40, 90);
+  for (int i = 0; i < 400; ++i) g.SetProbability(Cell(c(rng), c(rng) / 2), p(rng));
+  g.SetProbability(Cell(300, -5), 0.8);  // grows the box by doubling, far past what is known
+  const Cell old_size = g.size();
+  std::vector<std::uint16_t> before;
+  for (int y = -80; y < 120; ++y) {
+    for (int x = -80; x < 400; ++x) before.push_back(g.Value(Cell(x, y)));
+  }
+  Cell lo, hi;
+  ASSERT_TRUE(g.KnownBounds(&lo, &hi));
+  g.ShrinkToKnown();
+  EXPECT_TRUE((g.min_cell() == lo).all());
+  EXPECT_TRUE((g.size() == hi - lo + 1).all());
+  EXPECT_LT(g.size().prod(), old_size.prod());
+  std::size_t k = 0;
+  for (int y = -80; y < 120; ++y) {
+    for (int x = -80; x < 400; ++x) ASSERT_EQ(g.Value(Cell(x, y)), before[k++]) << x << ", " << y;
+  }
+  // The box of cells lo .. lo + (2, 3) lies inside; one reaching past hi does not.
+  const int at = g.BoxIndex(lo, lo + Cell(2, 3));
+  ASSERT_GE(at, 0);
+  EXPECT_EQ(g.ValueAt(at + 3 * g.stride() + 2), g.Value(lo + Cell(2, 3)));
+  EXPECT_EQ(g.BoxIndex(lo, hi + Cell(1, 0)), -1);
+  EXPECT_EQ(g.BoxIndex(lo - Cell(0, 1), hi), -1);
+  // Writing after the shrink grows the box again.
+  g.SetProbability(hi + Cell(5, 5), 0.9);
+  EXPECT_NEAR(g.Probability(hi + Cell(5, 5)), 0.9, 2e-5);
+  EXPECT_EQ(g.Value(Cell(300, -5)), before[static_cast<std::size_t>((-5 + 80) * 480 + 300 + 80)]);
+}
+
+TEST(ProbabilityGrid, ShrinkToKnownOfAnEmptyGridAndWhileUpdating) {
+  ProbabilityGrid empty(0.1);
+  empty.ShrinkToKnown();
+  EXPECT_EQ(empty.size().prod(), 0);
+  EXPECT_FALSE(empty.IsKnown(Cell(0, 0)));
+  ProbabilityGrid g(0.1);
+  const std::vector<std::uint16_t> hit = g.ComputeUpdateTable(0.55);
+  g.ApplyUpdate(Cell(2, 2), hit);
+  try {
+    g.ShrinkToKnown();
+    ADD_FAILURE() << "no error while an update is pending";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("FinishUpdate"), std::string::npos) << e.what();
+  }
+  g.FinishUpdate();
+  g.ShrinkToKnown();
+  EXPECT_TRUE((g.size() == Cell(1, 1)).all());
+  EXPECT_NEAR(g.Probability(Cell(2, 2)), 0.55, 2e-5);
+}
+
 TEST(ProbabilityGrid, UpdateTableIsTheOddsProductClamped) {
   ProbabilityGrid g(0.05);
   const std::vector<std::uint16_t> hit = g.ComputeUpdateTable(0.55), miss = g.ComputeUpdateTable(0.49);

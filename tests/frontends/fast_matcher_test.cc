@@ -44,6 +44,64 @@ TEST(PrecomputationGridsTest, EachHeightIsTheMaximumOverItsWindow) {
   EXPECT_THROW(PrecomputationGrids(grid, 0), InvalidArgument);
 }
 
+// Accumulate adds, per offset, the same floats in the same order as one offset at a time,
+// for cells inside the box, past its edges, and far outside it.
+TEST(PrecomputationGridsTest, AccumulateEqualsOneOffsetAtATime) {
+  ProbabilityGrid grid(0.05);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> p(0.12, 0.97);
+  for (int y = 0; y < 60; ++y) {
+    for (int x = -20; x < 50; ++x) {
+      if (rng() % 4 != 0) grid.SetProbability(Cell(x, y), p(rng));
+    }
+  }
+  const PrecomputationGrids pre(grid, 4);
+  std::vector<float> table(ProbabilityGrid::kMaxValue + 1);
+  for (std::size_t v = 0; v < table.size(); ++v) table[v] = static_cast<float>(0.1 + 1e-5 * static_cast<double>(v));
+  std::uniform_int_distribution<int> c(-60, 110), o(-30, 30);
+  std::vector<Cell> cells;
+  for (int i = 0; i < 300; ++i) cells.emplace_back(c(rng), c(rng));
+  cells.emplace_back(100000, -100000);
+  for (int h = 0; h < 4; ++h) {
+    for (int count : {1, 4, 17, PrecomputationGrids::kMaxOffsets}) {
+      std::vector<Cell> offsets;
+      for (int j = 0; j < count; ++j) offsets.emplace_back(o(rng), o(rng));
+      std::vector<float> sums(static_cast<std::size_t>(count), 0.0f);
+      pre.Accumulate(h, cells, offsets.data(), count, table, sums.data());
+      for (int j = 0; j < count; ++j) {
+        float expect = 0;
+        for (const Cell& cell : cells) expect += table[pre.Value(h, cell + offsets[static_cast<std::size_t>(j)])];
+        ASSERT_EQ(sums[static_cast<std::size_t>(j)], expect) << "h " << h << " offset " << j;
+      }
+    }
+  }
+  std::vector<Cell> too_many(PrecomputationGrids::kMaxOffsets + 1, Cell::Zero());
+  std::vector<float> sums(too_many.size());
+  EXPECT_THROW(pre.Accumulate(0, cells, too_many.data(), static_cast<int>(too_many.size()), table, sums.data()),
+               InvalidArgument);
+}
+
+// A grid whose stored box is far larger than its known cells (it grew by doubling) gives the
+// same precomputation as the same grid cropped.
+TEST(PrecomputationGridsTest, AGrownBoxAndItsCropGiveTheSameLevels) {
+  ProbabilityGrid grown(0.05);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> p(0.12, 0.97);
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 30; ++x) grown.SetProbability(Cell(x, y), p(rng));
+  }
+  grown.SetProbability(Cell(200, 150), 0.9);
+  ProbabilityGrid cropped = grown;
+  cropped.ShrinkToKnown();
+  ASSERT_LT(cropped.size().prod(), grown.size().prod());
+  const PrecomputationGrids a(grown, 5), b(cropped, 5);
+  for (int h = 0; h < 5; ++h) {
+    for (int y = -20; y < 170; ++y) {
+      for (int x = -20; x < 220; ++x) ASSERT_EQ(a.Value(h, Cell(x, y)), b.Value(h, Cell(x, y))) << h;
+    }
+  }
+}
+
 using testing::Segment;
 
 // A room of 10 m x 8 m with a 2 m x 1 m box inside (so that no rotation or shift of the room

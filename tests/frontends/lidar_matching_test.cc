@@ -176,6 +176,63 @@ TEST(LocalScanMatching, CorrelativeMatcherOptionsAndInput) {
   EXPECT_THROW(LocalSlam2D bad(l), InvalidArgument);
 }
 
+// The correlative matcher against a plain reference: every rotation and translation scored
+// one at a time, the mean of the cells' probabilities (unknown_probability where unknown)
+// weighted by exp(-penalty^2). The same pose and score, to the last bit, with points inside
+// the grid, near its edges and far outside it.
+TEST(LocalScanMatching, CorrelativeMatcherEqualsTheCandidateByCandidateSearch) {
+  using Cell = ProbabilityGrid::Cell;
+  ProbabilityGrid grid(0.05);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> p(0.12, 0.97), u(-3, 3);
+  for (int y = -40; y < 40; ++y) {
+    for (int x = -40; x < 40; ++x) {
+      if (rng() % 3 != 0) grid.SetProbability(Cell(x, y), p(rng));
+    }
+  }
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < 150; ++i) points.emplace_back(u(rng), u(rng));
+  points.emplace_back(40, -35);  // far outside the grid
+  CorrelativeMatcherOptions o;
+  o.angular_step = 0.01;
+  o.angular_search_window = 0.05;
+  o.linear_search_window = 0.15;
+  o.unknown_probability = 0.4;
+  for (const SE2d& guess : {SE2d(0.1, -0.2, 0.3), SE2d(1.9, 1.8, -1.0)}) {
+    const CorrelativeMatch m = MatchCorrelative(grid, guess, points, o);
+    double best = -1;
+    SE2d best_pose;
+    long candidates = 0;
+    const int a_max = 5, l_max = 3;
+    for (int a = -a_max; a <= a_max; ++a) {
+      const double dtheta = a * o.angular_step;
+      const SE2d rotated(guess.x(), guess.y(), guess.theta() + dtheta);
+      for (int iy = -l_max; iy <= l_max; ++iy) {
+        for (int ix = -l_max; ix <= l_max; ++ix) {
+          double sum = 0;
+          for (const Eigen::Vector2d& q : points) {
+            sum += grid.Probability(grid.CellOf(rotated * q) + Cell(ix, iy), o.unknown_probability);
+          }
+          const double mean = sum * (1.0 / static_cast<double>(points.size()));
+          const double penalty = o.translation_delta_cost_weight * 0.05 * std::hypot(ix, iy) +
+                                 o.rotation_delta_cost_weight * std::abs(dtheta);
+          const double score = mean * std::exp(-penalty * penalty);
+          ++candidates;
+          if (score > best) {
+            best = score;
+            best_pose = SE2d(guess.x() + ix * 0.05, guess.y() + iy * 0.05, guess.theta() + dtheta);
+          }
+        }
+      }
+    }
+    EXPECT_EQ(m.candidates, candidates);
+    EXPECT_EQ(m.score, best);
+    EXPECT_EQ(m.pose.x(), best_pose.x());
+    EXPECT_EQ(m.pose.y(), best_pose.y());
+    EXPECT_EQ(m.pose.theta(), best_pose.theta());
+  }
+}
+
 // The default options, or those the environment sets: knobs for the comparisons in RESULTS
 // (docs/lidar_mapping.md lists them).
 LocalSlamOptions OptionsFromEnvironment() {

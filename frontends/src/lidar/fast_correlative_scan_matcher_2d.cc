@@ -32,9 +32,11 @@ bool FastMatcherOptions::IsValid(std::string* why) const {
 PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth) {
   if (depth < 1 || depth > 16) throw InvalidArgument("PrecomputationGrids: depth must lie in [1, 16]");
   const int margin = (1 << (depth - 1)) - 1;
-  if (grid.size().x() > 0) {
-    min_cell_ = grid.min_cell() - Cell(margin, margin);
-    size_ = grid.size() + Cell(margin, margin);
+  Cell lo, hi;
+  if (grid.KnownBounds(&lo, &hi)) {
+    // Outside the known cells every level reads unknown, in the box or not.
+    min_cell_ = lo - Cell(margin, margin);
+    size_ = hi - lo + 1 + Cell(margin, margin);
   }
   const std::size_t n = static_cast<std::size_t>(size_.x()) * static_cast<std::size_t>(size_.y());
   levels_.assign(static_cast<std::size_t>(depth), std::vector<std::uint16_t>(n, ProbabilityGrid::kUnknownValue));
@@ -257,8 +259,8 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
   const auto score = [&](int h, Node* nodes, int count) {
     float sums[PrecomputationGrids::kMaxOffsets] = {};
     for (int j = 0; j < count; ++j) offsets[j] = Cell(nodes[j].dx, nodes[j].dy);
-    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count, probability_,
-                            sums);
+    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count,
+                            probability_, sums);
     for (int j = 0; j < count; ++j) nodes[j].score = sums[j] / n;
     m.nodes += count;
   };
@@ -280,7 +282,8 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
       for (int dy = -s.w; dy <= s.w; dy += width) roots.push_back(Node{k, dx, dy, 0});
     }
     for (std::size_t j = first; j < roots.size(); j += PrecomputationGrids::kMaxOffsets) {
-      score(top, &roots[j], static_cast<int>(std::min<std::size_t>(PrecomputationGrids::kMaxOffsets, roots.size() - j)));
+      score(top, &roots[j],
+            static_cast<int>(std::min<std::size_t>(PrecomputationGrids::kMaxOffsets, roots.size() - j)));
     }
   }
   std::stable_sort(roots.begin(), roots.end(), by_score);

@@ -186,7 +186,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
       SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
       if (node.finished || !submap->finished()) continue;
       node.finished = true;
-      node.matcher = std::make_unique<FastCorrelativeScanMatcher2D>(*submap->grid(), options_.search);
+      node.matcher = std::make_unique<LazyMatcher>();
       const std::vector<double> d = GraphDistances({j});
       for (int k = 0; k < i; k += options_.search_every_n_scans) {
         double distance = std::numeric_limits<double>::infinity();
@@ -276,9 +276,12 @@ void PoseGraph2D::RunSearch(Search* s) const {
   // A search that throws (a degenerate scan) finds nothing; on a worker thread an exception
   // would end the program.
   try {
+    std::call_once(s->matcher->once, [&] {
+      s->matcher->matcher = std::make_unique<FastCorrelativeScanMatcher2D>(*s->grid, options_.search);
+    });
     const FastMatch m =
-        s->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score, options_.rival_distance,
-                                 options_.rival_angle, options_.rival_ratio, s->window);
+        s->matcher->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score, options_.rival_distance,
+                                          options_.rival_angle, options_.rival_ratio, s->window);
     if (m.found && m.on_edge) {
       s->on_edge = true;
     } else if (m.found && m.ambiguous) {

@@ -96,6 +96,10 @@ class ProbabilityGrid {
   bool ApplyUpdate(const Cell& c, const std::vector<std::uint16_t>& table);
   /// Clears the marks of the cells updated since the last FinishUpdate.
   void FinishUpdate();
+  /// Crops the stored box to the known cells (what KnownBounds gives), freeing the rest: every
+  /// cell reads as before. The box grows by doubling, so a grid whose rays reach far can store
+  /// several times the cells it knows. Throws Error while updates are pending.
+  void ShrinkToKnown();
   /// Number of cells updated since the last FinishUpdate.
   std::size_t pending_updates() const { return updated_.size(); }
 

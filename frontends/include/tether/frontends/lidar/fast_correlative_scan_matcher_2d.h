@@ -60,7 +60,7 @@ class PrecomputationGrids {
                   int count, const std::vector<float>& table, float* sums) const;
 
  private:
-  // Every level covers the same box (the top level's: the grid's stored box widened by
+  // Every level covers the same box (the top level's: the grid's known cells widened by
   // 2^(depth - 1) - 1 cells below), row-major.
   ProbabilityGrid::Cell min_cell_ = ProbabilityGrid::Cell::Zero();
   ProbabilityGrid::Cell size_ = ProbabilityGrid::Cell::Zero();

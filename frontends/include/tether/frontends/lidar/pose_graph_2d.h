@@ -194,16 +194,22 @@ class PoseGraph2D {
     std::vector<Eigen::Vector2d> search_points;  ///< points through search_voxel_size (empty: points)
     std::vector<int> submaps;
   };
+  // A finished submap's matcher, built by the first search that needs it (on a search
+  // thread, where there are any: the precomputation grids take a while on a large submap).
+  struct LazyMatcher {
+    std::once_flag once;
+    std::unique_ptr<FastCorrelativeScanMatcher2D> matcher;
+  };
   struct SubmapNode {
     std::shared_ptr<const Submap2D> submap;
-    std::unique_ptr<FastCorrelativeScanMatcher2D> matcher;  // made when finished
+    std::unique_ptr<LazyMatcher> matcher;  // made when finished
     bool finished = false;
   };
   struct Search {
     int scan = 0, submap = 0;
     SE2d guess;  // the scan in the submap's grid frame
     // What the search reads (stable while it runs: finished submaps, scans in a deque).
-    const FastCorrelativeScanMatcher2D* matcher = nullptr;
+    LazyMatcher* matcher = nullptr;
     std::shared_ptr<const ProbabilityGrid> grid;
     SE2d submap_local;
     const std::vector<Eigen::Vector2d>* points = nullptr;

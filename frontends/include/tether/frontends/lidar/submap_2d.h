@@ -46,7 +46,10 @@ class Submap2D {
   void InsertScan(const ProbabilityGridInserter& inserter, const Eigen::Vector2d& origin,
                   const std::vector<Eigen::Vector2d>& points, InsertedCells* cells = nullptr);
   /// Freezes the submap.
-  void Finish() { finished_ = true; }
+  void Finish() {
+    finished_ = true;
+    grid_->ShrinkToKnown();
+  }
 
  private:
   SE2d local_pose_;
