@@ -245,6 +245,8 @@ int main(int argc, char** argv) {
   lidar_option("--scans-per-submap", lsc.scans_per_submap, "Scans in a finished submap");
   lidar_option("--resolution", lsc.resolution, "Grid resolution [m]");
   lidar_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan");
+  lidar_option("--update-every", lsc.update_every,
+               "Scans per smoother update (in between, new scans follow local SLAM from the last estimate)");
   lidar_option("--min-score", lsc.min_score, "Branch and bound's score threshold");
   lidar_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]");
   lidar_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]");

@@ -51,6 +51,7 @@ void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->max_search_window = cmd.max_search_window;
   po->search_voxel_size = cmd.search_voxel_size;
   po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
+  po->update_every_n_scans = cmd.update_every;
 }
 
 void SetLocalMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {
@@ -252,8 +253,9 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
       << " ms per search, " << Fixed(st.found > 0 ? 1e3 * st.search_seconds / static_cast<double>(st.found) : 0, 2)
       << " ms per constraint found (" << cmd.threads << " search threads; waited " << Fixed(st.wait_seconds, 2)
       << " s)\n"
-      << "  optimisation " << Fixed(st.optimize_seconds, 2) << " s, pose graph in all " << Fixed(graph_seconds, 2)
-      << " s, map " << Fixed(map_seconds, 2) << " s\n"
+      << "  optimisation " << Fixed(st.optimize_seconds, 2) << " s (" << st.updates
+      << " smoother updates; the final solve " << Fixed(st.finish_seconds, 2) << " s), pose graph in all "
+      << Fixed(graph_seconds, 2) << " s, map " << Fixed(map_seconds, 2) << " s\n"
       << "wrote " << cmd.output_dir
       << "/{trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm, map.yaml, map.png, loop_closures.txt}\n";
   return 0;

@@ -68,8 +68,8 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(search_voxel_size) && search_voxel_size >= 0)) {
     return fail("search_voxel_size must be finite and not negative");
   }
-  if (search_every_n_scans < 1 || apply_every_n_scans < 1) {
-    return fail("search_every_n_scans and apply_every_n_scans must be at least 1");
+  if (search_every_n_scans < 1 || apply_every_n_scans < 1 || update_every_n_scans < 1) {
+    return fail("search_every_n_scans, apply_every_n_scans and update_every_n_scans must be at least 1");
   }
   if (threads < 0) return fail("threads must not be negative");
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
@@ -96,8 +96,21 @@ PoseGraph2D::~PoseGraph2D() {
   for (std::thread& t : workers_) t.join();
 }
 
-SE2d PoseGraph2D::ScanPose(int i) const { return smoother_.Estimate().At<SE2d>(ScanKey(i)); }
-SE2d PoseGraph2D::SubmapPose(int j) const { return smoother_.Estimate().At<SE2d>(SubmapKey(j)); }
+SE2d PoseGraph2D::Pose(Key k) const {
+  return pending_values_.Has(k) ? pending_values_.At<SE2d>(k) : smoother_.Estimate().At<SE2d>(k);
+}
+SE2d PoseGraph2D::ScanPose(int i) const { return Pose(ScanKey(i)); }
+SE2d PoseGraph2D::SubmapPose(int j) const { return Pose(SubmapKey(j)); }
+
+void PoseGraph2D::Flush() {
+  if (pending_graph_.empty() && pending_values_.size() == 0) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  smoother_.Update(std::move(pending_graph_), std::move(pending_values_));
+  stats_.optimize_seconds += SecondsSince(t0);
+  ++stats_.updates;
+  pending_graph_ = FactorGraph();
+  pending_values_ = Values();
+}
 
 SE2d PoseGraph2D::GlobalFromLocal() const {
   if (scans_.empty()) return SE2d();
@@ -116,8 +129,8 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   }
   const int i = scan_count();
   const SE2d global_from_local = GlobalFromLocal();
-  FactorGraph g;
-  Values v;
+  FactorGraph& g = pending_graph_;
+  Values& v = pending_values_;
   for (const auto& [j, submap] : inserted_into) {
     if (j == submap_count()) {
       submaps_.push_back(SubmapNode{});
@@ -166,9 +179,9 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
     if (consecutive) local_loss(f);
   }
   scans_.push_back(std::move(scan));
-  const auto t0 = std::chrono::steady_clock::now();
-  smoother_.Update(std::move(g), std::move(v));
-  stats_.optimize_seconds += SecondsSince(t0);
+  // The searches started before this scan are applied with its update: one update for both.
+  const bool closures = i > 0 && i % options_.apply_every_n_scans == 0 && ApplyFinishedSearches();
+  if (closures || i % options_.update_every_n_scans == 0) Flush();
 
   if (options_.loop_closure) {
     // Scan k against submap j, with the window for their graph distance (a scan in no submap,
@@ -202,7 +215,6 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
       }
     }
   }
-  if ((i + 1) % options_.apply_every_n_scans == 0) ApplyFinishedSearches();
 }
 
 void PoseGraph2D::Link(int a, int b) {
@@ -321,7 +333,7 @@ void PoseGraph2D::Worker() {
 
 // Waits for every search started so far and applies them all, in the order they were started
 // (never a part: that would depend on the threads' timing).
-void PoseGraph2D::ApplyFinishedSearches() {
+bool PoseGraph2D::ApplyFinishedSearches() {
   const auto t0 = std::chrono::steady_clock::now();
   std::deque<std::unique_ptr<Search>> done;
   {
@@ -332,7 +344,8 @@ void PoseGraph2D::ApplyFinishedSearches() {
     done.swap(searches_);
   }
   stats_.wait_seconds += SecondsSince(t0);
-  FactorGraph g;
+  FactorGraph& g = pending_graph_;
+  bool added = false;
   for (const std::unique_ptr<Search>& s : done) {
     ++stats_.searches;
     stats_.search_seconds += s->seconds;
@@ -347,12 +360,9 @@ void PoseGraph2D::ApplyFinishedSearches() {
                                       Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
     f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
     f.set_loop_closure(true);
+    added = true;
   }
-  if (g.size() > 0) {
-    const auto t1 = std::chrono::steady_clock::now();
-    smoother_.Update(std::move(g));
-    stats_.optimize_seconds += SecondsSince(t1);
-  }
+  return added;
 }
 
 void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
@@ -360,14 +370,17 @@ void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
   const auto id = [n](Key k) -> Key {
     return SymbolLetter(k) == 's' ? SymbolIndex(k) : static_cast<Key>(n) + SymbolIndex(k);
   };
-  const Values& estimate = smoother_.Estimate();
   for (int i = 0; i < n; ++i) values->Insert(static_cast<Key>(i), ScanPose(i));
   for (int j = 0; j < submap_count(); ++j) {
-    if (estimate.Has(SubmapKey(j))) values->Insert(static_cast<Key>(n + j), SubmapPose(j));
+    const Key k = SubmapKey(j);
+    if (smoother_.Estimate().Has(k) || pending_values_.Has(k)) values->Insert(static_cast<Key>(n + j), Pose(k));
   }
-  const FactorGraph& g = smoother_.graph();
-  for (std::size_t f = 0; f < g.size(); ++f) {
-    const Factor& factor = g.at(f);
+  std::vector<const Factor*> factors;
+  for (const FactorGraph* g : {&smoother_.graph(), &pending_graph_}) {
+    for (std::size_t f = 0; f < g->size(); ++f) factors.push_back(&g->at(f));
+  }
+  for (const Factor* f : factors) {
+    const Factor& factor = *f;
     if (const auto* b = dynamic_cast<const BetweenSE2*>(&factor)) {
       BetweenSE2& c = graph->Add<BetweenSE2>(id(b->keys()[0]), id(b->keys()[1]), b->measured(), b->noise());
       c.set_loss(b->shared_loss());
@@ -381,9 +394,11 @@ void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
 
 void PoseGraph2D::Finish() {
   ApplyFinishedSearches();
+  Flush();
   const auto t0 = std::chrono::steady_clock::now();
   smoother_.Finish();
-  stats_.optimize_seconds += SecondsSince(t0);
+  stats_.finish_seconds = SecondsSince(t0);
+  stats_.optimize_seconds += stats_.finish_seconds;
 }
 
 }  // namespace lidar

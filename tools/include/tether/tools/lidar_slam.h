@@ -26,6 +26,7 @@ struct LidarCommand {
   int scans_per_submap = 90;
   double resolution = 0.05;
   int search_every = 10;    ///< loop-closure search for every N-th scan
+  int update_every = 10;    ///< scans per smoother update
   double min_score = 0.55;  ///< branch and bound's score threshold
   /// The pose graph's constraints (PoseGraphOptions): sigmas of the local constraints and of
   /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
