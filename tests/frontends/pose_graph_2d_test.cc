@@ -462,6 +462,72 @@ TEST(PoseGraph2DTest, UpdatesEveryFewScansGiveTheSameQuality) {
   }
 }
 
+// The drive, with the points the graph gets for scan 200 taken 2 m east of where the robot is
+// (a glitch; the submaps get the true ones): that scan's match lands 2 m off, and no match of
+// a neighbouring scan agrees with it, so it is never added. Without confirmation it is.
+TEST(PoseGraph2DTest, AMatchNoOtherConfirmsIsNotAdded) {
+  const Trip run = Drive();
+  const std::vector<Segment> world = World();
+  const int glitch = 200;
+  const auto slam = [&](const PoseGraphOptions& po) {
+    SubmapOptions so;
+    so.scans_per_submap = 30;
+    ActiveSubmaps2D submaps(so);
+    PoseGraph2D graph(po);
+    for (std::size_t k = 0; k < run.local.size(); ++k) {
+      const SE2d& pose = run.local[k];
+      std::vector<Eigen::Vector2d> in_map;
+      for (const Eigen::Vector2d& p : run.points[k]) in_map.push_back(pose * p);
+      const InsertedSubmaps inserted = submaps.InsertScan(pose, pose.translation(), in_map);
+      const SE2d elsewhere = SE2d(2, 0, 0) * run.truth[k];
+      graph.AddScan(pose,
+                    static_cast<int>(k) == glitch ? testing::ScanPoints(world, elsewhere, 360, 15) : run.points[k],
+                    inserted);
+    }
+    graph.Finish();
+    Result out;
+    for (int i = 0; i < graph.scan_count(); ++i) out.poses.push_back(graph.ScanPose(i));
+    out.closures = graph.loop_closures();
+    out.stats = graph.stats();
+    return out;
+  };
+  // The truth's verdict on a closure (a submap's frame: the local pose of every 15th scan).
+  const auto error = [&](const LoopClosure& c) {
+    const SE2d true_relative =
+        run.truth[static_cast<std::size_t>(c.submap) * 15].Inverse() * run.truth[static_cast<std::size_t>(c.scan)];
+    return (true_relative.translation() - c.relative.translation()).norm();
+  };
+  PoseGraphOptions po = TestOptions(true, 0);
+  po.confirm_translation = 0;
+  const Result as_found = slam(po);
+  EXPECT_EQ(as_found.stats.unconfirmed, 0);
+  EXPECT_EQ(as_found.stats.found, static_cast<long>(as_found.closures.size()));
+  double glitch_error = 0;
+  for (const LoopClosure& c : as_found.closures) {
+    if (c.scan == glitch) glitch_error = std::max(glitch_error, error(c));
+  }
+  EXPECT_GT(glitch_error, 1.0);
+  const Result confirmed = slam(TestOptions(true, 0));
+  EXPECT_GT(confirmed.stats.unconfirmed, 0);
+  EXPECT_EQ(confirmed.stats.found - confirmed.stats.unconfirmed, static_cast<long>(confirmed.closures.size()));
+  EXPECT_GT(confirmed.closures.size(), 5u);
+  for (const LoopClosure& c : confirmed.closures) {
+    EXPECT_NE(c.scan, glitch);
+    EXPECT_LT(error(c), 0.3) << c.scan << " in " << c.submap;
+    // Every closure added has a partner that agrees with it by the rule.
+    bool partner = false;
+    for (const LoopClosure& d : confirmed.closures) {
+      if (d.submap != c.submap || d.scan == c.scan || std::abs(d.scan - c.scan) > 200) continue;
+      const SE2d local =
+          run.local[static_cast<std::size_t>(c.scan)].Inverse() * run.local[static_cast<std::size_t>(d.scan)];
+      const SE2d e = local.Inverse() * (c.relative.Inverse() * d.relative);
+      partner = partner ||
+                (local.translation().norm() >= 0.1 && e.translation().norm() < 0.2 && std::abs(e.theta()) < 0.0175);
+    }
+    EXPECT_TRUE(partner) << c.scan << " in " << c.submap;
+  }
+}
+
 TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   PoseGraphOptions o;
   std::string why;
@@ -494,6 +560,18 @@ TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("local_huber_delta"), std::string::npos) << why;
   o.local_huber_delta = 0;  // quadratic ties
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o = PoseGraphOptions();
+  o.confirm_rotation = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("confirm_rotation"), std::string::npos) << why;
+  o = PoseGraphOptions();
+  o.confirm_max_scans = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  o = PoseGraphOptions();
+  o.confirm_translation = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  o.confirm_translation = 0;  // every match added
   EXPECT_TRUE(o.IsValid(&why)) << why;
   o = PoseGraphOptions();
   o.update_every_n_scans = 0;

@@ -238,7 +238,7 @@ int RunLidar(const LidarCommand& cmd, std::ostream& out, std::ostream& err) {
   const lidar::PoseGraphStats& st = graph.stats();
   out << "scans " << n << ", submaps " << graph.submap_count() << ", loop closures " << graph.loop_closures().size()
       << " of " << st.searches << " searches (" << st.ambiguous << " ambiguous, " << st.on_edge
-      << " on the window's edge dropped); precision "
+      << " on the window's edge dropped, " << st.unconfirmed << " unconfirmed by a second match); precision "
       << (graph.loop_closures().empty()
               ? std::string("-")
               : Fixed(100.0 * static_cast<double>(kept) / static_cast<double>(graph.loop_closures().size()), 2) + "%")

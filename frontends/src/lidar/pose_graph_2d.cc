@@ -68,6 +68,13 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(search_voxel_size) && search_voxel_size >= 0)) {
     return fail("search_voxel_size must be finite and not negative");
   }
+  if (!(std::isfinite(confirm_translation) && confirm_translation >= 0 && PositiveFinite(confirm_rotation) &&
+        std::isfinite(confirm_min_translation) && confirm_min_translation >= 0 && std::isfinite(confirm_min_rotation) &&
+        confirm_min_rotation >= 0 && confirm_max_scans >= 1)) {
+    return fail(
+        "confirm_translation and confirm_min_* must be finite and not negative, confirm_rotation positive and "
+        "finite, confirm_max_scans at least 1");
+  }
   if (search_every_n_scans < 1 || apply_every_n_scans < 1 || update_every_n_scans < 1) {
     return fail("search_every_n_scans, apply_every_n_scans and update_every_n_scans must be at least 1");
   }
@@ -344,7 +351,6 @@ bool PoseGraph2D::ApplyFinishedSearches() {
     done.swap(searches_);
   }
   stats_.wait_seconds += SecondsSince(t0);
-  FactorGraph& g = pending_graph_;
   bool added = false;
   for (const std::unique_ptr<Search>& s : done) {
     ++stats_.searches;
@@ -354,15 +360,53 @@ bool PoseGraph2D::ApplyFinishedSearches() {
     if (!s->found) continue;
     ++stats_.found;
     stats_.found_seconds += s->seconds;
-    closures_.push_back(s->result);
-    for (int m : scans_[static_cast<std::size_t>(s->scan)].submaps) Link(m, s->submap);
-    BetweenSE2& f = g.Add<BetweenSE2>(SubmapKey(s->submap), ScanKey(s->scan), s->result.relative,
-                                      Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
-    f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
-    f.set_loop_closure(true);
-    added = true;
+    const int c = static_cast<int>(candidates_.size());
+    candidates_.push_back(Candidate{s->result, false});
+    std::vector<int>& same_submap = candidates_of_submap_[s->result.submap];
+    if (!(options_.confirm_translation > 0)) {
+      AddClosure(c);
+    } else {
+      // Confirmed by an earlier candidate that agrees with it: both are added.
+      for (int other : same_submap) {
+        if (!Agree(candidates_[static_cast<std::size_t>(c)].closure,
+                   candidates_[static_cast<std::size_t>(other)].closure)) {
+          continue;
+        }
+        if (!candidates_[static_cast<std::size_t>(c)].added) AddClosure(c);
+        if (!candidates_[static_cast<std::size_t>(other)].added) AddClosure(other);
+      }
+    }
+    same_submap.push_back(c);
+    added = added || candidates_[static_cast<std::size_t>(c)].added;
   }
+  stats_.unconfirmed = stats_.found - static_cast<long>(closures_.size());
   return added;
+}
+
+bool PoseGraph2D::Agree(const LoopClosure& a, const LoopClosure& b) const {
+  if (a.submap != b.submap || a.scan == b.scan || std::abs(a.scan - b.scan) > options_.confirm_max_scans) return false;
+  // Local SLAM's relative pose between the two scans, and the one the two closures imply.
+  const SE2d local = scans_[static_cast<std::size_t>(a.scan)].local_pose.Inverse() *
+                     scans_[static_cast<std::size_t>(b.scan)].local_pose;
+  if (local.translation().norm() < options_.confirm_min_translation &&
+      std::abs(local.theta()) < options_.confirm_min_rotation) {
+    return false;  // the same view again is no second opinion
+  }
+  const SE2d error = local.Inverse() * (a.relative.Inverse() * b.relative);
+  return error.translation().norm() < options_.confirm_translation &&
+         std::abs(error.theta()) < options_.confirm_rotation;
+}
+
+void PoseGraph2D::AddClosure(int candidate) {
+  Candidate& c = candidates_[static_cast<std::size_t>(candidate)];
+  c.added = true;
+  const LoopClosure& l = c.closure;
+  closures_.push_back(l);
+  for (int m : scans_[static_cast<std::size_t>(l.scan)].submaps) Link(m, l.submap);
+  BetweenSE2& f = pending_graph_.Add<BetweenSE2>(SubmapKey(l.submap), ScanKey(l.scan), l.relative,
+                                                 Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
+  f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
+  f.set_loop_closure(true);
 }
 
 void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {

@@ -26,6 +26,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include "tether/core/key.h"
@@ -133,6 +134,19 @@ struct PoseGraphOptions {
   /// the consecutive ties 0.25 tears aces.
   double local_huber_delta = 0.25;
   int apply_every_n_scans = 30;
+  /// A match becomes a loop closure only once a second one confirms it: a match of another
+  /// scan to the same submap, at most confirm_max_scans scans away, that local SLAM moved at
+  /// least confirm_min_translation (m) or turned confirm_min_rotation (rad) from it (the same
+  /// view again is no second opinion), such that the relative pose of the two scans the two
+  /// matches imply lies within confirm_translation (m) and confirm_rotation (rad) of local
+  /// SLAM's. Both are added then; a match no other confirms is never added. A false match in
+  /// a building of look-alike rooms and corridors seldom has a partner that agrees with it.
+  /// confirm_translation 0: every match is added as found.
+  double confirm_translation = 0.2;
+  double confirm_rotation = 0.0175;
+  int confirm_max_scans = 200;
+  double confirm_min_translation = 0.1;
+  double confirm_min_rotation = 0.05;
   /// The scans' nodes and ties reach the smoother together, every update_every_n_scans scans
   /// (at the scans whose index it divides, before their searches start), and with the loop
   /// closures applied at that scan; in between, a new scan's estimate is the last one's
@@ -156,9 +170,10 @@ struct LoopClosure {
 
 struct PoseGraphStats {
   long searches = 0;
-  long found = 0;               ///< searches above min_score (the loop closures added)
+  long found = 0;               ///< searches above min_score, neither ambiguous nor on the edge
   long ambiguous = 0;           ///< searches above min_score dropped as ambiguous (rival_ratio)
   long on_edge = 0;             ///< searches above min_score dropped: the best on the window's edge
+  long unconfirmed = 0;         ///< found matches no other has confirmed (not added, so far)
   double search_seconds = 0;    ///< summed over the searches (all threads)
   double found_seconds = 0;     ///< summed over the searches that found one
   double optimize_seconds = 0;  ///< the smoother's updates and Finish
@@ -231,6 +246,15 @@ class PoseGraph2D {
     double seconds = 0;
   };
 
+  // A match found, and whether it was added as a loop closure (confirmed).
+  struct Candidate {
+    LoopClosure closure;
+    bool added = false;
+  };
+  /// Whether two matches to the same submap confirm each other (confirm_* options).
+  bool Agree(const LoopClosure& a, const LoopClosure& b) const;
+  /// Adds candidate c as a loop closure (to the factors waiting for the next update).
+  void AddClosure(int c);
   /// A node's estimate: the smoother's, or its initial value while it waits for an update.
   SE2d Pose(Key k) const;
   /// Hands the waiting nodes and factors to the smoother.
@@ -255,6 +279,8 @@ class PoseGraph2D {
   std::deque<ScanNode> scans_;  // a deque: searches hold pointers to the points
   std::deque<SubmapNode> submaps_;
   std::vector<LoopClosure> closures_;
+  std::vector<Candidate> candidates_;  // every match found, in search order
+  std::unordered_map<int, std::vector<int>> candidates_of_submap_;
   std::vector<int> active_;              ///< the submaps the last scan given any went into
   std::vector<std::vector<int>> links_;  ///< per submap: submaps sharing a scan or a loop closure
   PoseGraphStats stats_;
