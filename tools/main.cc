@@ -261,6 +261,10 @@ int main(int argc, char** argv) {
   lidar_option("--rival-ratio", lsc.rival_ratio,
                "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
                "score (0: keep them)");
+  lidar_option("--confirm-t", lsc.confirm_translation,
+               "A match becomes a loop closure once a match of another scan to the same submap agrees with it "
+               "through local SLAM's relative pose within this [m] and --confirm-r (0: every match is added)");
+  lidar_option("--confirm-r", lsc.confirm_rotation, "See --confirm-t [rad]");
   lidar_option("--max-search-distance", lsc.max_search_distance,
                "Search a scan against the finished submaps whose origin lies this near it [m]");
   lidar_option("--search-voxel", lsc.search_voxel_size,

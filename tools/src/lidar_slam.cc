@@ -52,6 +52,8 @@ void SetPoseGraph(const LidarCommand& cmd, lidar::PoseGraphOptions* po) {
   po->search_voxel_size = cmd.search_voxel_size;
   po->search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
   po->update_every_n_scans = cmd.update_every;
+  po->confirm_translation = cmd.confirm_translation;
+  po->confirm_rotation = cmd.confirm_rotation;
 }
 
 void SetLocalMatching(const LidarCommand& cmd, lidar::LocalSlamOptions* lo) {

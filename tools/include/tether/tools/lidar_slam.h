@@ -35,8 +35,9 @@ struct LidarCommand {
   double local_huber_delta = 0.25;
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
-  double rival_ratio = 0.9;        ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
-  double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
+  double rival_ratio = 0.9;  ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
+  double confirm_translation = 0.2, confirm_rotation = 0.0175;  ///< PoseGraphOptions::confirm_* (0 m: off)
+  double max_search_distance = 8;                               ///< PoseGraphOptions::max_search_distance (m)
   /// Branch and bound's window (PoseGraphOptions::search): half its side (m) and half its
   /// rotations (degrees).
   double search_voxel_size = lidar::PoseGraphOptions{}.search_voxel_size;  ///< m
