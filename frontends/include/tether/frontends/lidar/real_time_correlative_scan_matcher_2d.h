@@ -31,8 +31,12 @@ struct CorrelativeMatcherOptions {
   /// and dtheta in rad from the guess (0: no preference for the guess). w_r 1 (a 10 degree
   /// turn costs 3% of the score) against 0.1 (0.03%): relations error with loop closures on
   /// Intel 0.041 m against 0.044, aces 0.127 against 0.173, fr079 0.26 against 0.97
-  /// (benchmarks/RESULTS.md, "LiDAR V").
-  double translation_delta_cost_weight = 0.1;
+  /// (benchmarks/RESULTS.md, "LiDAR V"). w_t 2 (a candidate 5 cm off costs 1% of the score)
+  /// against 0.1: in a corridor whose walls match anywhere along it, the candidates where the
+  /// submap's own scans were taken score a little higher, and with no preference the matches
+  /// stalled there while the robot drove on (aces at 63-86 s: 0.25 m a relation lost); aces
+  /// 0.0503 -> 0.0368 m, Intel 0.0190 -> 0.0158 m (RESULTS.md, "LiDAR IX").
+  double translation_delta_cost_weight = 2;
   double rotation_delta_cost_weight = 1.0;
   /// What an unknown cell scores: 0.5, as in the scan-match factor (ScanMatchWeights).
   double unknown_probability = 0.5;
