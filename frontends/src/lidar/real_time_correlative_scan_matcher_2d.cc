@@ -74,7 +74,8 @@ CorrelativeMatch MatchCorrelative(const ProbabilityGrid& grid, const SE2d& guess
         }
       } else {
         for (int iy = 0; iy < side; ++iy, sum += side) {
-          for (int ix = 0; ix < side; ++ix) sum[ix] += probability(grid.Value(c - reach + ProbabilityGrid::Cell(ix, iy)));
+          for (int ix = 0; ix < side; ++ix)
+            sum[ix] += probability(grid.Value(c - reach + ProbabilityGrid::Cell(ix, iy)));
         }
       }
     }
