@@ -12,6 +12,10 @@
 //   and every earlier such scan against a submap when it is finished. The window (and the
 //   search distance) widens with the graph distance between the scan and the submap
 //   (search_window_growth): a place reached again only after a long loop is searched wider.
+//   A match is added once a second match of another scan to the same submap agrees with it
+//   (confirm_*).
+// - The smoother gets the new nodes and factors every update_every_n_scans scans; in between,
+//   ScanPose gives a new scan's estimate as the last one's composed with local SLAM's motion.
 // - Searches run on `threads` background threads. Their results are applied in the order the
 //   searches were started, at fixed scan counts (every apply_every_n_scans scans, waiting for
 //   every search started before that scan, and in that scan's smoother update) and at
