@@ -25,9 +25,9 @@ struct LidarCommand {
   long max_scans = 0;  ///< 0: every scan
   int scans_per_submap = 90;
   double resolution = 0.05;
-  int search_every = 10;    ///< loop-closure search for every N-th scan
-  int update_every = 10;    ///< scans per smoother update
-  double min_score = 0.55;  ///< branch and bound's score threshold
+  int search_every = 10;                                              ///< loop-closure search for every N-th scan
+  int update_every = lidar::PoseGraphOptions{}.update_every_n_scans;  ///< scans per smoother update
+  double min_score = 0.55;                                            ///< branch and bound's score threshold
   /// The pose graph's constraints (PoseGraphOptions): sigmas of the local constraints and of
   /// the loop closures (translation m, rotation rad), and the loop closures' Huber delta.
   double local_translation_sigma = 0.1, local_rotation_sigma = 0.04;
@@ -36,8 +36,10 @@ struct LidarCommand {
   double loop_translation_sigma = 0.05, loop_rotation_sigma = 0.02;
   double huber_delta = 1;
   double rival_ratio = 0.9;  ///< PoseGraphOptions::rival_ratio (0: keep ambiguous matches)
-  double confirm_translation = 0.2, confirm_rotation = 0.0175;  ///< PoseGraphOptions::confirm_* (0 m: off)
-  double max_search_distance = 8;                               ///< PoseGraphOptions::max_search_distance (m)
+  /// PoseGraphOptions::confirm_* (0 m: off)
+  double confirm_translation = lidar::PoseGraphOptions{}.confirm_translation;
+  double confirm_rotation = lidar::PoseGraphOptions{}.confirm_rotation;
+  double max_search_distance = 8;  ///< PoseGraphOptions::max_search_distance (m)
   /// Branch and bound's window (PoseGraphOptions::search): half its side (m) and half its
   /// rotations (degrees).
   double search_voxel_size = lidar::PoseGraphOptions{}.search_voxel_size;  ///< m
