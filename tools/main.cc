@@ -191,6 +191,45 @@ int main(int argc, char** argv) {
                    "Back-substitute below a variable only where its step changed by more than this "
                    "(SmootherOptions::wildfire_threshold)")
       ->capture_default_str();
+  const std::map<std::string, tether::SmootherMode> modes = {{"factor", tether::SmootherMode::kFactor},
+                                                             {"local", tether::SmootherMode::kLocal}};
+  replay
+      ->add_option("--mode", rc.options.smoother.mode,
+                   "factor (keep a Cholesky factor of the whole system) or local (solve each update over a region "
+                   "around it, with batch solves now and then) (SmootherOptions::mode)")
+      ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case))
+      ->capture_default_str();
+  replay
+      ->add_option("--local-tolerance", rc.options.smoother.local_tolerance,
+                   "local: grow the region while an edge variable alone could lower chi2 by more than this "
+                   "(SmootherOptions::local_tolerance)")
+      ->capture_default_str();
+  replay
+      ->add_option("--local-hops", rc.options.smoother.local_hops,
+                   "local: the first region reaches this many factors from the update's variables "
+                   "(SmootherOptions::local_hops)")
+      ->capture_default_str();
+  replay
+      ->add_option("--local-max-region", rc.options.smoother.local_max_region,
+                   "local: solve in batch where a region would grow beyond this many variables "
+                   "(SmootherOptions::local_max_region)")
+      ->capture_default_str();
+  replay
+      ->add_option("--local-batch-gap", rc.options.smoother.local_batch_gap,
+                   "local: a batch solve once the edge gains since the last reach this share of chi2 "
+                   "(SmootherOptions::local_batch_gap)")
+      ->capture_default_str();
+  replay
+      ->add_option("--local-batch-correction", rc.options.smoother.local_batch_correction,
+                   "local: solve in batch an update whose local solve lowers chi2 by more than this share of it "
+                   "(SmootherOptions::local_batch_correction)")
+      ->capture_default_str();
+  replay
+      ->add_option("--local-batch-share", rc.options.smoother.local_batch_share,
+                   "local: a batch solve at the latest once the updates since the last reach this share of the "
+                   "variables "
+                   "(SmootherOptions::local_batch_share)")
+      ->capture_default_str();
 
   tether::EkfDemoCommand ec;
   CLI::App* ekf_demo = app.add_subcommand(

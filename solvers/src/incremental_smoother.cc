@@ -12,6 +12,7 @@
 
 #include "blas_threads.h"
 #include "incremental_cholesky.h"
+#include "local_regions.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/solvers/optimizer.h"
@@ -138,6 +139,12 @@ bool SmootherOptions::IsValid(std::string* why) const {
   if (!(iterate_ratio >= 1)) return fail("iterate_ratio must be at least 1");
   if (!(iterate_fraction >= 0 && iterate_fraction <= 1)) return fail("iterate_fraction must be in [0, 1]");
   if (!(iterate_share >= 0 && iterate_share <= 1)) return fail("iterate_share must be in [0, 1]");
+  if (!(local_tolerance >= 0)) return fail("local_tolerance must be 0 or more");
+  if (local_hops < 0) return fail("local_hops must be 0 or more");
+  if (local_max_region < 1) return fail("local_max_region must be at least 1");
+  if (!(local_batch_share >= 0 && local_batch_share <= 1)) return fail("local_batch_share must be in [0, 1]");
+  if (!(local_batch_gap >= 0)) return fail("local_batch_gap must be 0 or more");
+  if (!(local_batch_correction >= 0)) return fail("local_batch_correction must be 0 or more");
   if (!update.IsValid(&reason)) return fail("update: " + reason);
   if (!finish.IsValid(&reason)) return fail("finish: " + reason);
   if (!covariance.IsValid(&reason)) return fail("covariance: " + reason);
@@ -150,6 +157,10 @@ bool SmootherOptions::IsValid(std::string* why) const {
 // step has grown beyond the threshold.
 struct IncrementalSmoother::State {
   internal::IncrementalCholesky engine;
+  internal::LocalRegions local;  // SmootherMode::kLocal: the factors of every variable
+  int since_batch = 0;           // kLocal: updates since the last batch solve,
+  double gain_since_batch = 0;   // the edge gains the local solves left since then,
+  double chi2_at_batch = 0;      // and chi2 at its end
   std::unordered_map<Key, int> index_of;
   std::vector<Key> key_of;
   std::vector<VarType> type_of;
@@ -437,6 +448,12 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
       u.chi2_before -= graph_.at(index).Chi2(estimate_);
     }
   }
+  if (options_.mode == SmootherMode::kLocal) {
+    UpdateLocal(std::move(new_factors), std::move(new_values), factors_to_remove, &u);
+    if (!options_.compute_chi2) u.chi2_before = u.chi2_after = std::nan("");
+    u.seconds = SecondsSince(t0);
+    return u;
+  }
   std::vector<Key> touched;  // variables of the removed factors
   for (FactorId id : factors_to_remove) {
     std::size_t index = 0;
@@ -573,6 +590,101 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   return u;
 }
 
+void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values,
+                                      const std::vector<FactorId>& factors_to_remove, SmootherUpdate* u) {
+  State& st = *state_;
+  std::vector<Key> seeds;  // the variables of the removed and the new factors, and the new ones
+  for (FactorId id : factors_to_remove) {
+    std::size_t index = 0;
+    graph_.IndexOf(id, &index);
+    const Factor& f = graph_.at(index);
+    st.local.Remove(id, &f);
+    for (Key k : f.keys()) {
+      st.Unuse(k, f.keys().size() == 1);
+      seeds.push_back(k);
+    }
+    graph_.Remove(id);
+    ++u->factors_removed;
+  }
+  for (Key k : new_values.keys()) {
+    estimate_.InsertParams(k, new_values.TypeOf(k), new_values.Params(k));
+    seeds.push_back(k);
+    ++u->variables_added;
+  }
+  std::vector<const Factor*> added;
+  for (std::size_t i = 0; i < new_factors.size(); ++i) {
+    std::unique_ptr<Factor> f = new_factors.at(i).Clone();
+    const Factor* raw = f.get();
+    for (Key k : raw->keys()) {
+      st.Use(k, raw->keys().size() == 1, estimate_.TypeOf(k));
+      seeds.push_back(k);
+    }
+    const FactorId id = graph_.Add(std::move(f));
+    st.local.Add(id, raw);
+    added.push_back(raw);
+    u->new_factor_ids.push_back(id);
+    ++u->factors_added;
+  }
+  for (Key k : new_factors.fixed()) graph_.Fix(k);
+  std::sort(seeds.begin(), seeds.end());
+  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
+  for (Key k : seeds) {
+    auto it = st.uses.find(k);
+    if (it != st.uses.end() && it->second == 0) {
+      st.uses.erase(it);
+      graph_.Unfix(k);
+      if (estimate_.Erase(k)) ++u->variables_removed;
+    }
+  }
+  const std::set<Key> held = st.Held(graph_);
+  if (options_.refine_new_values && !new_values.empty()) RefineNewValues(added, new_values.keys(), held, &estimate_);
+  if (graph_.empty()) {
+    u->chi2_after = 0;
+    return;
+  }
+  u->solved = true;
+  ++st.since_batch;
+  bool batch = st.since_batch >= std::max(1.0, options_.local_batch_share * static_cast<double>(estimate_.size())) ||
+               held != st.constants;
+  st.constants = held;
+  if (!batch) {
+    internal::LocalRegionOptions lo;
+    lo.tolerance = options_.local_tolerance;
+    lo.hops = options_.local_hops;
+    lo.max_region = options_.local_max_region;
+    const auto t_solve = std::chrono::steady_clock::now();
+    const internal::LocalRegions::Result r = st.local.Solve(seeds, held, lo, &estimate_);
+    u->solve_seconds += SecondsSince(t_solve);
+    u->region = r.region;
+    u->iterations = r.iterations;
+    if (!r.ok) {
+      u->fell_back = true;
+      u->message = "the local solve failed (a factor cannot be evaluated, or a step is not finite); solved in batch";
+    }
+    st.gain_since_batch += r.edge_gain;
+    // Shares of chi2 at the last batch solve, and of at least 1 (chi2 is 0 while the graph has
+    // no loop: every share of it would be a batch solve at every update).
+    const double scale = std::max(st.chi2_at_batch, 1.0);
+    batch = r.capped || !r.ok || st.gain_since_batch > options_.local_batch_gap * scale ||
+            r.gained > options_.local_batch_correction * scale;
+  }
+  if (batch) {
+    const SolverSummary s = Optimize(graph_, &estimate_, options_.update);
+    u->batch = true;
+    u->region = 0;
+    u->iterations = s.iterations;
+    u->status = s.status;
+    if (u->message.empty() && s.status != SolverStatus::kConverged) u->message = s.message;
+    u->chi2_after = s.final_chi2;
+    st.since_batch = 0;
+    st.gain_since_batch = 0;
+    st.chi2_at_batch = s.final_chi2;
+  } else {
+    u->status = SolverStatus::kConverged;
+    u->chi2_after = options_.compute_chi2 ? graph_.Chi2(estimate_) : std::nan("");
+  }
+}
+
 Eigen::MatrixXd IncrementalSmoother::Marginal(Key key) const {
   if (!marginals_) marginals_ = std::make_unique<Marginals>(graph_, estimate_, options_.covariance);
   return marginals_->Marginal(key);
@@ -587,7 +699,7 @@ const Values& IncrementalSmoother::Finish() {
     return estimate_;
   }
   finish_summary_ = Optimize(graph_, &estimate_, options_.finish);
-  state_->Reset(estimate_);
+  if (options_.mode == SmootherMode::kFactor) state_->Reset(estimate_);
   return estimate_;
 }
 

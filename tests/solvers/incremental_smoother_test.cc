@@ -46,8 +46,9 @@ bool IsOdometry(const Factor& f) {
 
 // Feeds `sim` pose by pose into `smoother`; at each step each loop closure added before is
 // removed with probability `p_remove`. The graph the smoother ends with is in *final.
+// `after`, where given, is called after each update with its step and summary.
 void Replay(const SimulatedGraph& sim, int poses, double p_remove, std::uint64_t seed, IncrementalSmoother* smoother,
-            FactorGraph* final) {
+            FactorGraph* final, const std::function<void(int, const SmootherUpdate&)>& after = {}) {
   std::mt19937_64 rng(seed);
   const auto by_step = FactorsByStep(sim.graph);
   std::vector<std::pair<FactorId, std::size_t>> closures;  // smoother handle, index in sim.graph
@@ -86,6 +87,7 @@ void Replay(const SimulatedGraph& sim, int poses, double p_remove, std::uint64_t
       kept[j] = true;
       if (!IsOdometry(sim.graph.at(j))) closures.push_back({u.new_factor_ids[n], j});
     }
+    if (after) after(i, u);
   }
   if (final) {
     *final = FactorGraph();
@@ -485,6 +487,29 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   rounds.rounds_per_update = 0;
   EXPECT_FALSE(rounds.IsValid(&why));
   EXPECT_NE(why.find("rounds_per_update"), std::string::npos) << why;
+  // The local mode's settings too.
+  const struct {
+    const char* name;
+    double SmootherOptions::*field;
+    double bad;
+  } local[] = {{"local_tolerance", &SmootherOptions::local_tolerance, -1e-3},
+               {"local_batch_gap", &SmootherOptions::local_batch_gap, std::nan("")},
+               {"local_batch_share", &SmootherOptions::local_batch_share, 1.5},
+               {"local_batch_correction", &SmootherOptions::local_batch_correction, -1}};
+  for (const auto& f : local) {
+    SmootherOptions bad;
+    bad.*f.field = f.bad;
+    EXPECT_FALSE(bad.IsValid(&why)) << f.name;
+    EXPECT_NE(why.find(f.name), std::string::npos) << why;
+  }
+  SmootherOptions hops;
+  hops.local_hops = -1;
+  EXPECT_FALSE(hops.IsValid(&why));
+  EXPECT_NE(why.find("local_hops"), std::string::npos) << why;
+  SmootherOptions region;
+  region.local_max_region = 0;
+  EXPECT_FALSE(region.IsValid(&why));
+  EXPECT_NE(why.find("local_max_region"), std::string::npos) << why;
 }
 
 // A ring of n unit steps whose odometry turns `drift` rad too far at every step, closed by
@@ -698,6 +723,186 @@ TEST(IncrementalSmoother, Refined3DPosesAndRobustFactorsReachTheSameOptimum) {
     EXPECT_LT((given.At<SE3d>(k).translation() - expected.translation()).norm(), 1e-6) << k;
   }
   EXPECT_LT(rounds_refined, rounds_given);
+}
+
+// SmootherMode::kLocal: each update solved over a region around it, batch solves now and then.
+
+SmootherOptions LocalOptions() {
+  SmootherOptions o;
+  o.mode = SmootherMode::kLocal;
+  return o;
+}
+
+TEST(LocalSmoother, EqualsBatchAfterFinishOnRandomAddsAndRemovals) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    const int poses = 150;
+    const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, seed);
+    IncrementalSmoother smoother(LocalOptions());
+    FactorGraph final;
+    int local = 0;
+    Replay(sim, poses, 0.05, seed, &smoother, &final,
+           [&](int, const SmootherUpdate& u) { local += u.solved && !u.batch ? 1 : 0; });
+    // In a graph this small chi2 is small, and most loop closures gain more than the batch
+    // rules allow (local_batch_correction): the larger worlds are where updates stay local.
+    EXPECT_GT(local, 10) << "some updates should be solved locally";
+    ASSERT_EQ(smoother.graph().size(), final.size());
+    EXPECT_LT(final.size(), sim.graph.size()) << "some loop closures should have been removed";
+    smoother.Finish();
+    ASSERT_TRUE(smoother.finish_summary().IsSolutionUsable()) << smoother.finish_summary().FullReport();
+    double batch_chi2 = 0;
+    BatchOptimum(final, sim.initial, &batch_chi2);
+    EXPECT_NEAR(final.Chi2(smoother.Estimate()), batch_chi2, 1e-9 * batch_chi2) << "seed " << seed;
+  }
+}
+
+TEST(LocalSmoother, EveryUpdateIsWithin1e3OfTheOptimumSoFar) {
+  // The bar for every estimate: chi2 within 1e-3 of the optimum of the graph so far.
+  // Checked after every update of a 400-pose world (every closure, every batch solve).
+  const int poses = 400;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 12);
+  IncrementalSmoother smoother(LocalOptions());
+  double worst = 0;
+  int local = 0, batch = 0, region = 0;
+  Replay(sim, poses, 0.0, 12, &smoother, nullptr, [&](int step, const SmootherUpdate& u) {
+    if (step < 2) return;
+    local += u.batch ? 0 : 1;
+    batch += u.batch ? 1 : 0;
+    region = std::max(region, u.region);
+    Values v = smoother.Estimate();
+    const SolverSummary s = Optimize(smoother.graph(), &v, SmootherOptions().finish);
+    ASSERT_TRUE(s.IsSolutionUsable()) << s.FullReport();
+    worst = std::max(worst, (smoother.graph().Chi2(smoother.Estimate()) - s.final_chi2) / s.final_chi2);
+  });
+  EXPECT_LT(worst, 1e-3);
+  EXPECT_GT(local, batch / 2) << "local solves should not be the exception";
+  EXPECT_LT(region, poses / 2) << "the regions should stay local";
+}
+
+TEST(LocalSmoother, ARegionReachesTheOptimumWithItsEdgeHeld) {
+  // A chain of 30 poses with a closure between poses 10 and 20, every variable in the region
+  // (local_tolerance 0: the region grows while any edge gain is left, here to the whole chain
+  // but the held gauge), so the local solve is the batch optimum.
+  SmootherOptions o = LocalOptions();
+  o.local_tolerance = 0;
+  o.local_batch_share = 1;
+  o.local_batch_gap = 1e9;
+  o.local_batch_correction = 1e9;
+  IncrementalSmoother smoother(o);
+  FactorGraph f;
+  Values v;
+  for (int i = 0; i < 30; ++i) {
+    v.Insert(Key(i), SE2d(i, 0.01 * i * i, 0.002 * i));
+    if (i > 0) f.Add<BetweenSE2>(Key(i - 1), Key(i), SE2d(1, 0, 0.01), SqrtInformation::Identity(3));
+  }
+  smoother.Update(std::move(f), std::move(v));  // the first update: a batch solve
+  FactorGraph closure;
+  closure.Add<BetweenSE2>(Key(10), Key(20), SE2d(9.5, 0.8, 0.15), SqrtInformation::Identity(3));
+  const SmootherUpdate u = smoother.Update(std::move(closure));
+  ASSERT_TRUE(u.solved);
+  EXPECT_FALSE(u.batch);
+  EXPECT_EQ(u.region, 29) << "every pose but the gauge";
+  Values batch = smoother.Estimate();
+  const SolverSummary s = Optimize(smoother.graph(), &batch, SmootherOptions().finish);
+  EXPECT_NEAR(smoother.graph().Chi2(smoother.Estimate()), s.final_chi2, 1e-9 * s.final_chi2);
+}
+
+TEST(LocalSmoother, ARegionBeyondItsLimitIsSolvedInBatch) {
+  // A ring of 60 whose closure bends the whole ring: with regions of at most 10 variables the
+  // closing update is a batch solve, and its estimate is the optimum.
+  SmootherOptions o = LocalOptions();
+  o.local_max_region = 10;
+  SmootherUpdate closing;
+  const double gap = RingGap(o, 60, 0.01, &closing);
+  EXPECT_TRUE(closing.batch);
+  EXPECT_EQ(closing.region, 0);
+  EXPECT_LT(gap, 1e-9);
+  // With the default limit the ring is solved locally (60 variables) and is within 1e-3.
+  SmootherUpdate local;
+  EXPECT_LT(RingGap(LocalOptions(), 60, 0.01, &local), 1e-3);
+}
+
+TEST(LocalSmoother, BatchSolvesComeAtTheShareOfTheVariables) {
+  // Only the share rule: a batch solve once the updates since the last reach 10% of the
+  // variables, so about every 10th update at 100 poses, and never two in a row.
+  SmootherOptions o = LocalOptions();
+  o.local_batch_share = 0.1;
+  o.local_batch_gap = 1e9;
+  o.local_batch_correction = 1e9;
+  const int poses = 200;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 13);
+  IncrementalSmoother smoother(o);
+  std::vector<int> batches;
+  Replay(sim, poses, 0.0, 13, &smoother, nullptr, [&](int step, const SmootherUpdate& u) {
+    if (u.batch) batches.push_back(step);
+  });
+  ASSERT_GE(batches.size(), 3u);
+  for (std::size_t i = 1; i < batches.size(); ++i) {
+    const int gap = batches[i] - batches[i - 1];
+    EXPECT_GE(gap, static_cast<int>(0.1 * batches[i - 1])) << "at step " << batches[i];
+    EXPECT_LE(gap, static_cast<int>(0.1 * (batches[i] + 1)) + 1) << "at step " << batches[i];
+  }
+}
+
+TEST(LocalSmoother, RemovingALoopClosureRestoresThePreviousOptimum) {
+  const int poses = 100;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 4);
+  IncrementalSmoother smoother(LocalOptions());
+  Replay(sim, poses, 0.0, 4, &smoother, nullptr);
+  const Values before = smoother.Finish();
+  const double chi2_before = smoother.finish_summary().final_chi2;
+  FactorGraph closure;
+  std::size_t j = 0;
+  while (IsOdometry(sim.graph.at(j))) ++j;
+  closure.Add(sim.graph.at(j).Clone());
+  const SmootherUpdate added = smoother.Update(std::move(closure));
+  const double with = smoother.graph().Chi2(smoother.Estimate());
+  EXPECT_GT(with, chi2_before);
+  const SmootherUpdate removed = smoother.Update({}, {}, {added.new_factor_ids[0]});
+  EXPECT_EQ(removed.factors_removed, 1);
+  // Solved locally around the closure's poses, already within 1e-3 of the previous optimum;
+  // after Finish, the optimum itself.
+  EXPECT_LT(smoother.graph().Chi2(smoother.Estimate()), (1 + 1e-3) * chi2_before);
+  smoother.Finish();
+  EXPECT_NEAR(smoother.finish_summary().final_chi2, chi2_before, 1e-9 * chi2_before);
+}
+
+TEST(LocalSmoother, Deterministic) {
+  const int poses = 150;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 5);
+  IncrementalSmoother a(LocalOptions()), b(LocalOptions());
+  Replay(sim, poses, 0.05, 5, &a, nullptr);
+  Replay(sim, poses, 0.05, 5, &b, nullptr);
+  EXPECT_TRUE(BitIdentical(a.Estimate(), b.Estimate()));
+  EXPECT_TRUE(BitIdentical(a.Finish(), b.Finish()));
+}
+
+TEST(LocalSmoother, RemovingTheLastFactorOfAVariableErasesIt) {
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, 10, 8);
+  IncrementalSmoother smoother(LocalOptions());
+  Replay(sim, 10, 0.0, 8, &smoother, nullptr);
+  const FactorId odometry = smoother.graph().id(smoother.graph().size() - 1);
+  const SmootherUpdate u = smoother.Update({}, {}, {odometry});
+  EXPECT_EQ(u.variables_removed, 1);
+  EXPECT_FALSE(smoother.Estimate().Has(9));
+}
+
+TEST(LocalSmoother, Refined3DPosesReachTheBatchOptimum) {
+  const int poses = 100;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kSphere, poses, 3);
+  IncrementalSmoother smoother(LocalOptions());
+  FactorGraph final;
+  double worst = 0;
+  Replay(sim, poses, 0.0, 3, &smoother, &final, [&](int step, const SmootherUpdate&) {
+    if (step % 10 != 9) return;
+    Values v = smoother.Estimate();
+    const SolverSummary s = Optimize(smoother.graph(), &v, SmootherOptions().finish);
+    worst = std::max(worst, (smoother.graph().Chi2(smoother.Estimate()) - s.final_chi2) / s.final_chi2);
+  });
+  EXPECT_LT(worst, 1e-3);
+  smoother.Finish();
+  double batch_chi2 = 0;
+  BatchOptimum(final, sim.initial, &batch_chi2);
+  EXPECT_NEAR(final.Chi2(smoother.Estimate()), batch_chi2, 1e-9 * batch_chi2);
 }
 
 }  // namespace

@@ -215,5 +215,43 @@ TEST_F(ReplayTest, CommandLine) {
   EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
 }
 
+TEST_F(ReplayTest, LocalModeFromTheCommandLine) {
+  // --mode local and its options reach the smoother: a region limit of 1 variable makes every
+  // update with a loop closure a batch solve; the default limit leaves most of them local.
+  auto run = [&](const std::string& extra, int want_exit = 0) {
+    const std::string cmd =
+        std::string(TETHER_CLI) + " replay " + file_ + " --mode local --check 25 -q " + extra + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    EXPECT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    std::size_t n;
+    while (p != nullptr && (n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+    const int status = p != nullptr ? pclose(p) : -1;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == want_exit) << out;
+    return out;
+  };
+  // "local mode: B batch solve(s), L local solve(s) over R variables on average"
+  auto counts = [](const std::string& out, int* batch, int* local) {
+    const auto f = Fields(out);
+    ASSERT_EQ(f.count("local mode"), 1u) << out;
+    ASSERT_EQ(std::sscanf(f.at("local mode").c_str(), "%d batch solve(s), %d local", batch, local), 2) << out;
+  };
+  const std::string defaults = run("");
+  int batch = 0, local = 0;
+  counts(defaults, &batch, &local);
+  EXPECT_EQ(batch + local, 200);
+  EXPECT_GT(local, 0);
+  const auto f = Fields(defaults);
+  EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
+  const std::string check = f.at("check");
+  EXPECT_LT(std::stod(check.substr(check.rfind(": ") + 2)), 1e-3) << check;
+  int batch1 = 0, local1 = 0;
+  counts(run("--local-max-region 1"), &batch1, &local1);
+  EXPECT_GT(batch1, batch);
+  const std::string bad = run("--mode nonsense", 2);
+  EXPECT_NE(bad.find("--mode"), std::string::npos) << bad;
+}
+
 }  // namespace
 }  // namespace tether

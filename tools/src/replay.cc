@@ -101,6 +101,8 @@ void Accumulate(const SmootherUpdate& u, ReplayResult* r) {
   r->solves += u.solved ? 1 : 0;
   r->rebuilt += u.structure_rebuilt ? 1 : 0;
   r->fell_back += u.fell_back ? 1 : 0;
+  r->batches += u.batch ? 1 : 0;
+  r->region_variables += u.region;
   r->iterations += u.iterations;
   r->affected_columns += u.affected_columns;
   r->back_substituted += u.back_substituted;
@@ -277,17 +279,26 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
     err << "error: " << why << "\n";
     return 2;
   }
-  out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
-      << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
-      << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them) or "
-      << o.smoother.iterate_share << " of the variables too large, new variables "
-      << (o.smoother.refine_new_values ? "refined" : "as given") << ", at most " << o.smoother.rounds_per_update
-      << " round(s) per update, wildfire " << o.smoother.wildfire_threshold << ", factorization "
-      << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
-          : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
-                                                                             : "auto")
-      << "\n"
-      << std::flush;
+  if (o.smoother.mode == SmootherMode::kLocal) {
+    out << "replay " << cmd.input << ": an update every " << o.every << " step(s), local mode: tolerance "
+        << o.smoother.local_tolerance << ", " << o.smoother.local_hops << " hop(s), regions of at most "
+        << o.smoother.local_max_region << " variables, a batch solve once the edges leave "
+        << o.smoother.local_batch_gap << " of chi2 or after " << o.smoother.local_batch_share
+        << " of the variables in updates, new variables " << (o.smoother.refine_new_values ? "refined" : "as given")
+        << "\n";
+  } else {
+    out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
+        << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
+        << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them) or "
+        << o.smoother.iterate_share << " of the variables too large, new variables "
+        << (o.smoother.refine_new_values ? "refined" : "as given") << ", at most " << o.smoother.rounds_per_update
+        << " round(s) per update, wildfire " << o.smoother.wildfire_threshold << ", factorization "
+        << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
+            : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
+                                                                               : "auto")
+        << "\n";
+  }
+  out << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;
     out << "check at step " << c.step << ": online chi2 " << Format("%.9g", c.online_chi2) << ", batch "
@@ -329,6 +340,12 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   out << "graph: " << r.variables << " variables (" << r.poses << " poses), " << r.factors << " factors\n";
   out << "updates: " << r.latencies.size() << " (" << r.solves << " solved, " << r.rebuilt << " rebuilt the factor, "
       << r.fell_back << " fell back to batch, " << r.iterations << " rounds)\n";
+  if (o.smoother.mode == SmootherMode::kLocal) {
+    const int local = static_cast<int>(r.latencies.size()) - r.batches;
+    out << "local mode: " << r.batches << " batch solve(s), " << local << " local solve(s) over "
+        << Format("%.1f", local > 0 ? static_cast<double>(r.region_variables) / local : 0.0)
+        << " variables on average\n";
+  }
   out << "columns refactored: " << r.affected_columns << ", back-substituted: " << r.back_substituted
       << ", variables re-linearised: " << r.relinearized << "\n";
   out << "total [s]: " << Format("%.3f", r.total_seconds()) << " (updates " << Format("%.3f", r.updates_seconds)

@@ -60,8 +60,25 @@ enum class SmootherFactorization {
   kMultifrontal,  ///< supernodes as dense fronts; unchanged subtrees keep their update matrices
 };
 
+/// How an update solves (docs/smoother.md, "Local mode").
+enum class SmootherMode {
+  /// Keeps a Cholesky factor of the whole system between updates and refactors the columns
+  /// an update affects (the default; the sections above).
+  kFactor,
+  /// Solves each update's change over a region around the variables it touched, grown until
+  /// no variable at the region's edge could lower chi2 by more than local_tolerance if it
+  /// moved alone; a batch solve of the whole graph now and then (local_batch_share) and where
+  /// a region grows beyond local_max_region. For large graphs, where the corrections of an
+  /// update are local but the factor's path to the root is long (a 100k-pose Manhattan world).
+  kLocal,
+};
+
 struct SmootherOptions {
   SmootherOptions();
+
+  /// kFactor (default) or kLocal. The options below up to `factorization` are kFactor's; the
+  /// local_* ones are kLocal's; the rest apply to both.
+  SmootherMode mode = SmootherMode::kFactor;
 
   /// A variable whose step (its tangent delta from the linearisation point) is too large is
   /// re-linearised: its linearisation point moves to the estimate and its factors are
@@ -107,6 +124,30 @@ struct SmootherOptions {
   double wildfire_threshold = 1e-9;
   /// Default kAuto (chosen at every full refactor; benchmarks/RESULTS.md, "Multifrontal").
   SmootherFactorization factorization = SmootherFactorization::kAuto;
+  /// kLocal: a variable at the edge of the region is taken into it (with its neighbours) while
+  /// moving it alone, everything else held, would lower chi2 by more than this (g^T H^-1 g
+  /// over its factors). Smaller: larger regions, estimates closer to the optimum. Default 1e-3.
+  double local_tolerance = 1e-3;
+  /// kLocal: the region starts with the update's variables and their neighbours this many
+  /// factors away. Default 2.
+  int local_hops = 2;
+  /// kLocal: a region that grows beyond this many variables stops growing and the update is
+  /// solved in batch instead (the change is not local: a long loop closed). Default 2000.
+  int local_max_region = 2000;
+  /// kLocal: a batch solve of the whole graph (options.update) collects the small errors the
+  /// regions leave at their edges. It comes once what the edges left since the last one (the
+  /// edge variables' gains, summed over the updates) exceeds local_batch_gap times chi2 at the
+  /// last one, and at the latest once the updates since the last one reach local_batch_share
+  /// of the variables. Defaults 2e-4 and 0.05 (benchmarks/RESULTS.md, "Local mode").
+  double local_batch_gap = 2e-4;
+  double local_batch_share = 0.05;
+  /// kLocal: an update whose local solve lowers chi2 by more than this share of chi2 (at the
+  /// last batch solve) is solved in batch as well. A gain that large means the estimate was
+  /// far from the optimum there: a long loop closed, or what earlier regions left at their
+  /// edges added up (the single edge variables' gains do not show a correction that bends a
+  /// long stretch of the graph). Chi2 counts as at least 1 in these shares (it is 0 while the
+  /// graph has no loop). Default 3e-3 (benchmarks/RESULTS.md, "Local mode").
+  double local_batch_correction = 3e-3;
   /// Evaluate chi2 of the whole graph before and after every update (SmootherUpdate's
   /// chi2_before and chi2_after): a pass over every factor, so off by default.
   bool compute_chi2 = false;
@@ -148,6 +189,10 @@ struct SmootherUpdate {
   int affected_columns = 0;                        ///< columns refactored, summed over the rounds
   int back_substituted = 0;                        ///< columns whose step was recomputed, summed over the rounds
   int relinearized = 0;                            ///< variables whose linearisation point moved
+  /// kLocal: the variables of the region solved (0 where the update was solved in batch), and
+  /// whether the whole graph was solved in batch (options.update) in this update.
+  int region = 0;
+  bool batch = false;
   /// Of the whole graph at the previous estimate plus the new values, and at the new estimate;
   /// NaN unless options.compute_chi2.
   double chi2_before = 0;
@@ -194,6 +239,9 @@ class IncrementalSmoother {
 
  private:
   struct State;
+  // Update's changes and solve in SmootherMode::kLocal (after Update's checks).
+  void UpdateLocal(FactorGraph new_factors, Values new_values, const std::vector<FactorId>& factors_to_remove,
+                   SmootherUpdate* u);
   SmootherOptions options_;
   FactorGraph graph_;
   Values estimate_;

@@ -78,6 +78,10 @@ struct ReplayResult {
   /// whole factor, that fell back to a batch solve; factorise-solve rounds; columns refactored;
   /// columns back-substituted; variables re-linearised.
   int solves = 0, rebuilt = 0, fell_back = 0, iterations = 0;
+  /// SmootherMode::kLocal: updates solved in batch, and the variables of the local regions
+  /// (summed over the updates solved locally).
+  int batches = 0;
+  long long region_variables = 0;
   long long affected_columns = 0, back_substituted = 0, relinearized = 0;
   /// The updates' split, summed (SmootherUpdate's fields).
   double linearize_seconds = 0, factorize_seconds = 0, solve_seconds = 0;
