@@ -13,6 +13,7 @@
 #include "blas_threads.h"
 #include "incremental_cholesky.h"
 #include "local_regions.h"
+#include "one_variable.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/solvers/optimizer.h"
@@ -53,36 +54,10 @@ std::vector<Key> RefineNewValues(const std::vector<const Factor*>& factors, cons
     const VarType type = values->TypeOf(k);
     const int d = TangentDim(type);
     std::vector<double> x(values->Params(k), values->Params(k) + AmbientDim(type)), trial(x.size());
-    std::vector<double> e, jac;
-    std::vector<const double*> params;
-    std::vector<double*> jp;
     // The cost at p (and H and g where they are not null), or infinity where a factor cannot
     // be evaluated there.
     auto evaluate = [&](const double* p, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
-      double cost = 0;
-      for (const Factor* f : mine) {
-        const int m = f->dim();
-        e.assign(m, 0.0);
-        jac.assign(static_cast<std::size_t>(m) * d, 0.0);
-        params.clear();
-        jp.clear();
-        for (Key o : f->keys()) {
-          params.push_back(o == k ? p : values->Params(o));
-          jp.push_back(o == k ? jac.data() : nullptr);
-        }
-        if (!f->Linearize(params.data(), e.data(), H != nullptr ? jp.data() : nullptr)) return kInfinity;
-        double sq = 0, rho = 0;
-        for (double v : e) sq += v * v;
-        const double w = RobustWeight(f->loss(), sq, &rho);  // sqrt(rho'), as the solvers weigh
-        cost += rho;
-        if (H != nullptr) {
-          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, d);
-          Eigen::Map<const Eigen::VectorXd> r(e.data(), m);
-          H->noalias() += w * w * J.transpose() * J;
-          g->noalias() += w * w * J.transpose() * r;
-        }
-      }
-      return std::isfinite(cost) ? cost : kInfinity;
+      return internal::OneVariableCost(mine, k, p, *values, H, g);
     };
     Eigen::MatrixXd H(d, d);
     Eigen::VectorXd g(d);

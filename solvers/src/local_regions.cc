@@ -8,6 +8,7 @@
 #include <limits>
 #include <unordered_map>
 
+#include "one_variable.h"
 #include "tether/core/robust_kernels.h"
 
 namespace tether {
@@ -73,34 +74,16 @@ std::vector<Key> LocalRegions::Edge(const std::vector<Key>& region, const std::s
 }
 
 double LocalRegions::Gain(Key key, const Values& estimate) {
-  const VarType type = estimate.TypeOf(key);
-  const int d = TangentDim(type);
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(d, d);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(d);
-  std::vector<const double*> params;
-  std::vector<double*> jp;
   const auto it = uses_.find(key);
   if (it == uses_.end()) return 0;
+  std::vector<const Factor*> factors;
   for (const Use& u : it->second) {
-    const Factor& f = *u.factor;
-    const int m = f.dim();
-    e_.assign(static_cast<std::size_t>(m), 0.0);
-    jac_.assign(static_cast<std::size_t>(m) * d, 0.0);
-    params.clear();
-    jp.clear();
-    for (Key o : f.keys()) {
-      params.push_back(estimate.Params(o));
-      jp.push_back(o == key ? jac_.data() : nullptr);
-    }
-    if (!f.Linearize(params.data(), e_.data(), jp.data())) return kInfinity;
-    double sq = 0;
-    for (double v : e_) sq += v * v;
-    const double w2 = std::pow(RobustWeight(f.loss(), sq), 2);
-    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac_.data(), m, d);
-    const Eigen::Map<const Eigen::VectorXd> r(e_.data(), m);
-    H.noalias() += w2 * J.transpose() * J;
-    g.noalias() += w2 * J.transpose() * r;
+    if (std::count(u.factor->keys().begin(), u.factor->keys().end(), key) == 1) factors.push_back(u.factor);
   }
+  const int d = TangentDim(estimate.TypeOf(key));
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(d, d);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(d);
+  if (!std::isfinite(OneVariableCost(factors, key, estimate.Params(key), estimate, &H, &g))) return kInfinity;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
   const Eigen::VectorXd dd = ldlt.vectorD();
   if (ldlt.info() != Eigen::Success || !(dd.minCoeff() > 1e-12 * std::max(dd.maxCoeff(), 1e-300))) return kInfinity;
