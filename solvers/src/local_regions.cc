@@ -116,13 +116,22 @@ bool LocalRegions::SolveRegion(const std::vector<Key>& region, double tolerance,
   graph.setFromTriplets(pattern.begin(), pattern.end());
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
   Eigen::AMDOrdering<int>()(graph, order);  // order.indices()[position] = variable
-  std::unordered_map<Key, int> offset;
+  // Per region variable (in `region`'s order): its offset in H, parameters, type.
+  std::vector<int> offset(region.size());
+  std::vector<double*> value(region.size());
+  std::vector<VarType> type(region.size());
   int n = 0;
   for (int pos = 0; pos < nv; ++pos) {
-    const Key k = region[static_cast<std::size_t>(order.indices()[pos])];
-    offset.emplace(k, n);
-    n += TangentDim(estimate->TypeOf(k));
+    const std::size_t v = static_cast<std::size_t>(order.indices()[pos]);
+    offset[v] = n;
+    value[v] = estimate->Params(region[v]);
+    type[v] = estimate->TypeOf(region[v]);
+    n += TangentDim(type[v]);
   }
+  auto offset_of = [&](Key k) {
+    const auto it = std::lower_bound(region.begin(), region.end(), k);
+    return it != region.end() && *it == k ? offset[static_cast<std::size_t>(it - region.begin())] : -1;
+  };
   // Per factor, once: its keys' parameters, and per key the offset in the region (-1: held)
   // and the tangent size; every key's entries in `slots`, a factor's from `first[f]`.
   struct Slot {
@@ -138,8 +147,7 @@ bool LocalRegions::SolveRegion(const std::vector<Key>& region, double tolerance,
     const std::size_t m = static_cast<std::size_t>(f->dim());
     max_dim = std::max(max_dim, m);
     for (Key k : f->keys()) {
-      const auto it = offset.find(k);
-      const int at = it == offset.end() ? -1 : it->second;
+      const int at = offset_of(k);
       const int dim = TangentDim(estimate->TypeOf(k));
       slots.push_back({estimate->Params(k), nullptr, at, dim});
       if (at >= 0) jac_size += m * static_cast<std::size_t>(dim);
@@ -240,16 +248,15 @@ bool LocalRegions::SolveRegion(const std::vector<Key>& region, double tolerance,
   std::vector<double> saved;
   auto save = [&] {
     saved.clear();
-    for (Key k : region)
-      saved.insert(saved.end(), estimate->Params(k), estimate->Params(k) + AmbientDim(estimate->TypeOf(k)));
+    for (std::size_t v = 0; v < region.size(); ++v) saved.insert(saved.end(), value[v], value[v] + AmbientDim(type[v]));
   };
   auto restore = [&] {
     std::size_t i = 0;
-    for (Key k : region) {
-      const int a = AmbientDim(estimate->TypeOf(k));
+    for (std::size_t v = 0; v < region.size(); ++v) {
+      const std::size_t a = static_cast<std::size_t>(AmbientDim(type[v]));
       std::copy(saved.begin() + static_cast<std::ptrdiff_t>(i), saved.begin() + static_cast<std::ptrdiff_t>(i + a),
-                estimate->Params(k));
-      i += static_cast<std::size_t>(a);
+                value[v]);
+      i += a;
     }
   };
 
@@ -278,8 +285,8 @@ bool LocalRegions::SolveRegion(const std::vector<Key>& region, double tolerance,
       if (ldlt.info() == Eigen::Success) {
         delta = -ldlt.solve(g);
         if (!delta.allFinite()) return false;
-        for (Key k : region) {
-          RetractParams(estimate->TypeOf(k), estimate->Params(k), delta.data() + offset.at(k), estimate->Params(k));
+        for (std::size_t v = 0; v < region.size(); ++v) {
+          RetractParams(type[v], value[v], delta.data() + offset[v], value[v]);
         }
         next = evaluate(false);
         if (next <= cost) {

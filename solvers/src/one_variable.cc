@@ -12,9 +12,10 @@ double OneVariableCost(const std::vector<const Factor*>& factors, Key key, const
                        Eigen::MatrixXd* H, Eigen::VectorXd* g) {
   constexpr double kInfinity = std::numeric_limits<double>::infinity();
   const int d = TangentDim(values.TypeOf(key));
-  std::vector<double> e, jac;
-  std::vector<const double*> params;
-  std::vector<double*> jp;
+  // Scratch kept between calls (the local mode calls this for every edge variable).
+  thread_local std::vector<double> e, jac;
+  thread_local std::vector<const double*> params;
+  thread_local std::vector<double*> jp;
   double cost = 0;
   for (const Factor* f : factors) {
     const int m = f->dim();
