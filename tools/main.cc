@@ -201,7 +201,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   replay
       ->add_option("--local-tolerance", rc.options.smoother.local_tolerance,
-                   "local: grow the region while an edge variable alone could lower chi2 by more than this "
+                   "local: grow the region while an edge variable alone could lower chi2 by more than this share of "
+                   "chi2 per variable "
                    "(SmootherOptions::local_tolerance)")
       ->capture_default_str();
   replay

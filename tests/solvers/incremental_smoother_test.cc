@@ -466,7 +466,7 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   EXPECT_NE(why.find("update"), std::string::npos);
   EXPECT_THROW(IncrementalSmoother{o}, InvalidArgument);
   EXPECT_TRUE(SmootherOptions().IsValid(nullptr));
-  // Each re-linearisation setting names itself; NaN is refused like a negative value.
+  // Each setting names itself; NaN is refused like a negative value.
   const struct {
     const char* name;
     double SmootherOptions::*field;
@@ -476,7 +476,11 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
                 {"iterate_ratio", &SmootherOptions::iterate_ratio, 0.5},
                 {"iterate_fraction", &SmootherOptions::iterate_fraction, 1.5},
                 {"iterate_share", &SmootherOptions::iterate_share, -0.1},
-                {"wildfire_threshold", &SmootherOptions::wildfire_threshold, -1}};
+                {"wildfire_threshold", &SmootherOptions::wildfire_threshold, -1},
+                {"local_tolerance", &SmootherOptions::local_tolerance, -1e-3},
+                {"local_batch_gap", &SmootherOptions::local_batch_gap, std::nan("")},
+                {"local_batch_share", &SmootherOptions::local_batch_share, 1.5},
+                {"local_batch_correction", &SmootherOptions::local_batch_correction, -1}};
   for (const auto& f : fields) {
     SmootherOptions bad;
     bad.*f.field = f.bad;
@@ -487,21 +491,7 @@ TEST(IncrementalSmoother, InvalidOptionsThrow) {
   rounds.rounds_per_update = 0;
   EXPECT_FALSE(rounds.IsValid(&why));
   EXPECT_NE(why.find("rounds_per_update"), std::string::npos) << why;
-  // The local mode's settings too.
-  const struct {
-    const char* name;
-    double SmootherOptions::*field;
-    double bad;
-  } local[] = {{"local_tolerance", &SmootherOptions::local_tolerance, -1e-3},
-               {"local_batch_gap", &SmootherOptions::local_batch_gap, std::nan("")},
-               {"local_batch_share", &SmootherOptions::local_batch_share, 1.5},
-               {"local_batch_correction", &SmootherOptions::local_batch_correction, -1}};
-  for (const auto& f : local) {
-    SmootherOptions bad;
-    bad.*f.field = f.bad;
-    EXPECT_FALSE(bad.IsValid(&why)) << f.name;
-    EXPECT_NE(why.find(f.name), std::string::npos) << why;
-  }
+  // The local mode's integer settings too.
   SmootherOptions hops;
   hops.local_hops = -1;
   EXPECT_FALSE(hops.IsValid(&why));
@@ -776,6 +766,33 @@ TEST(LocalSmoother, EveryUpdateIsWithin1e3OfTheOptimumSoFar) {
   EXPECT_LT(worst, 1e-3);
   EXPECT_GT(local, batch / 2) << "local solves should not be the exception";
   EXPECT_LT(region, poses / 2) << "the regions should stay local";
+}
+
+TEST(LocalSmoother, OnALargerWorldMostUpdatesAreLocalAndNearTheOptimum) {
+  // 3000 poses: chi2 grows with the graph, the batch rules fire less often, and most updates
+  // are solved over a region of tens of variables; every 100th update is checked.
+  const int poses = 3000;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 14);
+  IncrementalSmoother smoother(LocalOptions());
+  double worst = 0;
+  int local = 0, late_local = 0, late = 0;
+  long long region = 0;
+  Replay(sim, poses, 0.0, 14, &smoother, nullptr, [&](int step, const SmootherUpdate& u) {
+    local += u.batch ? 0 : 1;
+    region += u.region;
+    if (step >= poses / 2) {
+      ++late;
+      late_local += u.batch ? 0 : 1;
+    }
+    if (step % 100 != 99) return;
+    Values v = smoother.Estimate();
+    const SolverSummary s = Optimize(smoother.graph(), &v, SmootherOptions().finish);
+    ASSERT_TRUE(s.IsSolutionUsable()) << s.FullReport();
+    worst = std::max(worst, (smoother.graph().Chi2(smoother.Estimate()) - s.final_chi2) / s.final_chi2);
+  });
+  EXPECT_LT(worst, 1e-3);
+  EXPECT_GT(late_local, 0.9 * late) << "in the second half, batch solves should be rare";
+  EXPECT_LT(static_cast<double>(region) / local, 100) << "regions should be tens of variables";
 }
 
 TEST(LocalSmoother, ARegionReachesTheOptimumWithItsEdgeHeld) {

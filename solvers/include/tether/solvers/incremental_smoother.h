@@ -66,8 +66,8 @@ enum class SmootherMode {
   /// an update affects (the default; the sections above).
   kFactor,
   /// Solves each update's change over a region around the variables it touched, grown until
-  /// no variable at the region's edge could lower chi2 by more than local_tolerance if it
-  /// moved alone; a batch solve of the whole graph now and then (local_batch_share) and where
+  /// no variable at the region's edge could lower chi2 by more than local_tolerance (a share
+  /// of chi2 per variable) if it moved alone; a batch solve of the whole graph now and then (local_batch_share) and where
   /// a region grows beyond local_max_region. For large graphs, where the corrections of an
   /// update are local but the factor's path to the root is long (a 100k-pose Manhattan world).
   kLocal,
@@ -125,9 +125,12 @@ struct SmootherOptions {
   /// Default kAuto (chosen at every full refactor; benchmarks/RESULTS.md, "Multifrontal").
   SmootherFactorization factorization = SmootherFactorization::kAuto;
   /// kLocal: a variable at the edge of the region is taken into it (with its neighbours) while
-  /// moving it alone, everything else held, would lower chi2 by more than this (g^T H^-1 g
-  /// over its factors). Smaller: larger regions, estimates closer to the optimum. Default 1e-3.
-  double local_tolerance = 1e-3;
+  /// moving it alone, everything else held, would lower chi2 (g^T H^-1 g over its factors) by
+  /// more than this share of chi2 per variable (chi2 and the number of variables at the last
+  /// batch solve; at least 1e-6 per variable): a relative bar, as the 1e-3 is. Smaller:
+  /// larger regions, estimates closer to the optimum. Default 4e-4 (1e-3 to 1.5e-3 chi2 in the
+  /// simulated Manhattan worlds, 2.3 to 3.7 chi2 a variable).
+  double local_tolerance = 4e-4;
   /// kLocal: the region starts with the update's variables and their neighbours this many
   /// factors away. Default 2.
   int local_hops = 2;
@@ -151,13 +154,18 @@ struct SmootherOptions {
   /// Evaluate chi2 of the whole graph before and after every update (SmootherUpdate's
   /// chi2_before and chi2_after): a pass over every factor, so off by default.
   bool compute_chi2 = false;
+  /// kLocal: the batch solves of the whole graph. Default: Gauss-Newton over CHOLMOD, at most
+  /// 10 iterations (from an estimate this near the optimum it converges in 2-4; Levenberg-
+  /// Marquardt's damping can crawl there); `update` takes over where it fails.
+  SolverOptions local_batch;
   /// The batch solve an update falls back to where the incremental factorisation fails.
   /// Defaults: Levenberg-Marquardt over CHOLMOD, at most 10 iterations, the other settings
   /// Optimize's defaults.
   SolverOptions update;
   /// Finish(): a solve to convergence. Defaults: Levenberg-Marquardt over CHOLMOD, at most 100
   /// iterations, function_tolerance 1e-12 (so that the result is the batch optimum to the
-  /// last digits, not merely close to it).
+  /// last digits, not merely close to it). In kLocal, Gauss-Newton with these stopping rules
+  /// runs first.
   SolverOptions finish;
   /// Marginal(key): the method of tether::Marginals (default CHOLMOD, sparse inverse subset).
   CovarianceOptions covariance;
