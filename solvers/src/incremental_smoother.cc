@@ -135,10 +135,10 @@ bool SmootherOptions::IsValid(std::string* why) const {
 // step has grown beyond the threshold.
 struct IncrementalSmoother::State {
   internal::IncrementalCholesky engine;
-  internal::LocalRegions local;  // SmootherMode::kLocal: the factors of every variable
-  int since_batch = 0;           // kLocal: updates since the last batch solve,
-  double gain_since_batch = 0;   // the edge gains the local solves left since then,
-  double chi2_at_batch = 0;      // and chi2 at its end,
+  internal::LocalRegions local;        // SmootherMode::kLocal: the factors of every variable
+  int since_batch = 0;                 // kLocal: updates since the last batch solve,
+  double gain_since_batch = 0;         // the edge gains the local solves left since then,
+  double chi2_at_batch = 0;            // and chi2 at its end,
   std::size_t variables_at_batch = 0;  // and the variables then
   std::unordered_map<Key, int> index_of;
   std::vector<Key> key_of;
@@ -643,9 +643,9 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
       u->message = "the local solve failed (a factor cannot be evaluated, or a step is not finite); solved in batch";
     }
     st.gain_since_batch += r.edge_gain;
-    // Shares of chi2 at the last batch solve, and of at least 1 (chi2 is 0 while the graph has
-    // no loop: every share of it would be a batch solve at every update).
-    const double scale = std::max(st.chi2_at_batch, 1.0);
+    // Shares of chi2 at the last batch solve, with the tolerance's floor of 1e-6 a variable
+    // (chi2 is 0 while the graph has no loop, where every gain is rounding).
+    const double scale = per_variable * static_cast<double>(std::max<std::size_t>(st.variables_at_batch, 1));
     batch = r.capped || !r.ok || st.gain_since_batch > options_.local_batch_gap * scale ||
             r.gained > options_.local_batch_correction * scale;
   }
