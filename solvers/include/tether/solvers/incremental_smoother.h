@@ -67,9 +67,10 @@ enum class SmootherMode {
   kFactor,
   /// Solves each update's change over a region around the variables it touched, grown until
   /// no variable at the region's edge could lower chi2 by more than local_tolerance (a share
-  /// of chi2 per variable) if it moved alone; a batch solve of the whole graph now and then (local_batch_share) and where
-  /// a region grows beyond local_max_region. For large graphs, where the corrections of an
-  /// update are local but the factor's path to the root is long (a 100k-pose Manhattan world).
+  /// of chi2 per variable) if it moved alone; a batch solve of the whole graph now and then
+  /// (the local_batch_* rules) and where a region grows beyond local_max_region. For large
+  /// graphs, where the corrections of an update are local but the factor's path to the root
+  /// is long (a 100k-pose Manhattan world).
   kLocal,
 };
 
