@@ -62,10 +62,10 @@ void Replay(const SimulatedGraph& sim, int poses, double p_remove, std::uint64_t
       v.InsertParams(k, sim.initial.TypeOf(k), sim.initial.Params(k));
     } else {
       const Factor& odo = sim.graph.at(by_step[i].front());
-      double p[4] = {0, 0, 0, 0};
+      std::vector<double> p(static_cast<std::size_t>(AmbientDim(sim.initial.TypeOf(k))), 0.0);  // SE2 or SE3
       const std::size_t known = odo.keys()[0] == k ? 1 : 0;
-      ASSERT_TRUE(odo.Predict(known, smoother->Estimate().Params(odo.keys()[known]), 1 - known, p));
-      v.InsertParams(k, sim.initial.TypeOf(k), p);
+      ASSERT_TRUE(odo.Predict(known, smoother->Estimate().Params(odo.keys()[known]), 1 - known, p.data()));
+      v.InsertParams(k, sim.initial.TypeOf(k), p.data());
     }
     for (std::size_t j : by_step[i]) f.Add(sim.graph.at(j).Clone());
     std::vector<FactorId> remove;

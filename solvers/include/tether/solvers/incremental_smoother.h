@@ -149,8 +149,8 @@ struct SmootherOptions {
   /// last batch solve) is solved in batch as well. A gain that large means the estimate was
   /// far from the optimum there: a long loop closed, or what earlier regions left at their
   /// edges added up (the single edge variables' gains do not show a correction that bends a
-  /// long stretch of the graph). Chi2 counts as at least 1 in these shares (it is 0 while the
-  /// graph has no loop). Default 3e-3 (benchmarks/RESULTS.md, "Local mode").
+  /// long stretch of the graph). Chi2 counts as at least 1e-6 a variable in these shares (it
+  /// is 0 while the graph has no loop). Default 3e-3 (benchmarks/RESULTS.md, "Local mode").
   double local_batch_correction = 3e-3;
   /// Evaluate chi2 of the whole graph before and after every update (SmootherUpdate's
   /// chi2_before and chi2_after): a pass over every factor, so off by default.
