@@ -477,18 +477,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     ++u.factors_added;
   }
   for (Key k : new_factors.fixed()) graph_.Fix(k);
-  // Variables whose last factor went: out of the estimate (they would be held forever).
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  for (Key k : touched) {
-    auto it = st.uses.find(k);
-    if (it != st.uses.end() && it->second == 0) {
-      st.uses.erase(it);
-      graph_.Unfix(k);
-      st.RemoveVariable(k);
-      if (estimate_.Erase(k)) ++u.variables_removed;
-    }
-  }
+  u.variables_removed += EraseUnused(&touched);
   if (options_.refine_new_values && !new_values.empty()) {
     // Not the variables held constant (fixed, or the automatic gauge): they stay as given.
     for (Key k : RefineNewValues(added, new_values.keys(), st.Held(graph_), &estimate_)) {
@@ -569,6 +558,22 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   return u;
 }
 
+int IncrementalSmoother::EraseUnused(std::vector<Key>* keys) {
+  State& st = *state_;
+  std::sort(keys->begin(), keys->end());
+  keys->erase(std::unique(keys->begin(), keys->end()), keys->end());
+  int erased = 0;
+  for (Key k : *keys) {
+    auto it = st.uses.find(k);
+    if (it == st.uses.end() || it->second != 0) continue;
+    st.uses.erase(it);
+    graph_.Unfix(k);
+    if (options_.mode == SmootherMode::kFactor) st.RemoveVariable(k);
+    if (estimate_.Erase(k)) ++erased;
+  }
+  return erased;
+}
+
 void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values,
                                       const std::vector<FactorId>& factors_to_remove, SmootherUpdate* u) {
   State& st = *state_;
@@ -605,16 +610,7 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
     ++u->factors_added;
   }
   for (Key k : new_factors.fixed()) graph_.Fix(k);
-  std::sort(seeds.begin(), seeds.end());
-  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-  for (Key k : seeds) {
-    auto it = st.uses.find(k);
-    if (it != st.uses.end() && it->second == 0) {
-      st.uses.erase(it);
-      graph_.Unfix(k);
-      if (estimate_.Erase(k)) ++u->variables_removed;
-    }
-  }
+  u->variables_removed += EraseUnused(&seeds);
   const std::set<Key> held = st.Held(graph_);
   if (options_.refine_new_values && !new_values.empty()) RefineNewValues(added, new_values.keys(), held, &estimate_);
   if (graph_.empty()) {

@@ -248,6 +248,9 @@ class IncrementalSmoother {
 
  private:
   struct State;
+  // Sorts and dedupes *keys, then erases those no factor uses any more (they would be held
+  // forever): out of the estimate, the fixed set and the factor. Returns how many it erased.
+  int EraseUnused(std::vector<Key>* keys);
   // Update's changes and solve in SmootherMode::kLocal (after Update's checks).
   void UpdateLocal(FactorGraph new_factors, Values new_values, const std::vector<FactorId>& factors_to_remove,
                    SmootherUpdate* u);
