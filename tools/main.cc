@@ -353,7 +353,8 @@ int main(int argc, char** argv) {
       ->required();
   lidar_eval->add_option("relations", lc.relations, "Relations file: t1 t2 x y z roll pitch yaw per line")->required();
   lidar_eval->add_option("--format", lc.format, "auto, tum or log")->capture_default_str();
-  lidar_eval->add_option("--odometry", lc.odometry, "Logs: auto, scan-line or interpolated")->capture_default_str();
+  lidar_eval->add_option("--odometry", lc.odometry, "Logs: auto, scan-line, interpolated or none")
+      ->capture_default_str();
   lidar_eval->add_option("--scan-topic", lc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   lidar_eval->add_option("--odom-topic", lc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
   lidar_eval->add_option("--tolerance", lc.tolerance, "Seconds between a relation's stamp and the nearest pose")

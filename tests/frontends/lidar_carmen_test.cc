@@ -39,6 +39,15 @@ std::string RobotLaser(const std::string& ranges = "3 1 2 3", const std::string&
          " 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1234.5 host 34.5\n";
 }
 
+// RAWLASER1 with 3 ranges and 2 remissions (no pose on the line).
+std::string RawLaser(double stamp, const std::string& ranges = "3 1 2 3", const std::string& remissions = "2 0.5 0.6") {
+  std::ostringstream s;
+  s.precision(17);
+  s << "RAWLASER1 0 -1.5 3.0 0.75 40 0.01 0 " << ranges << " " << remissions << " " << stamp << " host " << stamp - 100
+    << "\n";
+  return s.str();
+}
+
 class CarmenTest : public testing::LidarFilesTest {};
 
 TEST_F(CarmenTest, FlaserGivesRangesAnglesStampAndLineOdometry) {
@@ -102,6 +111,73 @@ TEST_F(CarmenTest, RobotLaser1FollowsItsOwnLayout) {
   EXPECT_EQ(s.odometry_origin, OdometryOrigin::kScanLine);
   // Without remissions the layout still holds.
   EXPECT_EQ(ReadCarmenLog(Write("r0.log", RobotLaser("3 1 2 3", "0"))).scans.size(), 1u);
+}
+
+TEST_F(CarmenTest, RawLaser1TakesItsOdometryFromOdomLinesWhereThereAreAny) {
+  // Without ODOM lines: no odometry at all, whatever kAuto finds.
+  const LidarLog bare = ReadCarmenLog(Write("raw.log", "# raw\n" + RawLaser(10) + RawLaser(10.5, "3 1 2 3", "0")));
+  ASSERT_EQ(bare.scans.size(), 2u);
+  const LaserScan& s = bare.scans[0];
+  EXPECT_DOUBLE_EQ(s.angle_min, -1.5);
+  EXPECT_DOUBLE_EQ(s.angle_increment, 0.75);
+  EXPECT_DOUBLE_EQ(s.range_max, 40);
+  EXPECT_DOUBLE_EQ(s.range_min, 0);
+  ASSERT_EQ(s.ranges.size(), 3u);
+  EXPECT_FLOAT_EQ(s.ranges[2], 3.0f);
+  EXPECT_DOUBLE_EQ(s.stamp, 10);
+  EXPECT_DOUBLE_EQ(s.logger_stamp, -90);
+  EXPECT_EQ(s.source_index, 2);
+  EXPECT_EQ(s.odometry_origin, OdometryOrigin::kNone);
+  EXPECT_EQ(s.odometry.translation(), Eigen::Vector2d::Zero());
+  EXPECT_EQ(s.laser_in_robot.translation(), Eigen::Vector2d::Zero());
+  EXPECT_EQ(bare.scans[1].odometry_origin, OdometryOrigin::kNone);
+  EXPECT_EQ(bare.clamped_odometry, 0u);
+  // kInterpolated insists on ODOM lines; kScanLine on poses on the scan lines.
+  LidarReadOptions o;
+  o.odometry = OdometrySource::kInterpolated;
+  EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(P("raw.log"), o); }).find("no odometry messages"),
+            std::string::npos);
+  o.odometry = OdometrySource::kScanLine;
+  EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(P("raw.log"), o); }).find("scan 2 carries no odometry"),
+            std::string::npos);
+  // With ODOM lines: interpolated (kAuto and kInterpolated alike), clamped outside them.
+  const std::string path = Write("odom.log", Odom(10, 0, 0, 0) + RawLaser(10.25) + Odom(11, 2, 0, 1) + RawLaser(12));
+  for (OdometrySource source : {OdometrySource::kAuto, OdometrySource::kInterpolated}) {
+    o.odometry = source;
+    const LidarLog log = ReadCarmenLog(path, o);
+    ASSERT_EQ(log.scans.size(), 2u);
+    EXPECT_EQ(log.scans[0].odometry_origin, OdometryOrigin::kInterpolated);
+    EXPECT_DOUBLE_EQ(log.scans[0].odometry.x(), 0.5);
+    EXPECT_DOUBLE_EQ(log.scans[0].odometry.theta(), 0.25);
+    EXPECT_EQ(log.scans[1].odometry_origin, OdometryOrigin::kClamped);
+    EXPECT_DOUBLE_EQ(log.scans[1].odometry.x(), 2);
+    EXPECT_EQ(log.clamped_odometry, 1u);
+  }
+  // ReadLidarLog takes it for a CARMEN log too.
+  EXPECT_EQ(ReadLidarLog(path).scans.size(), 2u);
+}
+
+TEST_F(CarmenTest, OdometryNoneDropsEveryScansOdometry) {
+  const std::string path =
+      Write("f.clf", Odom(10, 0, 0, 0) + Flaser(10.5, "1.1 2 0.5", "1 2 0.5") + Odom(11, 1, 0, 0) + RawLaser(10.5));
+  LidarReadOptions o;
+  o.odometry = OdometrySource::kNone;
+  const LidarLog log = ReadCarmenLog(path, o);
+  ASSERT_EQ(log.scans.size(), 2u);
+  for (const LaserScan& s : log.scans) {
+    EXPECT_EQ(s.odometry_origin, OdometryOrigin::kNone);
+    EXPECT_EQ(s.odometry.translation(), Eigen::Vector2d::Zero());
+    EXPECT_EQ(s.odometry.theta(), 0);
+  }
+  // The laser's pose on the robot is kept (it is not odometry), and so are the ODOM messages.
+  EXPECT_NEAR(log.scans[0].laser_in_robot.x(), 0.1 * std::cos(0.5), 1e-12);
+  EXPECT_EQ(log.odometry.size(), 2u);
+  EXPECT_EQ(log.clamped_odometry, 0u);
+  // As the default would read it: the line's pose, and the interpolated one.
+  const LidarLog with = ReadCarmenLog(path);
+  EXPECT_EQ(with.scans[0].odometry_origin, OdometryOrigin::kScanLine);
+  EXPECT_EQ(with.scans[1].odometry_origin, OdometryOrigin::kInterpolated);
+  EXPECT_DOUBLE_EQ(with.scans[1].odometry.x(), 0.5);
 }
 
 TEST_F(CarmenTest, OdometryIsInterpolatedFromOdomLinesInAnyOrder) {
@@ -216,6 +292,24 @@ TEST_F(CarmenErrorTest, EveryMalformedFieldNamesFileLineAndField) {
        "bad.clf:2: ROBOTLASER1: expected 27 fields"},
       {"ROBOTLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 v 0.2 0.3 0.4 1 h 3\n",
        "bad.clf:2: ROBOTLASER1: field 20 (rv) 'v' is not a number"},
+      {"RAWLASER1 0 -1.5 3\n", "bad.clf:2: RAWLASER1: expected at least 9 fields (RAWLASER1 laser_type"},
+      {RawLaser(7, "3 1 2 3", "3 0.5 0.6"), "bad.clf:2: RAWLASER1: expected 19 fields"},
+      {RawLaser(7, "3 1 2 3", "2 0.5 0.6 0.7"), "bad.clf:2: RAWLASER1: expected 18 fields"},
+      {RawLaser(7, "3 1 2 3", "x"), "bad.clf:2: RAWLASER1: field 12 (number of remissions) 'x' is not an integer"},
+      {RawLaser(7, "1 2", "0"), "bad.clf:2: RAWLASER1: a scan needs at least 2 readings, the line says 1"},
+      {RawLaser(7, "3 1 -2 3"), "bad.clf:2: RAWLASER1: field 10 (range 1) -2 is negative"},
+      {RawLaser(7, "3 1 2 3", "2 0.5 e"), "bad.clf:2: RAWLASER1: field 14 (remission) 'e' is not a number"},
+      {"RAWLASER1 0 -1.5 3.0 0 40 0.01 0 3 1 2 3 0 7 h 3\n",
+       "bad.clf:2: RAWLASER1: field 4 (angular_resolution) must be positive"},
+      {"RAWLASER1 0 -1.5 3.0 0.7 0 0.01 0 3 1 2 3 0 7 h 3\n",
+       "bad.clf:2: RAWLASER1: field 5 (maximum_range) must be positive"},
+      {"RAWLASER1 0 -1.5 -3 0.7 40 0.01 0 3 1 2 3 0 7 h 3\n",
+       "bad.clf:2: RAWLASER1: field 3 (field_of_view) must be positive"},
+      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 t h 3\n",
+       "bad.clf:2: RAWLASER1: field 13 (ipc_timestamp) 't' is not a number"},
+      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 7 h l\n",
+       "bad.clf:2: RAWLASER1: field 15 (logger_timestamp) 'l' is not a number"},
+      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 7 h\n", "bad.clf:2: RAWLASER1: expected 16 fields"},
   };
   for (const auto& c : cases) {
     const std::string message = Error(c.line);
@@ -256,7 +350,8 @@ TEST_F(CarmenErrorTest, FilesThatAreNotLaserLogs) {
   // Other messages, NMEA-GGA among them, are skipped; a log of them alone has no scans.
   m = ErrorOf<ParseError>(
       [&] { ReadCarmenLog(Write("o.clf", "# c\n" + Odom(1, 0, 0, 0) + "NMEA-GGA 1 2 3\nPARAM a b\n")); });
-  EXPECT_NE(m.find("o.clf: no FLASER or ROBOTLASER1 line in 4 lines: not a laser log"), std::string::npos) << m;
+  EXPECT_NE(m.find("o.clf: no FLASER, ROBOTLASER1 or RAWLASER1 line in 4 lines: not a laser log"), std::string::npos)
+      << m;
   EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(Write("e.clf", "")); }).find("not a laser log"), std::string::npos);
   // A NUL byte inside a line is an error at that line (not a line cut in two).
   m = ErrorOf<ParseError>(
@@ -269,8 +364,8 @@ TEST_F(CarmenErrorTest, FilesThatAreNotLaserLogs) {
 // Damaged logs (bytes changed, cut, duplicated; deterministic) are read or refused with a
 // ParseError: never another exception, never a crash (the sanitised build runs this too).
 TEST_F(CarmenErrorTest, DamagedLogsAreReadOrRefusedNeverACrash) {
-  const std::string good = "# log\n" + Odom(1, 0, 0, 0) + Flaser(1.5) + RobotLaser() + Odom(2, 1, 0, 0.5) +
-                           Flaser(1.75, "1 2 0.5", "1 2 0.5", "3 1e-3 2.5 1e2") + "PARAM x y\n";
+  const std::string good = "# log\n" + Odom(1, 0, 0, 0) + Flaser(1.5) + RobotLaser() + RawLaser(1.6) +
+                           Odom(2, 1, 0, 0.5) + Flaser(1.75, "1 2 0.5", "1 2 0.5", "3 1e-3 2.5 1e2") + "PARAM x y\n";
   std::uint32_t state = 12345;
   const auto next = [&state] {
     state = state * 1664525u + 1013904223u;
@@ -343,7 +438,8 @@ TEST_F(CarmenTest, UnusableOptionsAreRefused) {
 }
 
 TEST(OdometrySourceNames, RoundTrip) {
-  for (OdometrySource s : {OdometrySource::kAuto, OdometrySource::kScanLine, OdometrySource::kInterpolated}) {
+  for (OdometrySource s :
+       {OdometrySource::kAuto, OdometrySource::kScanLine, OdometrySource::kInterpolated, OdometrySource::kNone}) {
     OdometrySource back = OdometrySource::kAuto;
     ASSERT_TRUE(FromString(ToString(s), &back));
     EXPECT_EQ(back, s);
@@ -351,7 +447,7 @@ TEST(OdometrySourceNames, RoundTrip) {
   OdometrySource s = OdometrySource::kScanLine;
   EXPECT_FALSE(FromString("line", &s));
   EXPECT_EQ(s, OdometrySource::kScanLine);
-  EXPECT_EQ(OdometrySourceNames(), "auto, scan-line or interpolated");
+  EXPECT_EQ(OdometrySourceNames(), "auto, scan-line, interpolated or none");
   LogFormat f = LogFormat::kAuto;
   EXPECT_TRUE(FromString("rosbag", &f));
   EXPECT_EQ(f, LogFormat::kRosBag);

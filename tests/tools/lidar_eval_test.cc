@@ -113,7 +113,7 @@ TEST_F(LidarEvalTest, ErrorsAndExitCodes) {
   EXPECT_NE(r.output.find("--format takes auto, tum or log"), std::string::npos) << r.output;
   r = Tether("lidar-eval " + P("est.txt") + " " + P("r.relations") + " --odometry wheel");
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("--odometry takes auto, scan-line or interpolated"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--odometry takes auto, scan-line, interpolated or none"), std::string::npos) << r.output;
   r = Tether("lidar-eval " + P("est.txt") + " " + P("r.relations") + " --tolerance -1");
   EXPECT_EQ(r.code, 2) << r.output;
   r = Tether("lidar-eval " + P("est.txt") + " " + P("r.relations") + " --time-reference " + P("est.txt"));

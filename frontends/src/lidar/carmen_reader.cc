@@ -203,31 +203,39 @@ void ParseFlaser(const Fields& f, long line, const LidarReadOptions& o, LidarLog
   log->scans.push_back(std::move(s));
 }
 
+// The fields ROBOTLASER1 and RAWLASER1 share: laser_type start_angle fov angular_resolution
+// max_range accuracy remission_mode n r1..rn m e1..em. Checks the line has exactly
+// `tail` fields after the remissions; returns the index of the first of them.
+std::size_t ParseLaserFields(const Fields& f, const char* layout, std::size_t tail, LaserScan* s) {
+  f.NeedAtLeast(9, layout);
+  f.Count(1, "laser_type", 1000);
+  s->angle_min = f.Number(2, "start_angle");
+  const double fov = f.Number(3, "field_of_view");
+  s->angle_increment = f.Number(4, "angular_resolution");
+  s->range_max = f.Number(5, "maximum_range");
+  f.Number(6, "accuracy");
+  f.Count(7, "remission_mode", 1000);
+  const std::size_t n = static_cast<std::size_t>(f.Count(8, "number of readings", kMaxBeams));
+  if (n < 2) f.Fail("a scan needs at least 2 readings, the line says " + f[8]);
+  if (!(s->angle_increment > 0)) f.Fail(Fields::Where(4, "angular_resolution") + " must be positive");
+  if (!(s->range_max > 0)) f.Fail(Fields::Where(5, "maximum_range") + " must be positive");
+  if (!(fov > 0)) f.Fail(Fields::Where(3, "field_of_view") + " must be positive");
+  f.NeedAtLeast(n + 10, layout);
+  const std::size_t m = static_cast<std::size_t>(f.Count(n + 9, "number of remissions", kMaxBeams));
+  f.NeedCount(n + m + 10 + tail, layout);
+  s->ranges = Ranges(f, 9, n);
+  for (std::size_t k = 0; k < m; ++k) f.Number(n + 10 + k, "remission");
+  s->range_min = 0;
+  return n + m + 10;
+}
+
 void ParseRobotLaser1(const Fields& f, long line, LidarLog* log) {
   const char* layout =
       "ROBOTLASER1 laser_type start_angle fov angular_resolution max_range accuracy remission_mode n r1..rn m "
       "e1..em laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv forward_safety_dist side_safety_dist "
       "turn_axis ipc_timestamp host logger_timestamp";
-  f.NeedAtLeast(9, layout);
-  f.Count(1, "laser_type", 1000);
   LaserScan s;
-  s.angle_min = f.Number(2, "start_angle");
-  const double fov = f.Number(3, "field_of_view");
-  s.angle_increment = f.Number(4, "angular_resolution");
-  s.range_max = f.Number(5, "maximum_range");
-  f.Number(6, "accuracy");
-  f.Count(7, "remission_mode", 1000);
-  const std::size_t n = static_cast<std::size_t>(f.Count(8, "number of readings", kMaxBeams));
-  if (n < 2) f.Fail("a scan needs at least 2 readings, the line says " + f[8]);
-  if (!(s.angle_increment > 0)) f.Fail(Fields::Where(4, "angular_resolution") + " must be positive");
-  if (!(s.range_max > 0)) f.Fail(Fields::Where(5, "maximum_range") + " must be positive");
-  if (!(fov > 0)) f.Fail(Fields::Where(3, "field_of_view") + " must be positive");
-  f.NeedAtLeast(n + 10, layout);
-  const std::size_t m = static_cast<std::size_t>(f.Count(n + 9, "number of remissions", kMaxBeams));
-  f.NeedCount(n + m + 24, layout);
-  s.ranges = Ranges(f, 9, n);
-  for (std::size_t k = 0; k < m; ++k) f.Number(n + 10 + k, "remission");
-  const std::size_t p = n + m + 10;
+  const std::size_t p = ParseLaserFields(f, layout, 14, &s);
   const SE2<double> laser = Pose(f, p, "laser_x", "laser_y", "laser_theta");
   s.odometry = Pose(f, p + 3, "robot_x", "robot_y", "robot_theta");
   s.odometry_origin = OdometryOrigin::kScanLine;
@@ -236,7 +244,21 @@ void ParseRobotLaser1(const Fields& f, long line, LidarLog* log) {
   for (std::size_t k = 0; k < 5; ++k) f.Number(p + 6 + k, names[k]);
   s.stamp = f.Number(p + 11, "ipc_timestamp");
   s.logger_stamp = f.Number(p + 13, "logger_timestamp");
-  s.range_min = 0;
+  s.source_index = line;
+  log->scans.push_back(std::move(s));
+}
+
+// The laser alone: no pose on the line (odometry from ODOM lines, if any) and the laser at the
+// robot's origin.
+void ParseRawLaser1(const Fields& f, long line, LidarLog* log) {
+  const char* layout =
+      "RAWLASER1 laser_type start_angle fov angular_resolution max_range accuracy remission_mode n r1..rn m "
+      "e1..em ipc_timestamp host logger_timestamp";
+  LaserScan s;
+  const std::size_t p = ParseLaserFields(f, layout, 3, &s);
+  s.odometry_origin = OdometryOrigin::kNone;
+  s.stamp = f.Number(p, "ipc_timestamp");
+  s.logger_stamp = f.Number(p + 2, "logger_timestamp");
   s.source_index = line;
   log->scans.push_back(std::move(s));
 }
@@ -264,10 +286,12 @@ LidarLog ReadCarmenLog(const std::string& path, const LidarReadOptions& options)
       ParseFlaser(f, lines.line(), options, &log);
     } else if (f[0] == "ROBOTLASER1") {
       ParseRobotLaser1(f, lines.line(), &log);
+    } else if (f[0] == "RAWLASER1") {
+      ParseRawLaser1(f, lines.line(), &log);
     }
   }
   if (log.scans.empty()) {
-    throw ParseError(path + ": no FLASER or ROBOTLASER1 line in " + std::to_string(lines.line()) +
+    throw ParseError(path + ": no FLASER, ROBOTLASER1 or RAWLASER1 line in " + std::to_string(lines.line()) +
                      " lines: not a laser log");
   }
   FinishLog(options, &log);

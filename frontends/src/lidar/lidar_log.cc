@@ -17,7 +17,8 @@ namespace {
 
 constexpr EnumName<OdometrySource> kOdometrySourceNames[] = {{OdometrySource::kAuto, "auto"},
                                                              {OdometrySource::kScanLine, "scan-line"},
-                                                             {OdometrySource::kInterpolated, "interpolated"}};
+                                                             {OdometrySource::kInterpolated, "interpolated"},
+                                                             {OdometrySource::kNone, "none"}};
 constexpr EnumName<LogFormat> kLogFormatNames[] = {
     {LogFormat::kAuto, "auto"}, {LogFormat::kCarmen, "carmen"}, {LogFormat::kRosBag, "rosbag"}};
 
@@ -66,6 +67,11 @@ LogFormat DetectLogFormat(const std::string& path) {
 void AttachOdometry(const std::string& path, OdometrySource source, LidarLog* log) {
   log->clamped_odometry = 0;
   for (LaserScan& s : log->scans) {
+    if (source == OdometrySource::kNone) {
+      s.odometry = SE2<double>();
+      s.odometry_origin = OdometryOrigin::kNone;
+      continue;
+    }
     const bool has_line = s.odometry_origin == OdometryOrigin::kScanLine;
     if (source == OdometrySource::kScanLine && !has_line) {
       throw ParseError(path + ": scan " + std::to_string(s.source_index) +

@@ -12,7 +12,7 @@ struct LidarEvalCommand {
   std::string relations;
   /// auto: a ROS bag by its first bytes, a CARMEN log by its name (.clf, .log, .gz), else TUM.
   std::string format = "auto";
-  /// Logs: where each scan's pose comes from (auto, scan-line, interpolated).
+  /// Logs: where each scan's pose comes from (auto, scan-line, interpolated, none).
   std::string odometry = "auto";
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";

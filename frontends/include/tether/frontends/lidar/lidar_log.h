@@ -8,7 +8,7 @@
 //     ... s.stamp, s.odometry ...
 //   }
 //
-// Sources: CARMEN logs (FLASER, ROBOTLASER1 and ODOM lines; plain text or gzip, see
+// Sources: CARMEN logs (FLASER, ROBOTLASER1, RAWLASER1 and ODOM lines; plain text or gzip, see
 // carmen_reader.h) and ROS 1 bags (sensor_msgs/LaserScan and nav_msgs/Odometry, see
 // rosbag_reader.h). docs/lidar.md describes both.
 #include <string>
@@ -25,6 +25,7 @@ enum class OdometrySource {
   kAuto,          ///< the scan's own line where it carries a pose (CARMEN), else interpolated
   kScanLine,      ///< the scan's line only (a CARMEN scan line always has one; a bag has none: error)
   kInterpolated,  ///< interpolated from the odometry messages (ODOM lines, the odometry topic)
+  kNone,          ///< none: every scan's odometry dropped (identity, OdometryOrigin::kNone), to run scan-only
 };
 const char* ToString(OdometrySource s);
 bool FromString(const std::string& name, OdometrySource* s);
@@ -78,7 +79,9 @@ std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log);
 LogFormat DetectLogFormat(const std::string& path);
 
 /// Sets each scan's odometry from its line or the track, as `source` says; counts the clamped.
-/// Used by the readers; throws ParseError naming `path` where a scan has no odometry to take.
+/// Used by the readers; throws ParseError naming `path` where a scan has no odometry to take
+/// (kScanLine for a scan without a pose on its line, kInterpolated without odometry messages).
+/// kAuto never throws: a scan without a pose of its own in a log without odometry gets kNone.
 void AttachOdometry(const std::string& path, OdometrySource source, LidarLog* log);
 
 /// Throws InvalidArgument "lidar reader: <IsValid's why>" (each reader calls it first).
