@@ -6,6 +6,7 @@
 #include "tether/tools/bench.h"
 #include "tether/tools/commands.h"
 #include "tether/tools/ekf_demo.h"
+#include "tether/tools/lidar_degrade.h"
 #include "tether/tools/lidar_eval.h"
 #include "tether/tools/lidar_slam.h"
 #include "tether/tools/replay.h"
@@ -369,6 +370,27 @@ int main(int argc, char** argv) {
   lidar_eval->add_option("--pose-offset", lc.pose_offset,
                          "x,y,theta: score every pose T as T * offset (e.g. laser poses on relations of the robot's)");
   lidar_eval->add_option("--trajectory-out", lc.trajectory_output, "Also write the scored trajectory (TUM text)");
+  tether::LidarDegradeCommand ldc;
+  CLI::App* lidar_degrade = app.add_subcommand(
+      "lidar-degrade", "Write a laser log degraded as a cheaper scanner would record it (CARMEN; docs/lidar.md)");
+  lidar_degrade->add_option("log", ldc.input, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
+  lidar_degrade->add_option("-o,--output", ldc.output, "The degraded log (CARMEN text)")->required();
+  lidar_degrade->add_option("--preset", ldc.preset, "lds: 360 beams, 6 m, 0.02 m noise, 5% drops, every other scan");
+  lidar_degrade->add_option("--beams", ldc.beams, "Resample each scan to N beams over its field of view");
+  lidar_degrade->add_option("--max-range", ldc.max_range, "Maximum range [m]: beams beyond become no return");
+  lidar_degrade->add_option("--noise", ldc.noise, "Gaussian range noise sigma [m]");
+  lidar_degrade->add_option("--drop", ldc.drop, "Share of valid beams dropped, in [0, 1]");
+  lidar_degrade->add_option("--error-share", ldc.error_share, "Share of the dropped beams made errors (NaN in memory)");
+  lidar_degrade->add_option("--keep-every", ldc.keep_every, "Keep every K-th scan (2: every other one)");
+  lidar_degrade->add_option("--first-scan", ldc.first_scan, "The first scan kept (index, from 0)");
+  lidar_degrade->add_option("--max-scans", ldc.max_scans, "At most N scans (0: all)");
+  lidar_degrade->add_option("--seed", ldc.seed, "Random seed of the noise and the drops (default 1)");
+  lidar_degrade->add_flag("--no-odometry", ldc.no_odometry, "Drop the odometry (RAWLASER1 lines, no ODOM lines)");
+  lidar_degrade->add_option("--odometry", ldc.odometry, "Reading: auto, scan-line, interpolated or none")
+      ->capture_default_str();
+  lidar_degrade->add_option("--scan-topic", ldc.scan_topic, "Bags: the sensor_msgs/LaserScan topic")
+      ->capture_default_str();
+  lidar_degrade->add_option("--odom-topic", ldc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -388,6 +410,7 @@ int main(int argc, char** argv) {
       {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}},
       {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}},
       {lidar_eval, {{"--trajectory-out", &lc.trajectory_output}}},
+      {lidar_degrade, {{"-o", &ldc.output}}},
       {lidar, {{"-o", &lsc.output_dir}}}};
   for (const auto& [sub, options] : paths) {
     if (!sub->parsed()) continue;
@@ -407,6 +430,7 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return tether::RunReplay(rc, std::cout, std::cerr);
     if (ekf_demo->parsed()) return tether::RunEkfDemo(ec, std::cout, std::cerr);
     if (lidar_eval->parsed()) return tether::RunLidarEval(lc, std::cout, std::cerr);
+    if (lidar_degrade->parsed()) return tether::RunLidarDegrade(ldc, std::cout, std::cerr);
     if (lidar->parsed()) return tether::RunLidar(lsc, std::cout, std::cerr);
   } catch (const std::exception& e) {
     // The commands report expected errors themselves; this is the last line of defence.
