@@ -8,6 +8,7 @@
 #include "tether/tools/ekf_demo.h"
 #include "tether/tools/lidar_degrade.h"
 #include "tether/tools/lidar_eval.h"
+#include "tether/tools/lidar_simulate.h"
 #include "tether/tools/lidar_slam.h"
 #include "tether/tools/replay.h"
 
@@ -96,11 +97,17 @@ int main(int argc, char** argv) {
 
   tether::SimulateCommand sim;
   CLI::App* simulate = app.add_subcommand("simulate", "Write a synthetic graph with known ground truth");
-  simulate->add_option("world", sim.world, "manhattan | sphere | landmarks")->required();
+  simulate->add_option("world", sim.world, "manhattan | sphere | landmarks | lidar")->required();
   simulate->add_option("--poses", sim.poses, "Number of poses")->capture_default_str();
   simulate->add_option("--seed", sim.seed, "Random seed")->capture_default_str();
   simulate->add_option("-o,--output", sim.output, "Output g2o file (initial values: composed odometry)")->required();
   simulate->add_option("--ground-truth", sim.ground_truth, "Also write the true values to this g2o file");
+  tether::SimulateLidarCommand slc;
+  simulate->add_option("--truth", slc.truth, "lidar: write the true trajectory here (TUM text)");
+  simulate->add_option("--scans", slc.scans, "lidar: scans at 10 Hz (default 3000)");
+  simulate->add_option("--beams", slc.beams, "lidar: beams over 360 degrees (default 360)");
+  simulate->add_flag("--no-odometry", slc.no_odometry, "lidar: scans without odometry");
+  simulate->add_option("--preset", slc.preset, "lidar: lds (6 m, 0.02 m noise, 5% of the beams dropped, 5 Hz)");
 
   tether::PluginsListCommand plist;
   CLI::App* plugins = app.add_subcommand("plugins", "Factor plugins");
@@ -406,6 +413,7 @@ int main(int argc, char** argv) {
         {"--covariance-out", &opt.covariance_output},
         {"--ground-truth", &opt.ground_truth}}},
       {simulate, {{"-o", &sim.output}, {"--ground-truth", &sim.ground_truth}}},
+      {simulate, {{"--truth", &slc.truth}}},
       {bench, {{"-o", &bc.output}}},
       {replay, {{"-o", &rc.options.output}, {"--plot", &rc.plot}}},
       {ekf_demo, {{"-o", &ec.output}, {"--plot", &ec.plot}}},
@@ -424,6 +432,9 @@ int main(int argc, char** argv) {
   }
   try {
     if (optimize->parsed()) return tether::RunOptimize(opt, std::cout, std::cerr);
+    if (simulate->parsed() && (sim.world == "lidar" || slc.Given())) {
+      return tether::RunSimulateLidar(sim, slc, std::cout, std::cerr);
+    }
     if (simulate->parsed()) return tether::RunSimulate(sim, std::cout, std::cerr);
     if (list->parsed()) return tether::RunPluginsList(plist, std::cout, std::cerr);
     if (bench->parsed()) return tether::RunBench(bc, std::cout, std::cerr);
