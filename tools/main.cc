@@ -281,74 +281,90 @@ int main(int argc, char** argv) {
       "lidar", "2D LiDAR SLAM over a laser log (CARMEN or ROS 1 bag): trajectory, pose graph and occupancy map");
   lidar->add_option("log", lsc.log, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
   lidar->add_option("-o,--output", lsc.output_dir, "Output folder (made if missing)")->required();
+  tether::lidar::LocalSlamOptions& lo = lsc.options.local;
+  tether::lidar::PoseGraphOptions& po = lsc.options.pose_graph;
   lidar->add_flag_function(
-      "--no-loop-closure", [&lsc](std::int64_t) { lsc.loop_closure = false; },
+      "--no-loop-closure", [&po](std::int64_t) { po.loop_closure = false; },
       "Local SLAM and the pose graph without loop closures");
   // An option of `tether lidar` with its default shown in --help.
   const auto lidar_option = [lidar](const char* name, auto& value, const char* help) {
     lidar->add_option(name, value, help)->capture_default_str();
   };
-  lidar_option("--threads", lsc.threads, "Background loop-closure search threads (0: inline)");
+  lidar_option("--threads", po.threads,
+               "Background loop-closure search threads (default: the machine's cores; 0: "
+               "inline; the result does not depend on it)");
   lidar_option("--max-scans", lsc.max_scans, "Only the first N scans (0: all)");
-  lidar_option("--scans-per-submap", lsc.scans_per_submap, "Scans in a finished submap");
-  lidar_option("--resolution", lsc.resolution, "Grid resolution [m]");
-  lidar_option("--search-every", lsc.search_every, "Loop-closure search for every N-th scan");
-  lidar_option("--update-every", lsc.update_every,
+  lidar_option("--scans-per-submap", lo.submaps.scans_per_submap, "Scans in a finished submap");
+  lidar_option("--resolution", lo.submaps.resolution, "Grid resolution [m]");
+  lidar_option("--search-every", po.search_every_n_scans, "Loop-closure search for every N-th scan");
+  lidar_option("--update-every", po.update_every_n_scans,
                "Scans per smoother update (in between, new scans follow local SLAM from the last estimate)");
-  lidar_option("--min-score", lsc.min_score, "Branch and bound's score threshold");
-  lidar_option("--local-sigma-t", lsc.local_translation_sigma, "Local constraints' translation sigma [m]");
-  lidar_option("--local-sigma-r", lsc.local_rotation_sigma, "Local constraints' rotation sigma [rad]");
-  lidar_option("--consecutive-sigma-t", lsc.consecutive_translation_sigma,
+  lidar_option("--min-score", po.min_score, "Branch and bound's score threshold");
+  lidar_option("--local-sigma-t", po.local_translation_sigma, "Local constraints' translation sigma [m]");
+  lidar_option("--local-sigma-r", po.local_rotation_sigma, "Local constraints' rotation sigma [rad]");
+  lidar_option("--consecutive-sigma-t", po.consecutive_translation_sigma,
                "Consecutive scans' constraints (local SLAM's relative pose): translation sigma [m] (0: none)");
-  lidar_option("--consecutive-sigma-r", lsc.consecutive_rotation_sigma,
+  lidar_option("--consecutive-sigma-r", po.consecutive_rotation_sigma,
                "Consecutive scans' constraints: rotation sigma [rad] (0: none)");
-  lidar_option("--local-huber", lsc.local_huber_delta,
+  lidar_option("--local-huber", po.local_huber_delta,
                "Huber loss on the local and consecutive constraints: delta on the whitened error (0: none)");
-  lidar_option("--loop-sigma-t", lsc.loop_translation_sigma, "Loop closures' translation sigma [m]");
-  lidar_option("--loop-sigma-r", lsc.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
-  lidar_option("--rival-ratio", lsc.rival_ratio,
+  lidar_option("--loop-sigma-t", po.loop_translation_sigma, "Loop closures' translation sigma [m]");
+  lidar_option("--loop-sigma-r", po.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
+  lidar_option("--rival-ratio", po.rival_ratio,
                "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
                "score (0: keep them)");
-  lidar_option("--confirm-t", lsc.confirm_translation,
+  lidar_option("--confirm-t", po.confirm_translation,
                "A match becomes a loop closure once a match of another scan to the same submap agrees with it "
                "through local SLAM's relative pose within this [m] and --confirm-r (0: every match is added)");
-  lidar_option("--confirm-r", lsc.confirm_rotation, "See --confirm-t [rad]");
-  lidar_option("--max-search-distance", lsc.max_search_distance,
+  lidar_option("--confirm-r", po.confirm_rotation, "See --confirm-t [rad]");
+  lidar_option("--max-search-distance", po.max_search_distance,
                "Search a scan against the finished submaps whose origin lies this near it [m]");
-  lidar_option("--search-voxel", lsc.search_voxel_size,
+  lidar_option("--search-voxel", po.search_voxel_size,
                "Loop closures: branch and bound scores the scan's points thinned by a voxel filter of this edge "
                "[m] (0: the matching points)");
-  lidar_option("--search-window", lsc.search_window,
+  lidar_option("--search-window", po.search.linear_search_window,
                "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]");
-  lidar_option("--search-window-growth", lsc.search_window_growth,
+  lidar_option("--search-window-growth", po.search_window_growth,
                "Loop closures: the window's half side grows by this many metres per metre between the scan and "
                "the submap in the graph (0: fixed)");
-  lidar_option("--max-search-window", lsc.max_search_window,
+  lidar_option("--max-search-window", po.max_search_window,
                "Loop closures: the window's half side grows up to this [m]");
   lidar_option("--search-angle", lsc.search_angle_deg,
                "Loop closures: branch and bound searches +- this many degrees around the estimate");
-  lidar_option("--huber", lsc.huber_delta, "Loop closures' Huber delta (on the whitened error)");
-  lidar_option("--match-translation-weight", lsc.match_translation_weight,
+  lidar_option("--huber", po.huber_delta, "Loop closures' Huber delta (on the whitened error)");
+  lidar_option("--match-translation-weight", lo.refiner.weights.translation,
                "Local matching: the scan-match factor's weight on the distance to the odometry's prediction "
                "[1/m]");
-  lidar_option("--match-rotation-weight", lsc.match_rotation_weight,
+  lidar_option("--match-rotation-weight", lo.refiner.weights.rotation,
                "Local matching: the scan-match factor's weight on the turn from the odometry's prediction [1/rad]");
-  lidar_option("--correlative-translation-weight", lsc.correlative_translation_weight,
+  lidar_option("--correlative-translation-weight", lo.correlative.translation_delta_cost_weight,
                "Local matching: the correlative search's preference for the prediction's translation [1/m]");
-  lidar_option("--correlative-rotation-weight", lsc.correlative_rotation_weight,
+  lidar_option("--correlative-rotation-weight", lo.correlative.rotation_delta_cost_weight,
                "Local matching: the correlative search's preference for the prediction's heading [1/rad]");
   lidar_option("--correlative-angle", lsc.correlative_angle_deg,
                "Local matching: the correlative search's rotations, +- this many degrees around the prediction");
-  lidar_option("--min-match-probability", lsc.min_match_probability,
+  lidar_option("--min-match-probability", lo.min_match_probability,
                "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
-               "the odometry's prediction (0: always trust the match)");
-  lidar_option("--still-distance", lsc.still_distance,
+               "the prediction (0: always trust the match)");
+  lidar_option("--still-distance", lo.still_distance,
                "Local matching: where the odometry moved less than this [m] and turned less than --still-angle "
                "since the scan before, the scan keeps the pose before, unmatched (0: always match)");
-  lidar_option("--still-angle", lsc.still_angle, "Local matching: see --still-distance [rad]");
-  lidar_option("--max-range", lsc.max_range, "Drop ranges beyond this [m] (0: the log's)");
-  lidar_option("--scan-topic", lsc.scan_topic, "Bags: the sensor_msgs/LaserScan topic");
-  lidar_option("--odom-topic", lsc.odom_topic, "Bags: the nav_msgs/Odometry topic");
+  lidar_option("--still-angle", lo.still_angle, "Local matching: see --still-distance [rad]");
+  lidar_option("--weak-window", lo.weak_prediction_linear_window,
+               "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
+  lidar_option("--max-range", lsc.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
+  lidar_option("--odometry", lsc.odometry,
+               "Where the odometry comes from: auto, scan-line, interpolated, or none (scan-only: every scan "
+               "predicted from the scans before)");
+  lidar_option("--scan-topic", lsc.read.scan_topic, "Bags: the sensor_msgs/LaserScan topic");
+  lidar_option("--odom-topic", lsc.read.odom_topic, "Bags: the nav_msgs/Odometry topic");
+  lidar
+      ->add_option("--laser-offset", lsc.laser_offset,
+                   "The laser's pose on the robot, x,y,theta [m, m, rad], for every scan instead of the log's")
+      ->delimiter(',')
+      ->expected(3);
+  lidar_option("--self-check-every", lsc.options.self_check.sample_every,
+               "Self-check every N-th scan against the map made at other times (0: no check)");
   lidar_option("--progress-every", lsc.progress_every, "Scans between progress lines (0: none)");
   lidar->add_flag("-q,--quiet", lsc.quiet, "No progress lines");
   CLI::App* lidar_eval = app.add_subcommand(

@@ -78,6 +78,7 @@ void BindGraph(py::module_& m);
 void BindPythonFactor(py::module_& m);
 void BindSolve(py::module_& m);
 void BindFrontends(py::module_& m);
+void BindLidar(py::module_& m);
 
 }  // namespace python
 }  // namespace tether

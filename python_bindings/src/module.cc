@@ -169,4 +169,5 @@ PYBIND11_MODULE(tether, m) {
   tp::BindPythonFactor(m);
   tp::BindSolve(m);
   tp::BindFrontends(m);
+  tp::BindLidar(m);
 }

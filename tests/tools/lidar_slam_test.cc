@@ -14,6 +14,7 @@
 #include "testing/synthetic_room.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/lidar_slam_2d.h"
 #include "tether/frontends/lidar/tum_trajectory.h"
 
 namespace tether {
@@ -51,7 +52,9 @@ TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
   ASSERT_EQ(run.code, 0) << run.output;
   EXPECT_NE(run.output.find("scans 80, submaps "), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("real-time factor"), std::string::npos) << run.output;
-  EXPECT_NE(run.output.find("; precision "), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("; kept by the solution "), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("odometry: yes"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("self-check: "), std::string::npos) << run.output;
   // One pose per scan, with the scans' stamps, near the truth. (Odometry is perfect here; how
   // closely local SLAM's matching keeps to it is its own tests' business: this checks the
   // plumbing.)
@@ -87,7 +90,7 @@ TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
   EXPECT_EQ(sig, std::string("\x89PNG\r\n\x1a\n"));
   // Every loop closure with its violation by the final solution: as many lines as the summary
   // counts, each "kept" exactly where it is violated by less than 20 cm and 1 degree, and as
-  // many kept as the precision line says.
+  // many kept as the summary says.
   const std::size_t at = run.output.find("loop closures ");
   ASSERT_NE(at, std::string::npos) << run.output;
   const long closures = std::stol(run.output.substr(at + 14));
@@ -111,6 +114,39 @@ TEST_F(LidarSlamTest, WritesTrajectoryGraphAndMap) {
   }
   EXPECT_EQ(rows, closures);
   EXPECT_EQ(kept_rows, kept);
+}
+
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The command is LidarSlam2D and printing: the library's files are the command's, byte for
+// byte, whatever the threads.
+TEST_F(LidarSlamTest, TheCommandWritesTheLibrarysFiles) {
+  const std::string log = Write("room.log", RoomLog());
+  const auto run = Tether("lidar " + log + " -o " + P("cli") + " --scans-per-submap 20 --threads 1 --search-every 3");
+  ASSERT_EQ(run.code, 0) << run.output;
+  lidar::LidarSlamOptions options;
+  options.local.submaps.scans_per_submap = 20;
+  options.pose_graph.search_every_n_scans = 3;
+  options.pose_graph.threads = 3;
+  lidar::LidarSlam2D slam(options);
+  slam.Run(lidar::ReadLidarLog(log));
+  for (const lidar::LidarOutput& o : slam.Outputs()) {
+    EXPECT_EQ(FileBytes(P("cli/" + o.name)), o.bytes) << o.name;
+  }
+}
+
+TEST_F(LidarSlamTest, TheLaserOffsetReplacesTheLogs) {
+  const std::string log = Write("room.log", RoomLog());
+  const auto run = Tether("lidar " + log + " -o " + P("off") + " --laser-offset 0.5,0,0 --max-scans 30");
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("laser on the robot at (0.500 m, 0.000 m, 0.0 deg)"), std::string::npos) << run.output;
+  EXPECT_EQ(Tether("lidar " + log + " -o " + P("off2") + " --laser-offset 0.5,0").code, 2);
+  EXPECT_EQ(Tether("lidar " + log + " -o " + P("off3") + " --laser-offset 0.5,nan,0").code, 2);
 }
 
 TEST_F(LidarSlamTest, UsageAndInputErrors) {

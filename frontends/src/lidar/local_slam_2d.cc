@@ -5,6 +5,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
+#include "tether/frontends/lidar/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/voxel_filter.h"
 
 namespace tether {
@@ -49,67 +50,127 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
       return false;
     }
   }
-  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why);
+  for (double v : {max_velocity_scale, weak_prediction_linear_window, weak_prediction_angular_window,
+                   weak_prediction_translation_weight}) {
+    if (!(std::isfinite(v) && v >= 0)) {
+      if (why != nullptr) {
+        *why = "max_velocity_scale and the weak_prediction_* options must be finite and not negative";
+      }
+      return false;
+    }
+  }
+  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why) && scan_to_scan_options.IsValid(why);
 }
 
 LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options) : options_(Checked(options)), submaps_(options.submaps) {}
+
+SE2d LocalSlam2D::ConstantVelocity(double stamp) const {
+  const std::size_t n = trajectory_.size();
+  if (n < 2) return trajectory_.back().pose;
+  const StampedPose2& a = trajectory_[n - 2];
+  const StampedPose2& b = trajectory_[n - 1];
+  const double previous = b.stamp - a.stamp, now = stamp - b.stamp;
+  const double scale = previous > 0 && now > 0 ? std::min(now / previous, options_.max_velocity_scale) : 1.0;
+  return b.pose * SE2d::Exp(scale * (a.pose.Inverse() * b.pose).Log());
+}
+
+bool LocalSlam2D::WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, const ProbabilityGrid& grid) const {
+  if (m.mean_probability < options_.min_match_probability) return true;
+  const Eigen::Vector2d d = SO2d(-predicted.theta()) * (m.pose.translation() - predicted.translation());
+  const double edge = options_.correlative.linear_search_window - 0.5 * grid.resolution();
+  return std::abs(d.x()) >= edge || std::abs(d.y()) >= edge ||
+         std::abs(WrapAngle(m.pose.theta() - predicted.theta())) >=
+             options_.correlative.angular_search_window - 0.5 * m.angular_step;
+}
 
 LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   LocalScanResult result;
   result.stamp = scan.stamp;
   const bool has_odometry = scan.odometry_origin != OdometryOrigin::kNone;
+  result.scan_only = !has_odometry;
+  // Points in the robot's frame.
+  std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
+  for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+  auto t0 = std::chrono::steady_clock::now();
   if (trajectory_.empty()) {
     result.predicted = has_odometry ? scan.odometry : SE2d();
   } else {
     result.predicted = trajectory_.back().pose;
-    if (has_odometry && last_has_odometry_) {
+    if (!has_odometry) {
+      // Constant velocity, then the motion from the scan before by scan-to-scan matching.
+      result.predicted = ConstantVelocity(scan.stamp);
+      if (options_.scan_to_scan && !last_points_.empty() && !points.empty()) {
+        const ScanToScanMatch m = MatchScanToScan(
+            last_points_, points, trajectory_.back().pose.Inverse() * result.predicted, options_.scan_to_scan_options);
+        if (m.ok) {
+          result.predicted = trajectory_.back().pose * m.motion;
+          result.scan_to_scan = true;
+        }
+      }
+    } else if (last_has_odometry_) {
       const SE2d motion = last_odometry_.Inverse() * scan.odometry;
       result.predicted = result.predicted * motion;
       result.still =
           motion.translation().norm() < options_.still_distance && std::abs(motion.theta()) < options_.still_angle;
     }
   }
+  result.scan_to_scan_seconds = SecondsSince(t0);
   last_odometry_ = scan.odometry;
   last_has_odometry_ = has_odometry;
   result.pose = result.predicted;
+  // A scan-only scan whose prediction is constant velocity alone (no scan-to-scan match).
+  const bool weak_prediction = result.scan_only && !result.scan_to_scan;
 
-  // Points in the robot's frame.
-  std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
-  for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
   result.matching =
       options_.matching_voxel_size > 0 && !points.empty() ? VoxelFilter(points, options_.matching_voxel_size) : points;
   const std::vector<Eigen::Vector2d>& matching = result.matching;
   const std::shared_ptr<const Submap2D> target = submaps_.matching_submap();
   if (target != nullptr && !points.empty() && !result.still) {
     result.matching_points = static_cast<int>(matching.size());
-    auto t0 = std::chrono::steady_clock::now();
+    t0 = std::chrono::steady_clock::now();
     SE2d start = result.predicted;
     if (options_.use_correlative_matcher) {
-      const CorrelativeMatch m = MatchCorrelative(*target->grid(), result.predicted, matching, options_.correlative);
+      CorrelativeMatch m = MatchCorrelative(*target->grid(), result.predicted, matching, options_.correlative);
+      result.correlative_candidates = m.candidates;
+      if (weak_prediction && WeakMatch(m, result.predicted, *target->grid())) {
+        CorrelativeMatcherOptions wide = options_.correlative;
+        wide.linear_search_window = std::max(wide.linear_search_window, options_.weak_prediction_linear_window);
+        wide.angular_search_window = std::max(wide.angular_search_window, options_.weak_prediction_angular_window);
+        wide.translation_delta_cost_weight = options_.weak_prediction_translation_weight;
+        m = MatchCorrelative(*target->grid(), result.predicted, matching, wide);
+        result.correlative_candidates += m.candidates;
+        result.widened = true;
+      }
       start = m.pose;
       result.correlative_score = m.score;
-      result.correlative_candidates = m.candidates;
     }
     result.correlative_seconds = SecondsSince(t0);
     t0 = std::chrono::steady_clock::now();
-    const SE2d refined = RefineScanPose(target->grid(), start, result.predicted, matching, options_.refiner).pose;
+    // The refinement's regularisers pull towards the prediction, or, where the prediction was
+    // too weak to search around, towards the wide search's best.
+    const SE2d refined =
+        RefineScanPose(target->grid(), start, result.widened ? start : result.predicted, matching, options_.refiner)
+            .pose;
     result.refine_seconds = SecondsSince(t0);
     result.matched = true;
     result.match_probability =
         MeanProbability(*target->grid(), refined, matching, options_.correlative.unknown_probability);
     result.trusted = result.match_probability >= options_.min_match_probability;
-    if (result.trusted) result.pose = refined;
+    // A scan whose prediction is constant velocity alone has nothing of its own to fall back to
+    // (it repeats the match before): it keeps its match however weak.
+    if (result.trusted || weak_prediction) result.pose = refined;
   }
   const SE2d moved = inserted_any_ ? last_inserted_.pose.Inverse() * result.pose : SE2d();
   const bool insert = !inserted_any_ || moved.translation().norm() >= options_.insert_min_distance ||
                       std::abs(moved.theta()) >= options_.insert_min_angle ||
                       scan.stamp - last_inserted_.stamp >= options_.insert_max_seconds;
   trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
+  if (!points.empty()) last_points_ = points;
   if (!insert) return result;
   inserted_any_ = true;
   last_inserted_ = trajectory_.back();
   result.inserted = true;
-  const auto t0 = std::chrono::steady_clock::now();
+  t0 = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector2d> in_map(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
   result.inserted_into = submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);

@@ -68,14 +68,18 @@ std::string PgmBytes(const OccupancyImage& image) {
   return out;
 }
 
-std::string PngBytes(const OccupancyImage& image) {
-  if (image.width <= 0 || image.height <= 0) throw InvalidArgument("PngBytes: an empty image");
+namespace {
+
+// An 8-bit PNG of `channels` (1 greyscale, 3 RGB) bytes a pixel, rows top first.
+std::string Png(int width, int height, int channels, const std::uint8_t* pixels) {
+  if (width <= 0 || height <= 0) throw InvalidArgument("PngBytes: an empty image");
+  const std::size_t row_bytes = static_cast<std::size_t>(width) * static_cast<std::size_t>(channels);
   std::string raw;
-  raw.reserve(static_cast<std::size_t>(image.width + 1) * static_cast<std::size_t>(image.height));
-  for (int row = 0; row < image.height; ++row) {
+  raw.reserve((row_bytes + 1) * static_cast<std::size_t>(height));
+  for (int row = 0; row < height; ++row) {
     raw.push_back('\0');  // filter type 0 (none)
-    const auto begin = image.pixels.begin() + static_cast<std::ptrdiff_t>(row) * image.width;
-    raw.append(begin, begin + image.width);
+    const std::uint8_t* begin = pixels + static_cast<std::size_t>(row) * row_bytes;
+    raw.append(begin, begin + row_bytes);
   }
   uLongf size = compressBound(static_cast<uLong>(raw.size()));
   std::string compressed(size, '\0');
@@ -86,13 +90,32 @@ std::string PngBytes(const OccupancyImage& image) {
   compressed.resize(size);
   std::string out = "\x89PNG\r\n\x1a\n";
   std::string ihdr;
-  PutBigEndian32(&ihdr, static_cast<std::uint32_t>(image.width));
-  PutBigEndian32(&ihdr, static_cast<std::uint32_t>(image.height));
-  ihdr += std::string("\x08\x00\x00\x00\x00", 5);  // 8 bits, greyscale, deflate, filter 0, no interlace
+  PutBigEndian32(&ihdr, static_cast<std::uint32_t>(width));
+  PutBigEndian32(&ihdr, static_cast<std::uint32_t>(height));
+  ihdr.push_back('\x08');                           // 8 bits a channel
+  ihdr.push_back(channels == 3 ? '\x02' : '\x00');  // RGB or greyscale
+  ihdr += std::string("\x00\x00\x00", 3);           // deflate, filter 0, no interlace
   PutChunk(&out, "IHDR", ihdr);
   PutChunk(&out, "IDAT", compressed);
   PutChunk(&out, "IEND", "");
   return out;
+}
+
+}  // namespace
+
+std::string PngBytes(const OccupancyImage& image) {
+  if (image.pixels.size() != static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height)) {
+    throw InvalidArgument("PngBytes: the image's pixels do not match its size");
+  }
+  return Png(image.width, image.height, 1, image.pixels.data());
+}
+
+std::string PngBytesRgb(int width, int height, const std::vector<std::uint8_t>& rgb) {
+  if (width < 0 || height < 0 || rgb.size() != 3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
+    throw InvalidArgument("PngBytesRgb: " + std::to_string(rgb.size()) + " bytes for a " + std::to_string(width) +
+                          " x " + std::to_string(height) + " RGB image");
+  }
+  return Png(width, height, 3, rgb.data());
 }
 
 std::string MapYaml(const OccupancyImage& image, const std::string& image_file) {

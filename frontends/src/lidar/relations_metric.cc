@@ -124,10 +124,13 @@ std::string RelationsResult::Report() const {
                 "translational error: %.4f +- %.4f m (max %.4f)\n"
                 "rotational error:    %.3f +- %.3f deg (max %.3f)\n"
                 "squared translational error: %.6f +- %.6f m^2\n"
-                "squared rotational error:    %.4f +- %.4f deg^2\n",
+                "squared rotational error:    %.4f +- %.4f deg^2\n"
+                "relations off by more than 1 m: %zu\n",
                 relations, matched, unmatched, translation.mean, translation.std, max_translation, rotation.mean,
                 rotation.std, max_rotation, translation_squared.mean, translation_squared.std, rotation_squared.mean,
-                rotation_squared.std);
+                rotation_squared.std,
+                static_cast<std::size_t>(std::count_if(translation_errors.begin(), translation_errors.end(),
+                                                       [](double e) { return e > 1; })));
   return buf;
 }
 

@@ -5,8 +5,9 @@
 // For every scan: the pose predicted from the previous matched pose and the odometry's motion
 // since the previous scan; the real-time correlative matcher's search around the prediction;
 // the nonlinear refinement from its result with the regularisers towards the prediction; the
-// scan inserted into the active submaps at the refined pose. The first scan is put at its
-// odometry pose (or the origin), unmatched. A motion filter inserts only scans taken after the
+// scan inserted into the active submaps at the refined pose. Scans without odometry are
+// predicted by constant velocity from the two scans before (LocalSlamOptions). The first scan
+// is put at its odometry pose (or the origin), unmatched. A motion filter inserts only scans taken after the
 // robot moved or turned enough (every scan is matched and has a pose). Poses are the robot's in the local map frame
 // (the laser's offset on the robot, LaserScan::laser_in_robot, applied to the points).
 #include <Eigen/Core>
@@ -19,6 +20,7 @@
 #include "tether/frontends/lidar/odometry_track.h"
 #include "tether/frontends/lidar/real_time_correlative_scan_matcher_2d.h"
 #include "tether/frontends/lidar/scan_refiner_2d.h"
+#include "tether/frontends/lidar/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/submap_2d.h"
 
 namespace tether {
@@ -55,6 +57,27 @@ struct LocalSlamOptions {
   /// closures grows on Intel and aces (benchmarks/RESULTS.md, "LiDAR V").
   double still_distance = 0;
   double still_angle = 0;
+  /// Scans without odometry (OdometryOrigin::kNone: a scanner alone, or a log read with the
+  /// odometry dropped) are predicted from the scan before: constant velocity (the motion
+  /// between the last two scans, scaled by the ratio of the time steps, clamped to [0,
+  /// max_velocity_scale]; 1 where a stamp does not advance) as the guess of a scan-to-scan
+  /// match (scan_to_scan_2d.h), whose motion then stands in for odometry's. Where that match
+  /// fails (or scan_to_scan is off), the prediction is constant velocity alone, weaker than
+  /// odometry's, so such a scan whose first search is not trusted or whose best candidate lies
+  /// on the window's edge
+  /// is searched again with the wider `weak_prediction` window, with a weaker preference for
+  /// the prediction's translation (weak_prediction_translation_weight instead of
+  /// correlative.translation_delta_cost_weight: the prediction is the thing in doubt), and
+  /// refined with the regularisers pulling towards that search's best. A scan-only scan keeps its match even below
+  /// min_match_probability: constant velocity only repeats the match before, and a scan that
+  /// took it would stop a robot that starts from rest (the velocity stays zero) while the
+  /// scans move on.
+  double max_velocity_scale = 3;
+  double weak_prediction_linear_window = 0.3;       ///< m, half side
+  double weak_prediction_angular_window = 0.524;    ///< rad, half range (30 degrees)
+  double weak_prediction_translation_weight = 0.1;  ///< 1/m
+  bool scan_to_scan = true;
+  ScanToScanOptions scan_to_scan_options;
   bool IsValid(std::string* why) const;
 };
 
@@ -62,7 +85,7 @@ struct LocalSlamOptions {
 struct LocalScanResult {
   double stamp = 0;
   SE2d predicted;        ///< the pose before matching
-  SE2d pose;             ///< the matched pose (the prediction where not trusted)
+  SE2d pose;             ///< the matched pose (the prediction where not trusted and not scan-only)
   bool matched = false;  ///< false for the first scan and for a scan without points
   /// The matched pose's mean probability (0 where not matched), and whether it reached
   /// min_match_probability (false: `pose` is the prediction).
@@ -70,6 +93,12 @@ struct LocalScanResult {
   bool trusted = false;
   /// The odometry stood still (LocalSlamOptions::still_*): not matched, `pose` is the prediction.
   bool still = false;
+  /// The scan had no odometry: the prediction is constant velocity from the scans before.
+  bool scan_only = false;
+  /// The prediction came from a scan-to-scan match (scan-only scans).
+  bool scan_to_scan = false;
+  /// Searched a second time with the weak-prediction window (scan-only scans).
+  bool widened = false;
   bool inserted = false;          ///< inserted into the submaps (the motion filter let it through)
   InsertedSubmaps inserted_into;  ///< the submaps it went into (empty where not inserted)
   int matching_points = 0;        ///< matching.size() where matched, else 0
@@ -78,7 +107,7 @@ struct LocalScanResult {
   std::vector<Eigen::Vector2d> matching;
   double correlative_score = 0;
   long correlative_candidates = 0;  ///< poses the correlative search scored
-  double correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
+  double scan_to_scan_seconds = 0, correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
 };
 
 class LocalSlam2D {
@@ -97,6 +126,13 @@ class LocalSlam2D {
   LocalSlamOptions options_;
   ActiveSubmaps2D submaps_;
   std::vector<StampedPose2> trajectory_;
+  /// The constant-velocity prediction of a scan without odometry taken at `stamp`.
+  SE2d ConstantVelocity(double stamp) const;
+  /// A scan-only scan's first search is weak: below min_match_probability, or its best on
+  /// the window's outermost ring of translations or rotations.
+  bool WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, const ProbabilityGrid& grid) const;
+
+  std::vector<Eigen::Vector2d> last_points_;  ///< the last scan with points, its robot frame
   SE2d last_odometry_;
   bool last_has_odometry_ = false;
   bool inserted_any_ = false;

@@ -41,6 +41,9 @@ OccupancyImage RenderOccupancy(const ProbabilityGrid& grid, int padding = 2);
 std::string PgmBytes(const OccupancyImage& image);
 /// An 8-bit greyscale PNG (zlib-compressed, one filter byte 0 per row).
 std::string PngBytes(const OccupancyImage& image);
+/// An 8-bit RGB PNG of `rgb` (3 bytes a pixel, rows top first). Throws InvalidArgument where
+/// the size does not match.
+std::string PngBytesRgb(int width, int height, const std::vector<std::uint8_t>& rgb);
 /// The map_server YAML naming `image_file` (written as given: relative to the YAML's folder).
 std::string MapYaml(const OccupancyImage& image, const std::string& image_file);
 

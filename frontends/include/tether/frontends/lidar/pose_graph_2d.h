@@ -22,6 +22,7 @@
 //   Finish(): the result does not depend on the number of threads or their timing.
 // Keys: scan i is Symbol('s', i), submap j Symbol('m', j); a prior holds the first scan.
 #include <Eigen/Core>
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -76,6 +77,9 @@ inline FastMatcherOptions PoseGraphSearchOptions() {
   o.linear_search_window = 6;
   return o;
 }
+
+/// The machine's cores (std::thread::hardware_concurrency; 1 where it cannot tell).
+inline int DefaultSearchThreads() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
 
 struct PoseGraphOptions {
   /// The local constraints' sigmas: looser than the loop closures', as measured on Intel
@@ -164,7 +168,9 @@ struct PoseGraphOptions {
   /// relation errors within the run-to-run spread (Intel 0.0187 -> 0.0185 m, aces 0.0510 ->
   /// 0.0506 m, fr079 0.0341 m both).
   int update_every_n_scans = 10;
-  int threads = 1;  ///< background search threads; 0: search in AddScan's thread
+  /// Background search threads (0: search in AddScan's thread); by default the machine's
+  /// cores. The result does not depend on it.
+  int threads = DefaultSearchThreads();
   SmootherOptions smoother = PoseGraphSmootherOptions();
   bool IsValid(std::string* why) const;
 };

@@ -1,0 +1,141 @@
+#pragma once
+// 2D LiDAR SLAM as one object: scans in (with odometry where the log has it), trajectory, pose
+// graph, occupancy map and a report out. It owns the loop that `tether lidar` and
+// `tether.LidarSlam2D` (Python) drive:
+//
+//   tether::lidar::LidarSlam2D slam(options);        // LidarSlamOptions: documented defaults
+//   for (const tether::lidar::LaserScan& s : log.scans) slam.AddScan(s);
+//   slam.Finish();                                    // the final solve, the map, the checks
+//   slam.Trajectory(); slam.map(); slam.report().Summary(); slam.Outputs();
+//
+// Each scan goes through local SLAM (local_slam_2d.h: matched into the active submaps) and then
+// into the pose graph (pose_graph_2d.h: loop closures by branch and bound, the incremental
+// smoother). Finish() solves the graph, inserts every scan at its final pose into one map, and
+// checks the result two ways: each loop closure against the final solution (LoopClosureCheck:
+// agreement, not accuracy) and a sample of scans against the parts of the map made at other
+// times (self_check_2d.h: a stretch of the trajectory placed where it does not belong fits
+// nothing).
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tether/core/factor_graph.h"
+#include "tether/core/values.h"
+#include "tether/factors/probability_grid.h"
+#include "tether/frontends/lidar/laser_scan.h"
+#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/local_slam_2d.h"
+#include "tether/frontends/lidar/pose_graph_2d.h"
+#include "tether/frontends/lidar/self_check_2d.h"
+
+namespace tether {
+namespace lidar {
+
+struct LidarSlamOptions {
+  LocalSlamOptions local;       ///< local SLAM; local.limits also bound the final map's points
+  PoseGraphOptions pose_graph;  ///< loop closures and the smoother (threads: the machine's cores)
+  SelfCheckOptions self_check;
+  /// A loop closure counts as kept by the solution where the final poses violate it by less
+  /// than this (m, degrees).
+  double kept_translation = 0.2;
+  double kept_rotation_deg = 1;
+  bool IsValid(std::string* why) const;
+};
+
+/// One loop closure against the final solution.
+struct LoopClosureCheck {
+  LoopClosure closure;
+  SE2d solved;                       ///< the scan in the submap's frame by the final poses
+  double translation_violation = 0;  ///< m
+  double rotation_violation_deg = 0;
+  bool kept = false;
+};
+
+/// What a run did and how long it took (seconds).
+struct LidarSlamReport {
+  long scans = 0;
+  int submaps = 0;
+  long loop_closures = 0;
+  long closures_kept = 0;  ///< kept by the final solution (LidarSlamOptions::kept_*)
+  PoseGraphStats graph;
+  long scan_only = 0;     ///< scans without odometry
+  long scan_to_scan = 0;  ///< of those, predicted by scan-to-scan matching (the others: constant velocity)
+  long widened = 0;       ///< scan-only scans searched again with the weak-prediction window
+  /// Matched scans below the match probability: they took the prediction (odometry's or
+  /// scan-to-scan's; a scan with only constant velocity keeps its match).
+  long untrusted = 0;
+  long untrusted_scan_only = 0;  ///< of those, scans without odometry
+  double logged_seconds = 0;     ///< the log's span (last stamp - first)
+  double total_seconds = 0, matching_seconds = 0, insert_seconds = 0, graph_seconds = 0, map_seconds = 0,
+         check_seconds = 0;
+  SelfCheckResult self_check;
+  /// The lines `tether lidar` prints.
+  std::string Summary(int threads) const;
+};
+
+/// A file a run writes, by name: the bytes Outputs() gives.
+struct LidarOutput {
+  std::string name;  ///< file name within the output folder
+  std::string what;  ///< for messages
+  std::string bytes;
+};
+
+class LidarSlam2D {
+ public:
+  /// Throws InvalidArgument naming the option for invalid options.
+  explicit LidarSlam2D(const LidarSlamOptions& options = {});
+  ~LidarSlam2D();
+  LidarSlam2D(const LidarSlam2D&) = delete;
+  LidarSlam2D& operator=(const LidarSlam2D&) = delete;
+
+  /// Adds the next scan (time order); throws LogicError after Finish().
+  void AddScan(const LaserScan& scan);
+  /// Adds the first `max_scans` scans of a log (0: all) and calls Finish(); `progress`, where
+  /// given, is called after every `progress_every`-th scan with the scans added so far.
+  void Run(const LidarLog& log, long max_scans = 0, long progress_every = 0,
+           const std::function<void(long)>& progress = nullptr);
+  /// Waits for the searches, solves the graph, builds the map and runs the checks. Once.
+  void Finish();
+  bool finished() const { return finished_; }
+
+  long scan_count() const { return static_cast<long>(scans_.size()); }
+  /// The scans' poses (robot frame; the first scan's odometry frame, or the origin), each with
+  /// its scan's stamp: the pose graph's current estimate (final after Finish()).
+  std::vector<StampedPose2> Trajectory() const;
+  /// The trajectory as a g2o graph: scan i is vertex i, chained by their relative poses (unit
+  /// information), so that it reads back as one connected graph.
+  void TrajectoryGraph(FactorGraph* graph, Values* values) const;
+  const PoseGraph2D& pose_graph() const { return *graph_; }
+  /// The occupancy map of every scan at its final pose (after Finish()).
+  const ProbabilityGrid& map() const;
+  const std::vector<LoopClosureCheck>& closure_checks() const { return checks_; }
+  const LidarSlamReport& report() const { return report_; }
+  const LidarSlamOptions& options() const { return options_; }
+
+  /// The files of a finished run (trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm,
+  /// map.yaml, map.png, loop_closures.txt, self_check.png), in OutputNames()' order.
+  std::vector<LidarOutput> Outputs() const;
+  /// Their names and descriptions (bytes empty), for checking a folder before a run.
+  static std::vector<LidarOutput> OutputNames();
+
+ private:
+  struct ScanRecord {
+    double stamp = 0;
+    SE2d laser_in_robot;
+    std::vector<Eigen::Vector2d> points;  ///< valid points, the laser's frame
+  };
+
+  LidarSlamOptions options_;
+  std::unique_ptr<LocalSlam2D> local_;
+  std::unique_ptr<PoseGraph2D> graph_;
+  std::vector<ScanRecord> scans_;
+  std::unique_ptr<ProbabilityGrid> map_;
+  std::vector<LoopClosureCheck> checks_;
+  LidarSlamReport report_;
+  bool finished_ = false;
+};
+
+}  // namespace lidar
+}  // namespace tether

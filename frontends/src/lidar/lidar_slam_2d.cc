@@ -1,0 +1,302 @@
+#include "tether/frontends/lidar/lidar_slam_2d.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "tether/core/error.h"
+#include "tether/core/graph_io.h"
+#include "tether/core/registry.h"
+#include "tether/factors/between_se2.h"
+#include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/occupancy_map.h"
+#include "tether/frontends/lidar/probability_grid_inserter.h"
+#include "tether/frontends/lidar/tum_trajectory.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+std::string Percent(long part, long whole) {
+  return whole == 0 ? std::string("-") : Fixed(100.0 * static_cast<double>(part) / static_cast<double>(whole), 2) + "%";
+}
+
+const LidarSlamOptions& Checked(const LidarSlamOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("LidarSlamOptions: " + why);
+  return options;
+}
+
+}  // namespace
+
+bool LidarSlamOptions::IsValid(std::string* why) const {
+  std::string inner;
+  const auto fail = [why](const std::string& what) {
+    if (why != nullptr) *why = what;
+    return false;
+  };
+  if (!local.IsValid(&inner)) return fail("local matching: " + inner);
+  if (!pose_graph.IsValid(&inner)) return fail("pose graph: " + inner);
+  if (!self_check.IsValid(&inner)) return fail("self-check: " + inner);
+  if (!(std::isfinite(kept_translation) && kept_translation > 0 && std::isfinite(kept_rotation_deg) &&
+        kept_rotation_deg > 0)) {
+    return fail("kept_translation and kept_rotation_deg must be finite and positive");
+  }
+  return true;
+}
+
+std::string LidarSlamReport::Summary(int threads) const {
+  std::ostringstream out;
+  const long n = std::max(scans, 1L);
+  out << "scans " << scans << ", submaps " << submaps << ", loop closures " << loop_closures << " of " << graph.searches
+      << " searches (" << graph.ambiguous << " ambiguous, " << graph.on_edge << " on the window's edge dropped, "
+      << graph.unconfirmed << " unconfirmed by a second match); kept by the "
+      << "solution " << Percent(closures_kept, loop_closures) << " (" << closures_kept
+      << " within 20 cm and 1 degree of the final poses: agreement, not accuracy)\n";
+  out << "self-check: " << self_check.judged.size() << " of " << self_check.sampled
+      << " sampled scans overlap the map made at other times, "
+      << Percent(self_check.fitting, static_cast<long>(self_check.judged.size())) << " of them fit it";
+  if (self_check.stretches.empty()) {
+    out << "; no misplaced stretch\n";
+  } else {
+    out << "; " << self_check.stretches.size() << " misplaced stretch" << (self_check.stretches.size() > 1 ? "es" : "")
+        << ":";
+    for (const MisfitStretch& s : self_check.stretches) {
+      out << " scans " << s.first_scan + 1 << "-" << s.last_scan + 1 << " (" << s.samples << " samples)";
+    }
+    out << "\n";
+  }
+  out << "time " << Fixed(total_seconds, 2) << " s for " << Fixed(logged_seconds, 1) << " s of log: real-time factor "
+      << Fixed(logged_seconds / std::max(total_seconds, 1e-9), 1) << "\n"
+      << "  local matching " << Fixed(1e3 * matching_seconds / static_cast<double>(n), 3) << " ms per scan, insertion "
+      << Fixed(1e3 * insert_seconds / static_cast<double>(n), 3) << " ms per scan; ";
+  if (scan_only > 0) {
+    out << scan_only << " scans without odometry: " << scan_to_scan
+        << " predicted by scan-to-scan matching, the others by constant velocity (" << widened
+        << " searched again wider); ";
+  }
+  out << untrusted << " scans below the match probability took the prediction";
+  if (untrusted_scan_only > 0) out << " (" << untrusted_scan_only << " of them without odometry)";
+  out << "\n"
+      << "  branch and bound "
+      << Fixed(graph.searches > 0 ? 1e3 * graph.search_seconds / static_cast<double>(graph.searches) : 0, 2)
+      << " ms per search, "
+      << Fixed(graph.found > 0 ? 1e3 * graph.search_seconds / static_cast<double>(graph.found) : 0, 2)
+      << " ms per constraint found (" << threads << " search threads; waited " << Fixed(graph.wait_seconds, 2)
+      << " s)\n"
+      << "  optimisation " << Fixed(graph.optimize_seconds, 2) << " s (" << graph.updates
+      << " smoother updates; the final solve " << Fixed(graph.finish_seconds, 2) << " s), pose graph in all "
+      << Fixed(graph_seconds, 2) << " s, map " << Fixed(map_seconds, 2) << " s, self-check " << Fixed(check_seconds, 2)
+      << " s\n";
+  return out.str();
+}
+
+LidarSlam2D::LidarSlam2D(const LidarSlamOptions& options)
+    : options_(Checked(options)),
+      local_(std::make_unique<LocalSlam2D>(options_.local)),
+      graph_(std::make_unique<PoseGraph2D>(options_.pose_graph)) {}
+
+LidarSlam2D::~LidarSlam2D() = default;
+
+void LidarSlam2D::AddScan(const LaserScan& scan) {
+  if (finished_) throw InvalidArgument("LidarSlam2D::AddScan after Finish(): make a new LidarSlam2D for another run");
+  const auto t0 = std::chrono::steady_clock::now();
+  LocalScanResult r = local_->AddScan(scan);
+  report_.matching_seconds += r.scan_to_scan_seconds + r.correlative_seconds + r.refine_seconds;
+  report_.scan_to_scan += r.scan_to_scan;
+  report_.insert_seconds += r.insert_seconds;
+  report_.untrusted += r.matched && !r.trusted;
+  report_.untrusted_scan_only += r.matched && !r.trusted && r.scan_only;
+  report_.scan_only += r.scan_only;
+  report_.widened += r.widened;
+  const auto tg = std::chrono::steady_clock::now();
+  graph_->AddScan(r.pose, std::move(r.matching), r.inserted_into);
+  report_.graph_seconds += SecondsSince(tg);
+  ScanRecord record;
+  record.stamp = scan.stamp;
+  record.laser_in_robot = scan.laser_in_robot;
+  record.points = ScanToPoints(scan, options_.local.limits);
+  scans_.push_back(std::move(record));
+  report_.total_seconds += SecondsSince(t0);
+}
+
+void LidarSlam2D::Run(const LidarLog& log, long max_scans, long progress_every,
+                      const std::function<void(long)>& progress) {
+  const long n =
+      max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
+  for (long i = 0; i < n; ++i) {
+    AddScan(log.scans[static_cast<std::size_t>(i)]);
+    if (progress && progress_every > 0 && (i + 1) % progress_every == 0) progress(i + 1);
+  }
+  Finish();
+}
+
+void LidarSlam2D::Finish() {
+  if (finished_) return;
+  finished_ = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  graph_->Finish();
+  report_.graph_seconds += SecondsSince(t0);
+  const std::vector<StampedPose2> trajectory = Trajectory();
+
+  // The map: every scan at its final pose.
+  const auto tm = std::chrono::steady_clock::now();
+  map_ = std::make_unique<ProbabilityGrid>(options_.local.submaps.resolution);
+  const ProbabilityGridInserter inserter(options_.local.submaps.insert, map_->min_probability(),
+                                         map_->max_probability());
+  std::vector<SE2d> lasers(scans_.size());
+  std::vector<const std::vector<Eigen::Vector2d>*> points(scans_.size());
+  std::vector<Eigen::Vector2d> hits;
+  for (std::size_t i = 0; i < scans_.size(); ++i) {
+    lasers[i] = trajectory[i].pose * scans_[i].laser_in_robot;
+    points[i] = &scans_[i].points;
+    hits = scans_[i].points;
+    for (Eigen::Vector2d& p : hits) p = lasers[i] * p;
+    inserter.Insert(map_.get(), lasers[i].translation(), hits);
+  }
+  report_.map_seconds = SecondsSince(tm);
+
+  // The loop closures against the final poses.
+  for (const LoopClosure& c : graph_->loop_closures()) {
+    LoopClosureCheck check;
+    check.closure = c;
+    check.solved = graph_->SubmapPose(c.submap).Inverse() * graph_->ScanPose(c.scan);
+    check.translation_violation = (check.solved.translation() - c.relative.translation()).norm();
+    check.rotation_violation_deg = std::abs(WrapAngle(check.solved.theta() - c.relative.theta())) * 180 / M_PI;
+    check.kept = check.translation_violation < options_.kept_translation &&
+                 check.rotation_violation_deg < options_.kept_rotation_deg;
+    report_.closures_kept += check.kept ? 1 : 0;
+    checks_.push_back(check);
+  }
+  const auto tc = std::chrono::steady_clock::now();
+  report_.self_check = CheckSelfConsistency(lasers, points, options_.self_check);
+  report_.check_seconds = SecondsSince(tc);
+
+  report_.scans = static_cast<long>(scans_.size());
+  report_.submaps = graph_->submap_count();
+  report_.loop_closures = static_cast<long>(graph_->loop_closures().size());
+  report_.graph = graph_->stats();
+  report_.logged_seconds = scans_.empty() ? 0 : scans_.back().stamp - scans_.front().stamp;
+  report_.total_seconds += SecondsSince(t0);
+}
+
+std::vector<StampedPose2> LidarSlam2D::Trajectory() const {
+  std::vector<StampedPose2> t;
+  t.reserve(scans_.size());
+  for (std::size_t i = 0; i < scans_.size(); ++i) {
+    t.push_back(StampedPose2{scans_[i].stamp, graph_->ScanPose(static_cast<int>(i))});
+  }
+  return t;
+}
+
+void LidarSlam2D::TrajectoryGraph(FactorGraph* graph, Values* values) const {
+  const std::vector<StampedPose2> t = Trajectory();
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    values->Insert(static_cast<Key>(i), t[i].pose);
+    if (i > 0) {
+      graph->Add<BetweenSE2>(static_cast<Key>(i - 1), static_cast<Key>(i), t[i - 1].pose.Inverse() * t[i].pose,
+                             SqrtInformation::FromSigmas(Eigen::Vector3d::Ones()));
+    }
+  }
+}
+
+const ProbabilityGrid& LidarSlam2D::map() const {
+  if (map_ == nullptr) throw InvalidArgument("LidarSlam2D::map: the map is built by Finish(); call it first");
+  return *map_;
+}
+
+std::vector<LidarOutput> LidarSlam2D::OutputNames() {
+  return {{"trajectory.tum", "trajectory", ""},       {"trajectory.g2o", "trajectory (g2o)", ""},
+          {"pose_graph.g2o", "pose graph", ""},       {"map.pgm", "map image", ""},
+          {"map.yaml", "map description", ""},        {"map.png", "map picture", ""},
+          {"loop_closures.txt", "loop closures", ""}, {"self_check.png", "self-check picture", ""}};
+}
+
+std::vector<LidarOutput> LidarSlam2D::Outputs() const {
+  if (!finished_) throw InvalidArgument("LidarSlam2D::Outputs: call Finish() first");
+  std::vector<LidarOutput> out = OutputNames();
+  const auto set = [&out](const char* name, std::string bytes) {
+    for (LidarOutput& o : out) {
+      if (o.name == name) o.bytes = std::move(bytes);
+    }
+  };
+  std::ostringstream s;
+  WriteTum(s, Trajectory());
+  set("trajectory.tum", s.str());
+  {
+    FactorGraph chain;
+    Values poses;
+    TrajectoryGraph(&chain, &poses);
+    std::ostringstream g;
+    WriteG2o(g, poses, chain, DefaultRegistry());
+    set("trajectory.g2o", g.str());
+  }
+  {
+    FactorGraph exported;
+    Values values;
+    graph_->Export(&exported, &values);
+    std::ostringstream g;
+    WriteG2o(g, values, exported, DefaultRegistry());
+    set("pose_graph.g2o", g.str());
+  }
+  const OccupancyImage image = RenderOccupancy(*map_);
+  set("map.pgm", PgmBytes(image));
+  set("map.yaml", MapYaml(image, "map.pgm"));
+  set("map.png", PngBytes(image));
+  {
+    std::ostringstream c;
+    c.precision(9);
+    c << "# scan submap score measured_x measured_y measured_theta solved_x solved_y solved_theta "
+         "translation_violation_m rotation_violation_deg kept\n";
+    for (const LoopClosureCheck& k : checks_) {
+      c << k.closure.scan << ' ' << k.closure.submap << ' ' << k.closure.score << ' ' << k.closure.relative.x() << ' '
+        << k.closure.relative.y() << ' ' << k.closure.relative.theta() << ' ' << k.solved.x() << ' ' << k.solved.y()
+        << ' ' << k.solved.theta() << ' ' << k.translation_violation << ' ' << k.rotation_violation_deg << ' '
+        << (k.kept ? 1 : 0) << '\n';
+    }
+    set("loop_closures.txt", c.str());
+  }
+  // The self-check picture: the map in grey, each judged sample's points green where the scan
+  // fits the map made at other times and red where it does not.
+  {
+    std::vector<std::uint8_t> rgb(3 * image.pixels.size());
+    for (std::size_t i = 0; i < image.pixels.size(); ++i)
+      rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = image.pixels[i];
+    const std::vector<StampedPose2> t = Trajectory();
+    for (const ScanFit& f : report_.self_check.judged) {
+      const std::size_t i = static_cast<std::size_t>(f.scan);
+      const SE2d laser = t[i].pose * scans_[i].laser_in_robot;
+      for (const Eigen::Vector2d& p : scans_[i].points) {
+        const Eigen::Vector2d q = laser * p;
+        const int column = static_cast<int>(std::floor((q.x() - image.origin.x()) / image.resolution));
+        const int row = image.height - 1 - static_cast<int>(std::floor((q.y() - image.origin.y()) / image.resolution));
+        if (column < 0 || row < 0 || column >= image.width || row >= image.height) continue;
+        const std::size_t k = 3 * (static_cast<std::size_t>(row) * static_cast<std::size_t>(image.width) +
+                                   static_cast<std::size_t>(column));
+        rgb[k] = f.fits ? 0 : 230;
+        rgb[k + 1] = f.fits ? 170 : 0;
+        rgb[k + 2] = 0;
+      }
+    }
+    set("self_check.png", PngBytesRgb(image.width, image.height, rgb));
+  }
+  return out;
+}
+
+}  // namespace lidar
+}  // namespace tether

@@ -1,0 +1,182 @@
+// tether.lidar: 2D LiDAR SLAM (LidarSlam2D) over scans from NumPy arrays or a log file, the
+// poses and the occupancy map back as arrays, the same files `tether lidar` writes.
+#include <filesystem>
+#include <fstream>
+
+#include "common.h"
+#include "tether/core/output_file.h"
+#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/lidar_slam_2d.h"
+#include "tether/frontends/lidar/occupancy_map.h"
+
+namespace tether {
+namespace python {
+
+namespace {
+
+using lidar::LidarSlam2D;
+using lidar::LidarSlamOptions;
+
+SE2d PoseFromTuple(const py::handle& h, const char* what) {
+  const std::vector<double> v = h.cast<std::vector<double>>();
+  if (v.size() != 3) throw InvalidArgument(std::string(what) + " must be (x, y, theta)");
+  return SE2d(v[0], v[1], v[2]);
+}
+
+// A scan from arrays: ranges (N,), the angles of the first beam and the step, the stamp.
+lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
+                          double range_min, double range_max, const py::object& odometry,
+                          const py::object& laser_offset) {
+  if (ranges.ndim() != 1 || ranges.shape(0) < 2) throw InvalidArgument("ranges must be a 1-D array of 2 or more");
+  if (!std::isfinite(angle_min) || !std::isfinite(angle_increment) || angle_increment == 0) {
+    throw InvalidArgument("angle_min and angle_increment must be finite, angle_increment not 0");
+  }
+  if (!std::isfinite(stamp)) throw InvalidArgument("stamp must be finite");
+  if (!(range_min >= 0) || !(range_max > range_min) || !std::isfinite(range_max)) {
+    throw InvalidArgument("range_min must not be negative and range_max finite and above it");
+  }
+  lidar::LaserScan s;
+  s.stamp = s.logger_stamp = stamp;
+  s.angle_min = angle_min;
+  s.angle_increment = angle_increment;
+  s.range_min = range_min;
+  s.range_max = range_max;
+  s.ranges.resize(static_cast<std::size_t>(ranges.shape(0)));
+  for (py::ssize_t i = 0; i < ranges.shape(0); ++i)
+    s.ranges[static_cast<std::size_t>(i)] = static_cast<float>(ranges.at(i));
+  if (!odometry.is_none()) {
+    s.odometry = PoseFromTuple(odometry, "odometry");
+    s.odometry_origin = lidar::OdometryOrigin::kScanLine;
+  }
+  if (!laser_offset.is_none()) s.laser_in_robot = PoseFromTuple(laser_offset, "laser_offset");
+  return s;
+}
+
+}  // namespace
+
+void BindLidar(py::module_& m) {
+  py::module_ li = m.def_submodule("lidar", "2D LiDAR SLAM: LidarSlam2D (the library class behind `tether lidar`)");
+  py::class_<LidarSlamOptions>(li, "LidarSlamOptions",
+                               "The options of LidarSlam2D (frontends/lidar/lidar_slam_2d.h); the defaults are "
+                               "`tether lidar`'s.")
+      .def(py::init<>())
+      .def_property(
+          "resolution", [](const LidarSlamOptions& o) { return o.local.submaps.resolution; },
+          [](LidarSlamOptions& o, double v) { o.local.submaps.resolution = v; }, "Grid cells [m]")
+      .def_property(
+          "scans_per_submap", [](const LidarSlamOptions& o) { return o.local.submaps.scans_per_submap; },
+          [](LidarSlamOptions& o, int v) { o.local.submaps.scans_per_submap = v; })
+      .def_property(
+          "loop_closure", [](const LidarSlamOptions& o) { return o.pose_graph.loop_closure; },
+          [](LidarSlamOptions& o, bool v) { o.pose_graph.loop_closure = v; })
+      .def_property(
+          "threads", [](const LidarSlamOptions& o) { return o.pose_graph.threads; },
+          [](LidarSlamOptions& o, int v) { o.pose_graph.threads = v; },
+          "Loop-closure search threads (default: the machine's cores; the result does not depend on it)")
+      .def_property(
+          "search_every", [](const LidarSlamOptions& o) { return o.pose_graph.search_every_n_scans; },
+          [](LidarSlamOptions& o, int v) { o.pose_graph.search_every_n_scans = v; })
+      .def_property(
+          "min_score", [](const LidarSlamOptions& o) { return o.pose_graph.min_score; },
+          [](LidarSlamOptions& o, double v) { o.pose_graph.min_score = v; })
+      .def_property(
+          "max_range", [](const LidarSlamOptions& o) { return o.local.limits.max_range; },
+          [](LidarSlamOptions& o, double v) { o.local.limits.max_range = v; }, "Drop ranges beyond this [m] (0: none)")
+      .def_property(
+          "self_check_every", [](const LidarSlamOptions& o) { return o.self_check.sample_every; },
+          [](LidarSlamOptions& o, int v) { o.self_check.sample_every = v; })
+      .def("is_valid", [](const LidarSlamOptions& o) {
+        std::string why;
+        const bool ok = o.IsValid(&why);
+        return py::make_tuple(ok, why);
+      });
+
+  py::class_<LidarSlam2D>(li, "LidarSlam2D",
+                          "2D LiDAR SLAM: add scans (add_scan, or run_log for a CARMEN log or ROS 1 bag), finish(), "
+                          "then poses, the map and the report.")
+      .def(py::init<const LidarSlamOptions&>(), py::arg("options") = LidarSlamOptions())
+      .def(
+          "add_scan",
+          [](LidarSlam2D& s, const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
+             double range_max, double range_min, const py::object& odometry, const py::object& laser_offset) {
+            s.AddScan(
+                MakeScan(ranges, angle_min, angle_increment, stamp, range_min, range_max, odometry, laser_offset));
+          },
+          py::arg("ranges"), py::arg("angle_min"), py::arg("angle_increment"), py::arg("stamp"), py::arg("range_max"),
+          py::arg("range_min") = 0.0, py::arg("odometry") = py::none(), py::arg("laser_offset") = py::none(),
+          "One scan: ranges (N,) [m] (no return: NaN, inf, or outside [range_min, range_max)), beam i at angle_min "
+          "+ i angle_increment [rad], the stamp [s], the robot's odometry pose (x, y, theta) where there is one "
+          "(None: scan-only), the laser's pose on the robot.")
+      .def(
+          "run_log",
+          [](LidarSlam2D& s, const std::string& path, long max_scans) {
+            lidar::LidarReadOptions ro;
+            ro.limits = s.options().local.limits;
+            const lidar::LidarLog log = lidar::ReadLidarLog(path, ro);
+            s.Run(log, max_scans);
+          },
+          py::arg("path"), py::arg("max_scans") = 0,
+          "Reads a CARMEN log or ROS 1 bag, adds its scans (the first max_scans; 0: all) and finishes.")
+      .def("finish", &LidarSlam2D::Finish, "The final solve, the map and the checks (once).")
+      .def_property_readonly("finished", &LidarSlam2D::finished)
+      .def_property_readonly("scan_count", &LidarSlam2D::scan_count)
+      .def_property_readonly(
+          "poses",
+          [](const LidarSlam2D& s) {
+            const std::vector<lidar::StampedPose2> t = s.Trajectory();
+            Eigen::MatrixXd a(static_cast<Eigen::Index>(t.size()), 3);
+            for (std::size_t i = 0; i < t.size(); ++i)
+              a.row(static_cast<Eigen::Index>(i)) << t[i].pose.x(), t[i].pose.y(), t[i].pose.theta();
+            return a;
+          },
+          "(N, 3) = x, y, theta of each scan's robot pose")
+      .def_property_readonly("stamps",
+                             [](const LidarSlam2D& s) {
+                               const std::vector<lidar::StampedPose2> t = s.Trajectory();
+                               Eigen::VectorXd a(static_cast<Eigen::Index>(t.size()));
+                               for (std::size_t i = 0; i < t.size(); ++i) a[static_cast<Eigen::Index>(i)] = t[i].stamp;
+                               return a;
+                             })
+      .def(
+          "map_image",
+          [](const LidarSlam2D& s) {
+            const lidar::OccupancyImage image = lidar::RenderOccupancy(s.map());
+            py::array_t<std::uint8_t> a({image.height, image.width});
+            std::copy(image.pixels.begin(), image.pixels.end(), a.mutable_data());
+            return py::make_tuple(a, image.resolution, py::make_tuple(image.origin.x(), image.origin.y()));
+          },
+          "(image (H, W) uint8 with the top row the map's largest y, resolution [m], origin (x, y) of the "
+          "lower-left corner): the map_server convention (occupied dark, free light, unknown 205)")
+      .def_property_readonly("loop_closures", [](const LidarSlam2D& s) { return s.report().loop_closures; })
+      .def_property_readonly("closures_kept", [](const LidarSlam2D& s) { return s.report().closures_kept; })
+      .def_property_readonly(
+          "self_check_fit", [](const LidarSlam2D& s) { return s.report().self_check.FitShare(); },
+          "Share of the judged self-check scans that fit the map made at other times")
+      .def_property_readonly(
+          "misplaced_stretches",
+          [](const LidarSlam2D& s) {
+            py::list l;
+            for (const lidar::MisfitStretch& m : s.report().self_check.stretches)
+              l.append(py::make_tuple(m.first_scan, m.last_scan));
+            return l;
+          },
+          "(first scan, last scan) of each stretch the self-check found misplaced")
+      .def("summary", [](const LidarSlam2D& s) { return s.report().Summary(s.options().pose_graph.threads); })
+      .def(
+          "write",
+          [](const LidarSlam2D& s, const std::string& folder) {
+            std::filesystem::create_directories(folder);
+            OutputSet outputs;
+            std::vector<std::pair<OutputFile*, std::string>> staged;
+            for (lidar::LidarOutput& o : s.Outputs()) {
+              staged.emplace_back(&outputs.Add((std::filesystem::path(folder) / o.name).string(), o.what),
+                                  std::move(o.bytes));
+            }
+            for (auto& [file, bytes] : staged) file->Stage(bytes);
+            outputs.CommitAll();
+          },
+          py::arg("folder"), "Writes the files `tether lidar -o FOLDER` writes (all or nothing).");
+}
+
+}  // namespace python
+}  // namespace tether

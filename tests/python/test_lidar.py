@@ -1,0 +1,108 @@
+"""tether.lidar.LidarSlam2D: scans from NumPy arrays, poses and the map back as arrays, and the
+same files as `tether lidar`, byte for byte."""
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import tether
+
+# A 20 m x 14 m room with two boxes, as wall segments.
+WALLS = []
+
+
+def _rect(x0, y0, x1, y1):
+    WALLS.extend([((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))])
+
+
+_rect(0, 0, 20, 14)
+_rect(3, 3, 4, 5)
+_rect(10, 6, 12, 8.5)
+
+
+def cast(x, y, angle):
+    d = (math.cos(angle), math.sin(angle))
+    best = math.inf
+    for (ax, ay), (bx, by) in WALLS:
+        ex, ey = bx - ax, by - ay
+        wx, wy = ax - x, ay - y
+        den = -d[0] * ey + d[1] * ex
+        if abs(den) < 1e-12:
+            continue
+        t = (-wx * ey + wy * ex) / den
+        u = (d[0] * wy - d[1] * wx) / den
+        if t > 1e-9 and 0 <= u <= 1:
+            best = min(best, t)
+    return best
+
+
+def trip(n=70):
+    """A lap of a 4 m circle: (truth (n, 3), ranges (n, 180)) over 180 degrees, 12 m range."""
+    truth, scans = [], []
+    for k in range(n):
+        a = 2 * math.pi * k / n
+        x, y, th = 10 + 4 * math.sin(a), 7 - 4 * math.cos(a), a
+        truth.append((x, y, th))
+        scans.append([min(cast(x, y, th - math.pi / 2 + i * math.pi / 179), 12.0) for i in range(180)])
+    return np.array(truth), np.array(scans)
+
+
+def test_scans_from_arrays_scan_only():
+    truth, scans = trip()
+    options = tether.lidar.LidarSlamOptions()
+    options.scans_per_submap = 20
+    slam = tether.lidar.LidarSlam2D(options)
+    for k, ranges in enumerate(scans):
+        slam.add_scan(ranges, angle_min=-math.pi / 2, angle_increment=math.pi / 179, stamp=10 + 0.1 * k, range_max=12.0)
+    slam.finish()
+    poses = slam.poses
+    assert poses.shape == (len(truth), 3)
+    # Scan-only: the first pose is the origin; the rest follow the truth relative to its start
+    # (one lap of 0.36 m steps over 180 degrees: about 0.1 m of drift before the lap closes).
+    assert np.allclose(poses[0], 0)
+    c, s = math.cos(-truth[0, 2]), math.sin(-truth[0, 2])
+    rel = np.stack([c * (truth[:, 0] - truth[0, 0]) - s * (truth[:, 1] - truth[0, 1]),
+                    s * (truth[:, 0] - truth[0, 0]) + c * (truth[:, 1] - truth[0, 1])], axis=1)
+    assert np.max(np.linalg.norm(poses[:, :2] - rel, axis=1)) < 0.2
+    image, resolution, origin = slam.map_image()
+    assert image.dtype == np.uint8 and image.ndim == 2
+    assert resolution == pytest.approx(0.05)
+    assert (image < 50).sum() > 500  # walls
+    assert "scans without odometry: " in slam.summary()
+
+
+def test_bad_scans_raise():
+    slam = tether.lidar.LidarSlam2D()
+    with pytest.raises(tether.InvalidArgument):
+        slam.add_scan(np.ones(1), angle_min=0, angle_increment=0.1, stamp=0, range_max=10)
+    with pytest.raises(tether.InvalidArgument):
+        slam.add_scan(np.ones(10), angle_min=0, angle_increment=0.1, stamp=0, range_max=math.inf)
+    with pytest.raises(tether.InvalidArgument):
+        slam.add_scan(np.ones(10), angle_min=0, angle_increment=0.1, stamp=0, range_max=10, odometry=(1, 2))
+    options = tether.lidar.LidarSlamOptions()
+    options.self_check_every = -1
+    assert not options.is_valid()[0]
+    with pytest.raises(tether.InvalidArgument):
+        tether.lidar.LidarSlam2D(options)
+
+
+def test_same_files_as_the_command(tmp_path, cli):
+    truth, scans = trip()
+    lines = []
+    for k, (pose, ranges) in enumerate(zip(truth, scans)):
+        p = " ".join(f"{v:.10g}" for v in pose)
+        lines.append(f"FLASER 180 {' '.join(f'{r:.6g}' for r in ranges)} {p} {p} {1000 + 0.2 * k:.10g} sim {0.2 * k:.6g}")
+    log = tmp_path / "room.log"
+    log.write_text("\n".join(lines) + "\n")
+    subprocess.run([cli, "lidar", str(log), "-o", str(tmp_path / "cli"), "--scans-per-submap", "20", "-q"],
+                   check=True, capture_output=True)
+    options = tether.lidar.LidarSlamOptions()
+    options.scans_per_submap = 20
+    options.threads = 1
+    slam = tether.lidar.LidarSlam2D(options)
+    slam.run_log(str(log))
+    slam.write(str(tmp_path / "py"))
+    for name in ["trajectory.tum", "trajectory.g2o", "pose_graph.g2o", "map.pgm", "map.png", "loop_closures.txt",
+                 "self_check.png"]:
+        assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
