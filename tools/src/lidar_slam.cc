@@ -8,6 +8,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/frontends/lidar/laser_offset.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
@@ -54,7 +55,17 @@ std::string Describe(const lidar::LidarLog& log, long n) {
   }
   const SE2d& laser = first.laser_in_robot;
   s << "; laser on the robot at (" << Fixed(laser.x(), 3) << " m, " << Fixed(laser.y(), 3) << " m, "
-    << Fixed(laser.theta() * 180 / M_PI, 1) << " deg)\n";
+    << Fixed(laser.theta() * 180 / M_PI, 1) << " deg)";
+  // The mounting the log's own turns in place say, where there are enough of them.
+  if (with_odometry > 0) {
+    const lidar::LaserOffsetEstimate e = lidar::EstimateLaserOffset(log);
+    if (e.turns >= 10) {
+      s << "; its turns in place put the laser at (" << Fixed(e.x, 3) << " m, " << Fixed(e.y, 3) << " m) (" << e.turns
+        << " turns, residual " << Fixed(100 * e.rms, 1) << " cm against " << Fixed(100 * e.rms_at_log, 1)
+        << " cm at the log's; --laser-offset to change it)";
+    }
+  }
+  s << "\n";
   return s.str();
 }
 
