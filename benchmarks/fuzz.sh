@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Fuzzes every graph reader with libFuzzer under AddressSanitizer and UndefinedBehaviorSanitizer.
+# Fuzzes every graph reader, and the CARMEN laser-log reader (with the log writer and degrader
+# behind it), with libFuzzer under AddressSanitizer and UndefinedBehaviorSanitizer.
 #
 #   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
 #
 # Seeds: the first 40 lines of every public dataset in ../shared/datasets (g2o files for fuzz_g2o,
-# TORO .graph files, BR lines included, for fuzz_toro, iSAM landmark files for fuzz_isam), files written by `tether simulate` where that folder is
-# absent, and the regression inputs in tests/fuzz/regressions. Prints per target: executions,
+# TORO .graph files, BR lines included, for fuzz_toro, iSAM landmark files for fuzz_isam, the first
+# 40 lines of the CARMEN logs in lidar/ for fuzz_carmen), files written by `tether simulate` where that
+# folder is absent, and the regression inputs in tests/fuzz/regressions (regressions/carmen for fuzz_carmen). Prints per target: executions,
 # coverage (cov, ft), corpus size and findings; exits non-zero where a target found something
 # (the input is left in build-fuzz/findings/TARGET/, with a minimised copy min-*; the findings of
 # an earlier run are moved to build-fuzz/findings/TARGET.DATE/ first). The corpus in
@@ -29,12 +31,12 @@ bash scripts/install_deps.sh > /dev/null
 
 CC=clang CXX=clang++ cmake -S . -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETHER_BUILD_FUZZERS=ON \
   -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_TOOLS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DBUILD_SHARED_LIBS=OFF > /dev/null
-cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam > /dev/null
+cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam fuzz_carmen > /dev/null
 
 # Seed corpora.
 datasets="$root/../shared/datasets"
 stamp=$(date +%Y%m%d-%H%M%S)
-for t in g2o toro isam; do
+for t in g2o toro isam carmen; do
   mkdir -p "$work/corpus/$t" "$work/findings/$t"
   if [ -n "$(ls -A "$work/findings/$t")" ]; then
     mkdir -p "$work/findings/$t.$stamp"
@@ -46,6 +48,11 @@ if [ -d "$datasets" ]; then
     case "$f" in *.graph) t=toro ;; *.txt) t=isam ;; *) t=g2o ;; esac
     { printf '\000'; head -n 40 "$f"; } > "$work/corpus/$t/seed_$(basename "$f")"
   done < <(find "$datasets" -type f \( -name '*.g2o' -o -name '*.graph' -o -path '*/landmarks/*.txt' \))
+  # CARMEN logs (plain or gzip): their first lines, and a stretch after the header.
+  while IFS= read -r f; do
+    { printf '\000'; zcat -f "$f" | head -n 40; } > "$work/corpus/carmen/seed_$(basename "$f")"
+    { printf '\010'; zcat -f "$f" | grep -m 12 -E '^(ODOM|FLASER|ROBOTLASER1)'; } > "$work/corpus/carmen/seed_gz_$(basename "$f")"
+  done < <(find "$datasets/lidar" -type f \( -name '*.clf*' -o -name '*.log*' \) 2> /dev/null)
   # BR lines start after the poses in example.graph: seed them from the middle too.
   if [ -f "$datasets/landmarks/example.graph" ]; then
     { printf '\000'; grep -m 20 -E '^(VERTEX2|EDGE2)' "$datasets/landmarks/example.graph";
@@ -62,8 +69,14 @@ printf '\000VERTEX2 0 0 0 0\nBR 0 4 0.5 2 0.05 0.1\nBR 0 5 -2 3 0.05 0.1\n' > "$
 printf '\000ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2 3 2 1 3\nEDGE2 1 2 1 0 0 1 0 0 1 0 1\n' > "$work/corpus/isam/seed_isam"
 printf '\100ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\nLANDMARK 1 5 2 3 0.4 0.1 0.4\n' > "$work/corpus/isam/seed_isam_cov"
 printf '\000PARAMS_SE3OFFSET 1 0.1 0 0.2 0 0 0.3 0.95\nVERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 7 1 1 2 3 1 0 0 1 0 1\nEDGE_SE3_PRIOR 0 1 0 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nEDGE_RANGE_BEARING_SE2_XY 3 4 2 0.5 1 0 1\n' > "$work/corpus/g2o/seed_landmarks"
+printf '\000ODOM 0 0 0 0 0 0 9.5 h 0\nRAWLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 2 7 8 10 h 1\nODOM 1 0 0.5 0 0 0 10.5 h 1\n' > "$work/corpus/carmen/seed_raw"
+printf '\003FLASER 3 1 2 81.9 0.1 0 0 0 0 0 10 h 1\nROBOTLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 0 1 0 0 1 0 0 0 0 0 0 0 11 h 2\n' > "$work/corpus/carmen/seed_none"
+for f in "$root"/tests/fuzz/regressions/carmen/*; do
+  case "$f" in *.md) continue ;; esac
+  [ -f "$f" ] && cp "$f" "$work/corpus/carmen/"
+done
 for f in "$root"/tests/fuzz/regressions/*; do
-  [ -e "$f" ] || continue
+  [ -f "$f" ] || continue
   case "$f" in *toro*) cp "$f" "$work/corpus/toro/" ;; *isam*) cp "$f" "$work/corpus/isam/" ;; *) cp "$f" "$work/corpus/g2o/" ;; esac
 done
 cat > "$work/tags.dict" << 'DICT'
@@ -100,14 +113,40 @@ cat > "$work/tags.dict" << 'DICT'
 "+"
 "#"
 DICT
+cat > "$work/carmen.dict" << 'DICT'
+"ODOM"
+"FLASER"
+"ROBOTLASER1"
+"RAWLASER1"
+"PARAM"
+"SYNC"
+"NMEA-GGA"
+"#"
+" "
+"\x0a"
+"\x0d\x0a"
+"nan"
+"inf"
+"1e308"
+"-1e308"
+"1e-320"
+"-0"
+"1048576"
+"1048577"
+"81.9"
+"0.0175"
+"3.1416"
+DICT
 
 status=0
 echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
-for t in g2o toro isam; do
+for t in g2o toro isam carmen; do
   log="$work/fuzz_$t.log"
+  dict="$work/tags.dict"
+  [ "$t" = carmen ] && dict="$work/carmen.dict"
   ( cd "$work/findings/$t" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-      "$work/build/tests/fuzz/fuzz_$t" "$work/corpus/$t" -dict="$work/tags.dict" -max_total_time="$seconds" \
+      "$work/build/tests/fuzz/fuzz_$t" "$work/corpus/$t" -dict="$dict" -max_total_time="$seconds" \
       -timeout=10 -rss_limit_mb=2048 -max_len=4096 -print_final_stats=1 > "$log" 2>&1 ) || true
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
   rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)

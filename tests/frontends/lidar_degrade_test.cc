@@ -126,6 +126,35 @@ TEST_F(DegradeTest, WithoutOdometryScansAreRawLaserLinesWithNone) {
   EXPECT_EQ(back.scans[0].ValidCount(), log.scans[0].ValidCount());
 }
 
+TEST_F(DegradeTest, NumbersThatAreNotFiniteAreRefused) {
+  LidarLog log = MakeLog(2);
+  log.scans[1].odometry = SE2<double>(1.5e308, 0, 0);
+  log.scans[1].laser_in_robot = SE2<double>(1.5e308, 0, 0);  // the laser's pose overflows
+  std::ostringstream out;
+  EXPECT_NE(ErrorOf<InvalidArgument>([&] { WriteCarmenLog(out, log, true); }).find("not finite"), std::string::npos);
+  std::ostringstream raw;
+  WriteCarmenLog(raw, log, false);  // RAWLASER1 lines carry no pose
+}
+
+TEST_F(DegradeTest, NoReturnStaysInvalidWhereTheMaximumIsNotAFloat) {
+  // 5.6 m (a Hokuyo URG's maximum) has a nearest float below it: a no-return beam written as
+  // that float would read back valid.
+  const LidarLog log = MakeLog(3);
+  DegradeOptions o;
+  o.max_range = 5.6;
+  o.noise_sigma = 0.5;
+  o.drop_fraction = 0.3;
+  o.error_share = 0;
+  const LidarLog d = DegradeLog(log, o);
+  const LidarLog back = RoundTrip(d, true);
+  for (std::size_t k = 0; k < d.scans.size(); ++k) {
+    for (std::size_t i = 0; i < d.scans[k].ranges.size(); ++i) {
+      ASSERT_EQ(back.scans[k].Valid(i), d.scans[k].Valid(i)) << k << " " << i << " " << d.scans[k].ranges[i];
+      EXPECT_TRUE(d.scans[k].Valid(i) || !(d.scans[k].ranges[i] < 5.6));
+    }
+  }
+}
+
 TEST_F(DegradeTest, TheSameSeedGivesTheSameBytes) {
   const LidarLog log = MakeLog();
   DegradeOptions o;

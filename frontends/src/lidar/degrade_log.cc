@@ -28,6 +28,14 @@ constexpr std::uint64_t kNoiseStream = 0;
 constexpr std::uint64_t kDropStream = 1;
 std::uint64_t StreamOf(std::size_t scan, std::uint64_t which) { return 2 * static_cast<std::uint64_t>(scan) + which; }
 
+// The smallest float at or above `range_max` (infinity beyond the floats).
+float NoReturn(double range_max) {
+  if (!(range_max <= std::numeric_limits<float>::max())) return std::numeric_limits<float>::infinity();
+  float f = static_cast<float>(range_max);
+  if (static_cast<double>(f) < range_max) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
 // Beam j of `beams` over the field of the scan's n beams takes the nearest original beam.
 void Resample(int beams, LaserScan* s) {
   const std::size_t n = s->ranges.size();
@@ -48,7 +56,7 @@ void Degrade(const DegradeOptions& o, std::size_t index, LaserScan* s) {
   if (o.max_range > 0 && o.max_range < s->range_max) {
     s->range_max = o.max_range;
     for (float& r : s->ranges) {
-      if (std::isfinite(r) && r >= s->range_max) r = static_cast<float>(s->range_max);
+      if (std::isfinite(r) && r >= s->range_max) r = NoReturn(s->range_max);
     }
   }
   if (o.noise_sigma > 0) {
@@ -56,15 +64,14 @@ void Degrade(const DegradeOptions& o, std::size_t index, LaserScan* s) {
     for (std::size_t i = 0; i < s->ranges.size(); ++i) {
       if (!s->Valid(i)) continue;
       const double r = std::max(s->range_min, s->ranges[i] + o.noise_sigma * noise.Normal());
-      s->ranges[i] = static_cast<float>(std::min(r, s->range_max));  // at the maximum: no return
+      s->ranges[i] = r < s->range_max ? static_cast<float>(r) : NoReturn(s->range_max);
     }
   }
   if (o.drop_fraction > 0) {
     RandomStream drops(o.seed, StreamOf(index, kDropStream));
     for (std::size_t i = 0; i < s->ranges.size(); ++i) {
       if (!s->Valid(i) || !drops.Chance(o.drop_fraction)) continue;
-      s->ranges[i] =
-          drops.Chance(o.error_share) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(s->range_max);
+      s->ranges[i] = drops.Chance(o.error_share) ? std::numeric_limits<float>::quiet_NaN() : NoReturn(s->range_max);
     }
   }
   if (o.drop_odometry) {
@@ -74,7 +81,12 @@ void Degrade(const DegradeOptions& o, std::size_t index, LaserScan* s) {
 }
 
 // "%.17g" of v (or "%.9g" for a float's range): what strtod reads back as the same number.
+// A number that is not finite (a pose composed out of range) cannot be read back: refused.
 void Number(std::ostream& out, double v, int digits = 17) {
+  if (!std::isfinite(v)) {
+    throw InvalidArgument("WriteCarmenLog: a number that is not finite (" + std::to_string(v) +
+                          "; a pose or angle out of range) cannot be written to a CARMEN log");
+  }
   char buffer[40];
   std::snprintf(buffer, sizeof(buffer), "%.*g", digits, v);
   out << ' ' << buffer;
@@ -94,7 +106,19 @@ void LaserFields(std::ostream& out, const LaserScan& s) {
   Number(out, s.angle_increment);
   Number(out, s.range_max);
   out << " 0 0 " << s.ranges.size();
-  for (std::size_t i = 0; i < s.ranges.size(); ++i) Number(out, s.Valid(i) ? s.ranges[i] : s.range_max, 9);
+  // An invalid beam as the smallest float not below the maximum range (the reader keeps ranges
+  // as floats: the maximum's nearest float may lie below it and read back valid); beyond the
+  // floats, the maximum itself (it reads back as an infinite float).
+  const float none = NoReturn(s.range_max);
+  for (std::size_t i = 0; i < s.ranges.size(); ++i) {
+    if (s.Valid(i)) {
+      Number(out, s.ranges[i], 9);
+    } else if (std::isfinite(none)) {
+      Number(out, none, 9);
+    } else {
+      Number(out, s.range_max);
+    }
+  }
   out << " 0";  // no remissions
 }
 

@@ -78,9 +78,11 @@ LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options);
 ///   laser's pose on the robot is not kept (it reads back as the identity).
 /// Angles, the maximum range, the stamps and poses are written with 17 significant digits,
 /// ranges with 9 (a float reads back exactly); an invalid beam (not finite, below the minimum,
-/// at or beyond the maximum) is written as the maximum range, so it reads back invalid. The
+/// at or beyond the maximum) is written as the maximum range (rounded up to a float: ranges are
+/// read as floats), so it reads back invalid. The
 /// scan's minimum range is not written (CARMEN lines have none; it reads back as 0). `comment`
-/// (may be empty) is written first as `#` lines. Throws IoError where the stream fails.
+/// (may be empty) is written first as `#` lines. Throws InvalidArgument where a number to write
+/// is not finite (the laser's pose composed out of range), IoError where the stream fails.
 void WriteCarmenLog(std::ostream& out, const LidarLog& log, bool with_odometry, const std::string& comment = "");
 
 }  // namespace lidar
