@@ -11,9 +11,10 @@
 //   // sim.truth: the robot's true pose at each scan's stamp (WriteTum writes it).
 //
 // The world (40 m x 30 m): a corridor 2 m wide runs round a rectangle (its centre line from
-// (7, 7) to (33, 23)); twelve rooms open off it through 1 m doors: four along the bottom
-// (y 0 to 6), four along the top (y 24 to 30), two on the left (x 0 to 6) and two inside the
-// loop. Each room holds one or two boxes (0.4 m to 0.8 m) in its corners, placed by the seed.
+// (7, 7) to (33, 23)); thirteen rooms open off it through 1 m doors: four along the bottom
+// (y 0 to 6), four along the top (y 24 to 30), two on the left (x 0 to 6), one on the right
+// (x 34 to 40) and two inside the loop. Each room holds one or two boxes (0.4 m to 0.8 m) in
+// corners away from its door, placed by the seed.
 //
 // The path: from the corridor's bottom left corner, laps of the corridor (clockwise or
 // anticlockwise by the seed), entering rooms on the way (each door passed is taken with
