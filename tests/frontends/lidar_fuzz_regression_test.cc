@@ -3,6 +3,7 @@
 // and hand-made hostile logs, through the same body the fuzzer runs (a finding aborts the test).
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -34,6 +35,7 @@ TEST(CarmenFuzzRegressionTest, EveryKeptInputReadsOrIsRefusedCleanly) {
     ++replayed;
   }
   EXPECT_GT(replayed, 0) << "no regression inputs in " << dir;
+  std::remove(fuzz::CarmenScratchPath().c_str());
 }
 
 TEST(CarmenFuzzRegressionTest, HostileLogsAreReadOrRefusedCleanly) {
@@ -55,6 +57,7 @@ TEST(CarmenFuzzRegressionTest, HostileLogsAreReadOrRefusedCleanly) {
     SCOPED_TRACE(log.substr(0, 80));
     for (int b = 0; b < 32; ++b) Replay(std::string(1, static_cast<char>(b)) + log);
   }
+  std::remove(fuzz::CarmenScratchPath().c_str());
 }
 
 }  // namespace
