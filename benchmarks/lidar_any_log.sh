@@ -31,7 +31,7 @@ row() {
   rt=$(awk -v l="$logged" -v t="$total" 'BEGIN { printf "%.1fx", l / t }')
   if [ -n "$eval" ]; then
     local te re far
-    te=$(echo "$eval" | awk '/^translational error/ {print $3 " m (max " $7}' | tr -d ')')
+    te=$(echo "$eval" | awk '/^translational error/ {print $3 " m (max " $8}' | tr -d ')')
     re=$(echo "$eval" | awk '/^rotational error/ {print $3 " deg"}')
     far=$(echo "$eval" | awk '/more than 1 m/ {print $NF}')
     echo "| $name | $te) | $re | $far | $kept | $fit | $rt |"

@@ -329,6 +329,11 @@ int main(int argc, char** argv) {
                "the submap in the graph (0: fixed)");
   lidar_option("--max-search-window", po.max_search_window,
                "Loop closures: the window's half side grows up to this [m]");
+  lidar_option("--search-angle-growth", po.search_angle_growth,
+               "Loop closures: the window's rotations grow by this many radians per metre between the scan and "
+               "the submap in the graph (0: fixed)");
+  lidar_option("--max-search-angle", po.max_search_angle,
+               "Loop closures: the window's rotations grow up to this [rad]");
   lidar_option("--search-angle", lsc.search_angle_deg,
                "Loop closures: branch and bound searches +- this many degrees around the estimate");
   lidar_option("--huber", po.huber_delta, "Loop closures' Huber delta (on the whitened error)");
@@ -363,6 +368,9 @@ int main(int argc, char** argv) {
                    "The laser's pose on the robot, x,y,theta [m, m, rad], for every scan instead of the log's")
       ->delimiter(',')
       ->expected(3);
+  lidar->add_option("--ground-truth", lsc.ground_truth,
+                    "A true trajectory (TUM text, e.g. from tether simulate lidar --truth): print the absolute "
+                    "trajectory error against it");
   lidar_option("--self-check-every", lsc.options.self_check.sample_every,
                "Self-check every N-th scan against the map made at other times (0: no check)");
   lidar_option("--progress-every", lsc.progress_every, "Scans between progress lines (0: none)");

@@ -63,6 +63,14 @@ void AppendKey(std::string* s, Key k) {
   s->append(buf, r.ptr);
 }
 
+std::string FormatFixed(double v, int digits) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
 std::string FormatDouble(double v) {
   std::string s;
   AppendDouble(&s, v);

@@ -48,6 +48,18 @@ TEST(ScanToPoints, DropsInvalidBeamsAndKeepsAngles) {
   EXPECT_EQ(ScanToPoints(s, tight).size(), 2u);
 }
 
+TEST(ScanToPoints, AZeroRangeIsNoReturnEvenWithoutAMinimum) {
+  // Low-cost scanners write 0 where a beam saw nothing; a point at the laser would be a hit
+  // inserted where the robot stands.
+  LaserScan s = FourBeams();
+  s.range_min = 0;
+  s.ranges = {0.0f, 1.5f, -0.0f, 2.0f};
+  EXPECT_FALSE(s.Valid(0));
+  EXPECT_TRUE(s.Valid(1));
+  EXPECT_FALSE(s.Valid(2));
+  EXPECT_EQ(ScanToPoints(s).size(), 2u);
+}
+
 TEST(VoxelFilter, OneCentroidPerCellInFirstSeenOrder) {
   const std::vector<Eigen::Vector2d> points = {{0.1, 0.1}, {0.3, 0.3},  {-0.1, 0.1}, {0.45, 0.2},
                                                {5.0, 5.0}, {-0.2, 0.3}, {NAN, 0}};

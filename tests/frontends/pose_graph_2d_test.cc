@@ -19,16 +19,7 @@ namespace {
 
 using testing::Segment;
 
-std::vector<Segment> World() {
-  std::vector<Segment> s;
-  testing::AddRectangle(0, 0, 24, 18, &s);
-  testing::AddRectangle(3, 3, 4, 5, &s);
-  testing::AddRectangle(19, 2, 21, 3, &s);
-  testing::AddRectangle(11, 8, 13, 10.5, &s);
-  testing::AddRectangle(5, 13, 8, 14, &s);
-  testing::AddRectangle(18, 14, 19, 16, &s);
-  return s;
-}
+std::vector<Segment> World() { return testing::RoomWithBoxes(); }
 
 // Two laps of a circle of radius 5 m around the room's centre in 0.25 m steps, and scans
 // from the true poses. What local SLAM would give drifts: each step's relative motion turned by

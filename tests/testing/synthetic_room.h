@@ -5,13 +5,12 @@
 #include <vector>
 
 #include "tether/core/se2.h"
+#include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {
 namespace testing {
 
-struct Segment {
-  Eigen::Vector2d a, b;
-};
+using Segment = lidar::WallSegment;
 
 /// Adds the four walls of the rectangle [x0, x1] x [y0, y1].
 inline void AddRectangle(double x0, double y0, double x1, double y1, std::vector<Segment>* s) {
@@ -22,19 +21,19 @@ inline void AddRectangle(double x0, double y0, double x1, double y1, std::vector
 }
 
 /// The distance from `origin` along the unit direction `d` to the nearest segment (infinity
-/// where none is hit).
-inline double CastRay(const std::vector<Segment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d) {
-  double best = INFINITY;
-  for (const Segment& s : walls) {
-    // origin + t d = s.a + u (s.b - s.a)
-    const Eigen::Vector2d e = s.b - s.a, w = s.a - origin;
-    const double den = -d.x() * e.y() + d.y() * e.x();
-    if (std::abs(den) < 1e-12) continue;
-    const double t = (-w.x() * e.y() + w.y() * e.x()) / den;
-    const double u = (d.x() * w.y() - d.y() * w.x()) / den;
-    if (t > 1e-9 && u >= 0 && u <= 1) best = std::min(best, t);
-  }
-  return best;
+/// where none is hit): the simulator's ray caster.
+using lidar::CastRay;
+
+/// The room of the LiDAR pose-graph tests: 24 m x 18 m with five boxes.
+inline std::vector<Segment> RoomWithBoxes() {
+  std::vector<Segment> s;
+  AddRectangle(0, 0, 24, 18, &s);
+  AddRectangle(3, 3, 4, 5, &s);
+  AddRectangle(19, 2, 21, 3, &s);
+  AddRectangle(11, 8, 13, 10.5, &s);
+  AddRectangle(5, 13, 8, 14, &s);
+  AddRectangle(18, 14, 19, 16, &s);
+  return s;
 }
 
 /// Ranges of `beams` beams from angle_min in steps of `increment` (the sensor's frame) seen

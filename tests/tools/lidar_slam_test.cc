@@ -149,6 +149,24 @@ TEST_F(LidarSlamTest, TheLaserOffsetReplacesTheLogs) {
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("off3") + " --laser-offset 0.5,nan,0").code, 2);
 }
 
+// A simulated office without odometry, scored against its truth by --ground-truth.
+TEST_F(LidarSlamTest, ScanOnlySimulatedOfficeAgainstItsTruth) {
+  const auto sim = Tether("simulate lidar -o " + P("office.log") + " --truth " + P("office.tum") +
+                          " --seed 2 --scans 600 --no-odometry");
+  ASSERT_EQ(sim.code, 0) << sim.output;
+  const auto run = Tether("lidar " + P("office.log") + " -o " + P("office") + " --ground-truth " + P("office.tum"));
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("odometry: none"), std::string::npos) << run.output;
+  const std::size_t at = run.output.find("absolute trajectory error (rigid alignment) ");
+  ASSERT_NE(at, std::string::npos) << run.output;
+  const double ate = std::stod(run.output.substr(at + 44));
+  EXPECT_LT(ate, 0.05) << run.output;
+  EXPECT_NE(run.output.find("over 600 poses"), std::string::npos) << run.output;
+  const auto missing = Tether("lidar " + P("office.log") + " -o " + P("office2") + " --ground-truth " + P("none.tum"));
+  EXPECT_EQ(missing.code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("none.tum"), std::string::npos) << missing.output;
+}
+
 TEST_F(LidarSlamTest, UsageAndInputErrors) {
   const std::string log = Write("room.log", RoomLog());
   EXPECT_EQ(Tether("lidar " + log).code, 2);  // -o is required

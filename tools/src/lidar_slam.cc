@@ -8,20 +8,17 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/core/registry.h"
 #include "tether/frontends/lidar/laser_offset.h"
+#include "tether/frontends/lidar/tum_trajectory.h"
 #include "tether/tools/commands.h"
+#include "tether/tools/trajectory_error.h"
 
 namespace tether {
 
 namespace {
 
-std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+std::string Fixed(double v, int digits) { return FormatFixed(v, digits); }
 
 // What the log holds, said before the run: scans, beams, rate, range, odometry.
 std::string Describe(const lidar::LidarLog& log, long n) {
@@ -107,6 +104,7 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
       "lidar", outputs,
       [&] {
         outputs.AddInput(cmd.log);
+        if (!cmd.ground_truth.empty()) outputs.AddInput(cmd.ground_truth, "ground truth");
         for (const lidar::LidarOutput& o : lidar::LidarSlam2D::OutputNames()) {
           files.push_back(&outputs.Add((fs::path(cmd.output_dir) / o.name).string(), o.what));
         }
@@ -127,6 +125,15 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   if (log.scans.empty()) {
     err << "error: " << cmd.log << " has no scans\n";
     return kExitBadInput;
+  }
+  std::vector<lidar::StampedPose2> truth;
+  if (!cmd.ground_truth.empty()) {
+    try {
+      truth = lidar::ReadTumFile(cmd.ground_truth);
+    } catch (const Error& e) {
+      err << "error: " << e.what() << "\n";
+      return kExitBadInput;
+    }
   }
   if (cmd.laser_offset.size() == 3) {
     const SE2d offset(cmd.laser_offset[0], cmd.laser_offset[1], cmd.laser_offset[2]);
@@ -154,7 +161,24 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
     err << "error: " << e.what() << "; nothing was written\n";
     return kExitWriteFailed;
   }
-  out << slam.report().Summary(cmd.options.pose_graph.threads) << "wrote " << cmd.output_dir << "/{";
+  out << slam.report().Summary(cmd.options.pose_graph.threads);
+  if (!cmd.ground_truth.empty()) {
+    // The poses whose stamps the truth has (within 1 microsecond), by index as Values keys.
+    Values estimate, reference;
+    const std::vector<lidar::StampedPose2> t = slam.Trajectory();
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      while (k < truth.size() && truth[k].stamp < t[i].stamp - 1e-6) ++k;
+      if (k < truth.size() && std::abs(truth[k].stamp - t[i].stamp) <= 1e-6) {
+        estimate.Insert(static_cast<Key>(i), t[i].pose);
+        reference.Insert(static_cast<Key>(i), truth[k].pose);
+      }
+    }
+    const TrajectoryError ate = AbsoluteTrajectoryError(estimate, reference);
+    out << "against " << cmd.ground_truth << ": absolute trajectory error (rigid alignment) " << FormatMetres(ate.rmse)
+        << " RMSE, max " << FormatMetres(ate.max) << " over " << ate.poses << " poses\n";
+  }
+  out << "wrote " << cmd.output_dir << "/{";
   const std::vector<lidar::LidarOutput> names = lidar::LidarSlam2D::OutputNames();
   for (std::size_t i = 0; i < names.size(); ++i) out << (i > 0 ? ", " : "") << names[i].name;
   out << "}\n";

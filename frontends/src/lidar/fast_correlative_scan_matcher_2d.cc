@@ -118,7 +118,8 @@ FastCorrelativeScanMatcher2D::FastCorrelativeScanMatcher2D(const ProbabilityGrid
 
 FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const SE2d& guess,
                                                                           const std::vector<Eigen::Vector2d>& points,
-                                                                          double linear_window) const {
+                                                                          double linear_window,
+                                                                          double angular_window) const {
   if (points.empty()) throw InvalidArgument("fast correlative scan matcher: the scan has no points");
   if (!std::isfinite(guess.x()) || !std::isfinite(guess.y()) || !std::isfinite(guess.theta())) {
     throw InvalidArgument("fast correlative scan matcher: the guess is not finite");
@@ -135,7 +136,8 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const 
     // No point moves by more than one cell between neighbouring rotations.
     s.step = d_max > r / 2 ? std::acos(std::max(-1.0, 1 - r * r / (2 * d_max * d_max))) : M_PI / 2;
   }
-  s.k_max = static_cast<int>(std::ceil(options_.angular_search_window / s.step - 1e-9));
+  const double angles = angular_window < 0 ? options_.angular_search_window : std::min(angular_window, M_PI);
+  s.k_max = static_cast<int>(std::ceil(angles / s.step - 1e-9));
   const double window = linear_window < 0 ? options_.linear_search_window : linear_window;
   s.w = static_cast<int>(std::ceil(window / r - 1e-9));
   s.cells.resize(static_cast<std::size_t>(2 * s.k_max + 1));
@@ -148,7 +150,7 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const 
 
 FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                         double min_score) const {
-  const Setup s = Prepare(guess, points, -1);
+  const Setup s = Prepare(guess, points, -1, -1);
   FastMatch m = s.Unfound(guess);
   float best = static_cast<float>(min_score);
   const float n = static_cast<float>(points.size());
@@ -192,7 +194,7 @@ void CheckRivalNeighbourhood(double distance, double angle) {
 
 FastMatch FastCorrelativeScanMatcher2D::Match(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                               double min_score) const {
-  const Setup s = Prepare(guess, points, -1);
+  const Setup s = Prepare(guess, points, -1, -1);
   return Search(s, guess, points.size(), min_score, nullptr);
 }
 
@@ -200,20 +202,21 @@ bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector
                                             const SE2d& best, double min_distance, double min_angle,
                                             double min_score) const {
   CheckRivalNeighbourhood(min_distance, min_angle);
-  return Rival(Prepare(guess, points, -1), guess, points.size(), best, min_distance, min_angle, min_score);
+  return Rival(Prepare(guess, points, -1, -1), guess, points.size(), best, min_distance, min_angle, min_score);
 }
 
 FastMatch FastCorrelativeScanMatcher2D::MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                      double min_score, double rival_distance, double rival_angle,
-                                                     double rival_ratio, double linear_window) const {
+                                                     double rival_ratio, double linear_window,
+                                                     double angular_window) const {
   CheckRivalNeighbourhood(rival_distance, rival_angle);
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) {
     throw InvalidArgument("fast correlative scan matcher: the rival ratio must lie in [0, 1]");
   }
-  if (!std::isfinite(linear_window)) {
+  if (!std::isfinite(linear_window) || !std::isfinite(angular_window)) {
     throw InvalidArgument("fast correlative scan matcher: the search window must be finite");
   }
-  const Setup s = Prepare(guess, points, linear_window);
+  const Setup s = Prepare(guess, points, linear_window, angular_window);
   FastMatch m = Search(s, guess, points.size(), min_score, nullptr);
   if (m.found && !m.on_edge) {
     // The best's neighbourhood (what counts as the same match) reaches past the window's

@@ -21,7 +21,7 @@ const char* ToString(OdometryOrigin o) { return NameOf(kOriginNames, o); }
 bool LaserScan::Valid(std::size_t i) const {
   if (i >= ranges.size()) return false;
   const double r = ranges[i];
-  return std::isfinite(r) && r >= range_min && r < range_max;
+  return std::isfinite(r) && r > 0 && r >= range_min && r < range_max;
 }
 
 std::size_t LaserScan::ValidCount() const {
@@ -37,7 +37,7 @@ std::vector<Eigen::Vector2d> ScanToPoints(const LaserScan& scan, const RangeLimi
   points.reserve(scan.ranges.size());
   for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
     const double r = scan.ranges[i];
-    if (!std::isfinite(r) || r < lo || r >= hi) continue;
+    if (!std::isfinite(r) || r <= 0 || r < lo || r >= hi) continue;
     const double a = scan.Angle(i);
     points.emplace_back(r * std::cos(a), r * std::sin(a));
   }

@@ -24,13 +24,7 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+std::string Fixed(double v, int digits) { return FormatFixed(v, digits); }
 
 std::string Percent(long part, long whole) {
   return whole == 0 ? std::string("-") : Fixed(100.0 * static_cast<double>(part) / static_cast<double>(whole), 2) + "%";

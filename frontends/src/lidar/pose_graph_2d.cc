@@ -59,6 +59,10 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(max_search_distance) && max_search_distance >= 0)) {
     return fail("max_search_distance must be finite and not negative");
   }
+  if (!(std::isfinite(search_angle_growth) && search_angle_growth >= 0 && std::isfinite(max_search_angle) &&
+        max_search_angle >= 0 && max_search_angle <= M_PI)) {
+    return fail("search_angle_growth must be finite and not negative, max_search_angle in [0, pi]");
+  }
   if (!(std::isfinite(search_window_growth) && search_window_growth >= 0)) {
     return fail("search_window_growth must be finite and not negative");
   }
@@ -191,36 +195,42 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   if (closures || i % options_.update_every_n_scans == 0) Flush();
 
   if (options_.loop_closure) {
-    // Scan k against submap j, with the window for their graph distance (a scan in no submap,
-    // before the first, is as near as the submaps it follows).
-    const double base = options_.search.linear_search_window;
-    const auto search = [&](int k, int j, double distance) {
-      const ScanNode& s = scans_[static_cast<std::size_t>(k)];
-      if (std::find(s.submaps.begin(), s.submaps.end(), j) != s.submaps.end()) return;
-      const double window = Window(s.submaps.empty() ? 0.0 : distance);
-      const double reach = options_.max_search_distance + (window - base);
-      if ((ScanPose(k).translation() - SubmapPose(j).translation()).norm() <= reach) StartSearch(k, j, window);
-    };
     // Submaps finished by this scan: every earlier sampled scan near them.
     for (const auto& [j, submap] : inserted_into) {
-      SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
-      if (node.finished || !submap->finished()) continue;
-      node.finished = true;
-      node.matcher = std::make_unique<LazyMatcher>();
-      const std::vector<double> d = GraphDistances({j});
-      for (int k = 0; k < i; k += options_.search_every_n_scans) {
-        double distance = std::numeric_limits<double>::infinity();
-        for (int m : scans_[static_cast<std::size_t>(k)].submaps) distance = std::min(distance, d[m]);
-        search(k, j, distance);
-      }
+      if (submaps_[static_cast<std::size_t>(j)].finished || !submap->finished()) continue;
+      SearchNewlyFinished(j, i);
     }
     // This scan, if sampled, against every finished submap near it.
     if (i % options_.search_every_n_scans == 0) {
       const std::vector<double> d = GraphDistances(scans_.back().submaps);
       for (int j = 0; j < submap_count(); ++j) {
-        if (submaps_[static_cast<std::size_t>(j)].finished) search(i, j, d[static_cast<std::size_t>(j)]);
+        if (submaps_[static_cast<std::size_t>(j)].finished) SearchNear(i, j, d[static_cast<std::size_t>(j)]);
       }
     }
+  }
+}
+
+void PoseGraph2D::SearchNear(int k, int j, double distance) {
+  // Scan k against submap j, with the window for their graph distance (a scan in no submap,
+  // before the first, is as near as the submaps it follows).
+  const ScanNode& s = scans_[static_cast<std::size_t>(k)];
+  if (std::find(s.submaps.begin(), s.submaps.end(), j) != s.submaps.end()) return;
+  const double base = options_.search.linear_search_window;
+  const double d = s.submaps.empty() ? 0.0 : distance;
+  const double window = Window(d);
+  const double reach = options_.max_search_distance + (window - base);
+  if ((ScanPose(k).translation() - SubmapPose(j).translation()).norm() <= reach) StartSearch(k, j, window, Angle(d));
+}
+
+void PoseGraph2D::SearchNewlyFinished(int j, int before) {
+  SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+  node.finished = true;
+  node.matcher = std::make_unique<LazyMatcher>();
+  const std::vector<double> d = GraphDistances({j});
+  for (int k = 0; k < before; k += options_.search_every_n_scans) {
+    double distance = std::numeric_limits<double>::infinity();
+    for (int m : scans_[static_cast<std::size_t>(k)].submaps) distance = std::min(distance, d[m]);
+    SearchNear(k, j, distance);
   }
 }
 
@@ -257,17 +267,24 @@ std::vector<double> PoseGraph2D::GraphDistances(const std::vector<int>& from) co
   return d;
 }
 
+double PoseGraph2D::Angle(double distance) const {
+  const double base = options_.search.angular_search_window;
+  if (!(options_.search_angle_growth > 0)) return base;
+  return std::max(base, std::min(options_.max_search_angle, base + options_.search_angle_growth * distance));
+}
+
 double PoseGraph2D::Window(double distance) const {
   const double base = options_.search.linear_search_window;
   if (!(options_.search_window_growth > 0)) return base;
   return std::max(base, std::min(options_.max_search_window, base + options_.search_window_growth * distance));
 }
 
-void PoseGraph2D::StartSearch(int scan, int submap, double window) {
+void PoseGraph2D::StartSearch(int scan, int submap, double window, double angle) {
   auto s = std::make_unique<Search>();
   s->scan = scan;
   s->submap = submap;
   s->window = window;
+  s->angle = angle;
   const SubmapNode& node = submaps_[static_cast<std::size_t>(submap)];
   s->matcher = node.matcher.get();
   s->grid = node.submap->grid();
@@ -300,7 +317,7 @@ void PoseGraph2D::RunSearch(Search* s) const {
     });
     const FastMatch m =
         s->matcher->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score, options_.rival_distance,
-                                          options_.rival_angle, options_.rival_ratio, s->window);
+                                          options_.rival_angle, options_.rival_ratio, s->window, s->angle);
     if (m.found && m.on_edge) {
       s->on_edge = true;
     } else if (m.found && m.ambiguous) {

@@ -155,6 +155,8 @@ class Registry {
 
 /// Formats a double with enough digits to read back the same value.
 std::string FormatDouble(double v);
+/// Formats a double with `digits` digits after the point (std::fixed), for reports.
+std::string FormatFixed(double v, int digits);
 /// The same text appended to *s.
 void AppendDouble(std::string* s, double v);
 /// A key's decimal text appended to *s.

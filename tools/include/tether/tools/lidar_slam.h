@@ -36,6 +36,9 @@ struct LidarCommand {
   /// The laser's pose on the robot (x m, y m, theta rad) for every scan, replacing the log's;
   /// empty: the log's.
   std::vector<double> laser_offset;
+  /// A true trajectory (TUM text, as `tether simulate lidar --truth` writes it): the absolute
+  /// trajectory error of the result against it is printed (poses matched by stamp).
+  std::string ground_truth;
   long progress_every = 2000;  ///< scans between progress lines (0: none)
   bool quiet = false;
 };

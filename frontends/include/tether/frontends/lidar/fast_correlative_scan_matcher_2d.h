@@ -107,11 +107,12 @@ class FastCorrelativeScanMatcher2D {
   /// candidates (prepared once) with min_score max(min_score, rival_ratio * score):
   /// FastMatch::ambiguous. rival_ratio 0 skips the rival search. linear_window: the half side
   /// of the square of translations searched by this call (m); negative: the options'
-  /// linear_search_window. Throws as Match and HasRival, for a ratio outside [0, 1] and for a
-  /// window that is not finite.
+  /// linear_search_window. angular_window: half the rotations searched by this call (rad, at
+  /// most pi); negative: the options' angular_search_window. Throws as Match and HasRival, for
+  /// a ratio outside [0, 1] and for a window that is not finite.
   FastMatch MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score,
-                         double rival_distance, double rival_angle, double rival_ratio,
-                         double linear_window = -1) const;
+                         double rival_distance, double rival_angle, double rival_ratio, double linear_window = -1,
+                         double angular_window = -1) const;
   /// The same candidates scored one by one: the reference for Match, and its speed-up.
   FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
 
@@ -125,7 +126,8 @@ class FastCorrelativeScanMatcher2D {
     int k = 0, dx = 0, dy = 0;
     double radius = 0, angle = 0;
   };
-  Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double linear_window) const;
+  Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double linear_window,
+                double angular_window) const;
   FastMatch Search(const Setup& s, const SE2d& guess, std::size_t n_points, double min_score,
                    const Exclusion* exclude) const;
   bool Rival(const Setup& s, const SE2d& guess, std::size_t n_points, const SE2d& best, double min_distance,

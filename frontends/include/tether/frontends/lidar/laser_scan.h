@@ -27,7 +27,8 @@ struct LaserScan {
   /// Beam i points at angle_min + i * angle_increment (radians, in the laser's frame, x forward).
   double angle_min = 0;
   double angle_increment = 0;
-  /// Beams shorter than range_min or not shorter than range_max are invalid (no return).
+  /// Beams shorter than range_min or not shorter than range_max are invalid (no return), and
+  /// so is a range of 0 whatever range_min says (low-cost scanners write 0 for no return).
   double range_min = 0;
   double range_max = 0;
   std::vector<float> ranges;
@@ -42,7 +43,7 @@ struct LaserScan {
 
   /// The angle of beam i.
   double Angle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
-  /// True where beam i has a finite range in [range_min, range_max).
+  /// True where beam i has a finite, positive range in [range_min, range_max).
   bool Valid(std::size_t i) const;
   /// Number of valid beams.
   std::size_t ValidCount() const;
