@@ -203,6 +203,23 @@ TEST(FastCorrelativeScanMatcherTest, ACallsWindowAndABestNearItsEdge) {
   EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, std::nan("")), InvalidArgument);
 }
 
+// MatchChecked searches the rotations it is given for the call: a guess turned 0.5 rad from
+// the truth is out of the options' 0.3 rad, within 0.6 rad.
+TEST(FastCorrelativeScanMatcherTest, ACallsRotations) {
+  const ProbabilityGrid grid = RoomGrid(0.05);
+  const FastCorrelativeScanMatcher2D matcher(grid, RoomWindow(0.5));
+  const std::vector<Eigen::Vector2d> points = RoomScan(kRoomTruth);
+  const SE2d guess(kRoomTruth.x() + 0.2, kRoomTruth.y(), kRoomTruth.theta() + 0.5);
+  const FastMatch narrow = matcher.MatchChecked(guess, points, 0.3, 0.3, 0.035, 0, 0.5);
+  EXPECT_FALSE(narrow.found && std::abs(WrapAngle(narrow.pose.theta() - kRoomTruth.theta())) < narrow.angular_step);
+  const FastMatch wide = matcher.MatchChecked(guess, points, 0.3, 0.3, 0.035, 0, 0.5, 0.6);
+  ASSERT_TRUE(wide.found);
+  EXPECT_LT(std::abs(WrapAngle(wide.pose.theta() - kRoomTruth.theta())), wide.angular_step);
+  EXPECT_LT((wide.pose.translation() - kRoomTruth.translation()).norm(), 1.5 * 0.05);
+  EXPECT_GT(wide.rotations, narrow.rotations);
+  EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, 0.5, INFINITY), InvalidArgument);
+}
+
 TEST(FastCorrelativeScanMatcherTest, EveryDepthGivesTheSameAnswer) {
   const ProbabilityGrid grid = RoomGrid(0.1);
   const SE2d truth(7.0, 3.0, -2.0);

@@ -193,6 +193,8 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
                {"--search-voxel -1", "search_voxel_size"},
                {"--search-window-growth -0.1", "search_window_growth"},
                {"--max-search-window nan", "max_search_window"},
+               {"--max-search-angle 4", "max_search_angle"},
+               {"--search-angle-growth -1", "search_angle_growth"},
                {"--consecutive-sigma-r 0", "consecutive"},
                {"--local-huber -1", "local_huber_delta"}};
   for (const auto& l : local) {

@@ -121,16 +121,17 @@ struct PoseGraphOptions {
   /// shortened is searched wide; a place revisited often stays at search's window.
   /// aces returns to its start after 175 m with 7 m of drift, beyond the 5 m half window
   /// (benchmarks/RESULTS.md, "LiDAR VI"). 0: a fixed window.
-  /// 0.05 up to 20 m (and the rotations below) against 0.02 up to 10 m with a fixed 15 degrees
+  /// Up to 20 m, and the rotations below growing too, against up to 10 m at a fixed 15 degrees
   /// (benchmarks/RESULTS.md, "LiDAR X"): mit-killian, whose loops run hundreds of metres, from
   /// 91.3% of its closures kept and 13 stretches the self-check found misplaced (its long
-  /// corridors crossing where they should meet) to 93.4% and none; Intel, aces and fr079 with
-  /// the same relation errors (0.0158, 0.0368, 0.0416 m).
-  double search_window_growth = 0.05;
+  /// corridors crossing where they should meet) to 93.1% and none; Intel, aces and fr079 the
+  /// same relation errors (0.0158, 0.0368, 0.0416 m) in about the same time. Growing 0.05 m
+  /// per m (and 0.003 rad) closed mit-killian as well but cost fr079 44% more time.
+  double search_window_growth = 0.02;
   double max_search_window = 20;  ///< m, half side (never below search.linear_search_window)
   /// The window's rotations widen the same way: search_angle_growth radians per metre of graph
   /// distance, up to max_search_angle (0: fixed at search.angular_search_window).
-  double search_angle_growth = 0.003;           ///< rad per m (15 degrees more at 87 m)
+  double search_angle_growth = 0.0015;          ///< rad per m (15 degrees more at 175 m)
   double max_search_angle = 0.523598775598299;  ///< rad (30 degrees)
   /// Branch and bound scores a scan's points thinned by a voxel filter of this edge (m; 0: the
   /// points as given); the refinement after it uses them all. 0.2 m against the 5 cm matching
