@@ -115,10 +115,7 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   lidar::LidarLog log;
   try {
     log = lidar::ReadLidarLog(cmd.log, cmd.read);
-  } catch (const IoError& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const ParseError& e) {
+  } catch (const Error& e) {  // IoError, ParseError; InvalidArgument where bags are not supported
     err << "error: " << e.what() << "\n";
     return kExitBadInput;
   }
@@ -145,14 +142,19 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
 
   lidar::LidarSlam2D slam(cmd.options);
   const auto t0 = std::chrono::steady_clock::now();
-  slam.Run(log, n, cmd.quiet ? 0 : cmd.progress_every, [&](long done) {
-    const double logged = log.scans[static_cast<std::size_t>(done - 1)].stamp - log.scans[0].stamp;
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    out << "scans " << done << " of " << n << ", submaps " << slam.pose_graph().submap_count() << ", loop closures "
-        << slam.pose_graph().loop_closures().size() << " (searches " << slam.pose_graph().stats().searches
-        << "), real-time factor " << Fixed(logged / std::max(seconds, 1e-9), 1) << "\n"
-        << std::flush;
-  });
+  try {
+    slam.Run(log, n, cmd.quiet ? 0 : cmd.progress_every, [&](long done) {
+      const double logged = log.scans[static_cast<std::size_t>(done - 1)].stamp - log.scans[0].stamp;
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      out << "scans " << done << " of " << n << ", submaps " << slam.pose_graph().submap_count() << ", loop closures "
+          << slam.pose_graph().loop_closures().size() << " (searches " << slam.pose_graph().stats().searches
+          << "), real-time factor " << Fixed(logged / std::max(seconds, 1e-9), 1) << "\n"
+          << std::flush;
+    });
+  } catch (const Error& e) {  // a scan the mapping cannot take (a reader lets none through)
+    err << "error: " << cmd.log << ": " << e.what() << "; nothing was written\n";
+    return kExitBadInput;
+  }
   try {
     const std::vector<lidar::LidarOutput> written = slam.Outputs();
     for (std::size_t i = 0; i < written.size(); ++i) files[i]->Stage(written[i].bytes);
