@@ -1,6 +1,7 @@
 #include "tether/frontends/lidar/scan_to_scan_2d.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -74,14 +75,20 @@ class LineTargets {
   const Eigen::Vector2d& normal(int i) const { return normals_[static_cast<std::size_t>(i)]; }
 
  private:
-  std::int64_t Cell(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_)); }
-  static std::int64_t Pack(std::int64_t x, std::int64_t y) { return (x << 32) ^ (y & 0xffffffff); }
-  std::int64_t Key(const Eigen::Vector2d& p) const { return Pack(Cell(p.x()), Cell(p.y())); }
+  // Clamped so that an absurd coordinate (a range of 1e30 m) cannot overflow the cast.
+  std::int64_t Cell(double v) const {
+    return static_cast<std::int64_t>(std::floor(std::max(-1e15, std::min(1e15, v / cell_))));
+  }
+  // Two cell indices in one key (unsigned: shifting a negative index is undefined).
+  static std::uint64_t Pack(std::int64_t x, std::int64_t y) {
+    return (static_cast<std::uint64_t>(x) << 32) ^ (static_cast<std::uint64_t>(y) & 0xffffffffu);
+  }
+  std::uint64_t Key(const Eigen::Vector2d& p) const { return Pack(Cell(p.x()), Cell(p.y())); }
 
   const std::vector<Eigen::Vector2d>& points_;
   std::vector<Eigen::Vector2d> normals_;
   double cell_;
-  std::unordered_map<std::int64_t, std::vector<int>> cells_;
+  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
 
 }  // namespace
