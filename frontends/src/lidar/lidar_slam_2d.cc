@@ -30,6 +30,17 @@ std::string Percent(long part, long whole) {
   return whole == 0 ? std::string("-") : Fixed(100.0 * static_cast<double>(part) / static_cast<double>(whole), 2) + "%";
 }
 
+// The poses chained by their relative poses (unit information): scan i is vertex i.
+void ChainGraph(const std::vector<StampedPose2>& t, FactorGraph* graph, Values* values) {
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    values->Insert(static_cast<Key>(i), t[i].pose);
+    if (i > 0) {
+      graph->Add<BetweenSE2>(static_cast<Key>(i - 1), static_cast<Key>(i), t[i - 1].pose.Inverse() * t[i].pose,
+                             SqrtInformation::FromSigmas(Eigen::Vector3d::Ones()));
+    }
+  }
+}
+
 const LidarSlamOptions& Checked(const LidarSlamOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("LidarSlamOptions: " + why);
@@ -198,16 +209,7 @@ std::vector<StampedPose2> LidarSlam2D::Trajectory() const {
   return t;
 }
 
-void LidarSlam2D::TrajectoryGraph(FactorGraph* graph, Values* values) const {
-  const std::vector<StampedPose2> t = Trajectory();
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    values->Insert(static_cast<Key>(i), t[i].pose);
-    if (i > 0) {
-      graph->Add<BetweenSE2>(static_cast<Key>(i - 1), static_cast<Key>(i), t[i - 1].pose.Inverse() * t[i].pose,
-                             SqrtInformation::FromSigmas(Eigen::Vector3d::Ones()));
-    }
-  }
-}
+void LidarSlam2D::TrajectoryGraph(FactorGraph* graph, Values* values) const { ChainGraph(Trajectory(), graph, values); }
 
 const ProbabilityGrid& LidarSlam2D::map() const {
   if (map_ == nullptr) throw InvalidArgument("LidarSlam2D::map: the map is built by Finish(); call it first");
@@ -229,13 +231,14 @@ std::vector<LidarOutput> LidarSlam2D::Outputs() const {
       if (o.name == name) o.bytes = std::move(bytes);
     }
   };
+  const std::vector<StampedPose2> t = Trajectory();
   std::ostringstream s;
-  WriteTum(s, Trajectory());
+  WriteTum(s, t);
   set("trajectory.tum", s.str());
   {
     FactorGraph chain;
     Values poses;
-    TrajectoryGraph(&chain, &poses);
+    ChainGraph(t, &chain, &poses);
     std::ostringstream g;
     WriteG2o(g, poses, chain, DefaultRegistry());
     set("trajectory.g2o", g.str());
@@ -271,7 +274,6 @@ std::vector<LidarOutput> LidarSlam2D::Outputs() const {
     std::vector<std::uint8_t> rgb(3 * image.pixels.size());
     for (std::size_t i = 0; i < image.pixels.size(); ++i)
       rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = image.pixels[i];
-    const std::vector<StampedPose2> t = Trajectory();
     for (const ScanFit& f : report_.self_check.judged) {
       const std::size_t i = static_cast<std::size_t>(f.scan);
       const SE2d laser = t[i].pose * scans_[i].laser_in_robot;
