@@ -26,6 +26,15 @@ void Factor::CheckShape() const {
     throw InvalidArgument(type_name() + " factor has " + std::to_string(keys_.size()) + " keys but its type takes " +
                           std::to_string(n) + "; build it with the right keys");
   }
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (keys_[i] == keys_[j]) {
+        throw InvalidArgument(type_name() + " factor connects " + KeyToString(keys_[i]) + " to itself (it is key " +
+                              std::to_string(j) + " and key " + std::to_string(i) +
+                              "); a factor's keys must be distinct");
+      }
+    }
+  }
   if (dim() < 1 || dim() != residual_dim()) {
     throw InvalidArgument(type_name() + " factor has a noise model of dimension " + std::to_string(dim()) +
                           " for an error of dimension " + std::to_string(residual_dim()) +

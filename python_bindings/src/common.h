@@ -10,6 +10,7 @@
 #include <exception>
 #include <mutex>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "tether/core/error.h"
@@ -26,6 +27,9 @@ using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecas
 /// A C-contiguous uint64 array, for keys.
 using KeyArray = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>;
 
+/// `a` as keys: an array (or sequence) of integers, none negative; anything else (floats that
+/// would be truncated, -1 that would wrap) throws InvalidArgument naming `what`.
+KeyArray CheckedKeys(const py::object& keys, const std::string& what);
 /// A 1-D float64 array holding a copy of n doubles.
 DoubleArray CopyToArray(const double* p, int n);
 /// The variable of type `t` with parameters `p` as Python sees it: SE2, SE3, a (2,) or (3,)
@@ -70,6 +74,64 @@ auto Guarded(F&& f) -> decltype(f()) {
     PendingPythonError::RethrowIfAny();
     throw;
   }
+}
+
+/// Raised (as tether.InUseError) by a call on an object a running call is using.
+class InUseError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// The objects a call that releases the GIL is using (optimize reads a graph and writes its
+/// values; a smoother's update or finish writes the smoother). Any other call on such an
+/// object -- from another thread, or from a callback or Python factor of that very call --
+/// raises InUseError instead of racing it: reading is refused where the running call writes,
+/// writing wherever a running call uses the object. Every access is made with the GIL held.
+class InUse {
+ public:
+  enum class Access { kRead, kWrite };
+
+  /// Marks `object` used by the call `by` ("optimize", "IncrementalSmoother.update") for the
+  /// scope's lifetime; throws InUseError where another call's use conflicts with it.
+  class Scope {
+   public:
+    Scope(const void* object, const char* type, const char* by, Access access);
+    ~Scope();
+    Scope(const Scope&) = delete;
+    Scope& operator=(const Scope&) = delete;
+
+   private:
+    const void* object_;
+    Access access_;
+  };
+
+  /// Throws InUseError where a running call's use of `object` conflicts with `access`.
+  static void Check(const void* object, const char* type, Access access);
+
+ private:
+  struct Use {
+    int readers = 0;
+    bool writer = false;
+    std::string by;
+  };
+  static std::mutex mutex_;
+  static std::unordered_map<const void*, Use> uses_;
+};
+
+/// A bound member function that first checks the object is not in use (InUse::Check).
+template <class C, class R, class... A>
+auto Writes(R (C::*f)(A...), const char* type) {
+  return [f, type](C& c, A... a) -> R {
+    InUse::Check(&c, type, InUse::Access::kWrite);
+    return (c.*f)(std::forward<A>(a)...);
+  };
+}
+template <class C, class R, class... A>
+auto Reads(R (C::*f)(A...) const, const char* type) {
+  return [f, type](const C& c, A... a) -> R {
+    InUse::Check(&c, type, InUse::Access::kRead);
+    return (c.*f)(std::forward<A>(a)...);
+  };
 }
 
 void BindErrors(py::module_& m);

@@ -47,8 +47,23 @@ Eigen::Vector4d Xyzw(const Eigen::Quaterniond& q) { return Eigen::Vector4d(q.x()
 }  // namespace
 
 void BindGeometry(py::module_& m) {
-  m.def("Symbol", &Symbol, py::arg("letter"), py::arg("index"),
-        "The key of a symbol: Symbol('x', 12) packs the letter into the top byte; key_to_string gives 'x12'.");
+  m.def(
+      "Symbol",
+      [](char letter, std::uint64_t index) {
+        if (letter < '!' || letter > '~') {
+          throw InvalidArgument(
+              "Symbol: the letter must be a printable ASCII character (not a space or control "
+              "character), got code " +
+              std::to_string(static_cast<int>(static_cast<unsigned char>(letter))));
+        }
+        if (index >= (std::uint64_t(1) << 56)) {
+          throw InvalidArgument("Symbol: the index must be below 2**56 (72057594037927936), got " +
+                                std::to_string(index) + "; a larger one would change the letter");
+        }
+        return Symbol(letter, index);
+      },
+      py::arg("letter"), py::arg("index"),
+      "The key of a symbol: Symbol('x', 12) packs the letter into the top byte; key_to_string gives 'x12'.");
   m.def("symbol_letter", &SymbolLetter, py::arg("key"), "The letter of a symbol key ('\\0' for a plain number).");
   m.def("symbol_index", &SymbolIndex, py::arg("key"), "The index of a symbol key.");
   m.def("key_to_string", &KeyToString, py::arg("key"), "'x12' for symbol keys, the plain number otherwise.");

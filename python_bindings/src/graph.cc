@@ -2,6 +2,7 @@
 // construction from NumPy arrays).
 #include <optional>
 #include <sstream>
+#include <unordered_set>
 
 #include "common.h"
 #include "tether/core/factor_graph.h"
@@ -96,8 +97,11 @@ std::vector<SqrtInformation> BatchNoise(const DoubleArray& info, py::ssize_t n, 
 // Adds rows i[n], j[n], z[n] (width `width`), information as BatchNoise, with make(i, j, z,
 // noise) building each factor; all or nothing. Returns the handles.
 template <class Make>
-py::array_t<std::uint64_t> AddBatch(FactorGraph& g, const KeyArray& ki, const KeyArray& kj, const DoubleArray& z,
-                                    const DoubleArray& info, int width, int d, Make make) {
+py::array_t<std::uint64_t> AddBatch(FactorGraph& g, const py::object& i_in, const py::object& j_in,
+                                    const DoubleArray& z, const DoubleArray& info, int width, int d, Make make) {
+  InUse::Check(&g, "FactorGraph", InUse::Access::kWrite);
+  const KeyArray ki = CheckedKeys(i_in, "i");
+  const KeyArray kj = CheckedKeys(j_in, "j");
   ExpectShape(ki, {-1}, "i");
   const py::ssize_t n = ki.shape(0);
   ExpectShape(kj, {n}, "j");
@@ -110,6 +114,15 @@ py::array_t<std::uint64_t> AddBatch(FactorGraph& g, const KeyArray& ki, const Ke
     const std::uint64_t* pj = kj.data();
     const double* pz = z.data();
     for (py::ssize_t r = 0; r < n; ++r) {
+      for (int c = 0; c < width; ++c) {
+        if (!std::isfinite(pz[r * width + c])) {
+          throw InvalidArgument("z[" + std::to_string(r) + "] is not finite; every measurement must be");
+        }
+      }
+      if (pi[r] == pj[r]) {
+        throw InvalidArgument("row " + std::to_string(r) + " connects " + KeyToString(pi[r]) +
+                              " to itself; a factor's keys must be distinct");
+      }
       made[static_cast<std::size_t>(r)] =
           make(pi[r], pj[r], pz + r * width, noise[noise.size() == 1 ? 0 : static_cast<std::size_t>(r)]);
     }
@@ -118,6 +131,16 @@ py::array_t<std::uint64_t> AddBatch(FactorGraph& g, const KeyArray& ki, const Ke
   std::uint64_t* h = handles.mutable_data();
   for (py::ssize_t r = 0; r < n; ++r) h[r] = g.Add(std::move(made[static_cast<std::size_t>(r)]));
   return handles;
+}
+
+Values CopiedValues(const Values& v) {
+  InUse::Check(&v, "Values", InUse::Access::kRead);
+  return v;
+}
+
+FactorGraph CopiedGraph(const FactorGraph& g) {
+  InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
+  return g;
 }
 
 void BindNoiseAndLosses(py::module_& m) {
@@ -177,12 +200,13 @@ void BindValues(py::module_& m) {
                      "The variables of a problem by key: SE2, SE3, points as float arrays (2,) / (3,), and "
                      "registered types (plugins) as their parameter arrays.")
       .def(py::init<>())
-      .def("copy", [](const Values& v) { return Values(v); })
-      .def("__copy__", [](const Values& v) { return Values(v); })
-      .def("__deepcopy__", [](const Values& v, py::dict) { return Values(v); })
+      .def("copy", [](const Values& v) { return CopiedValues(v); })
+      .def("__copy__", [](const Values& v) { return CopiedValues(v); })
+      .def("__deepcopy__", [](const Values& v, py::dict) { return CopiedValues(v); })
       .def(
           "insert",
           [](Values& v, Key k, const py::object& value, const std::optional<std::string>& type) {
+            InUse::Check(&v, "Values", InUse::Access::kWrite);
             VarType t;
             if (type) {
               t = VarTypeByName(*type);
@@ -208,6 +232,7 @@ void BindValues(py::module_& m) {
       .def(
           "update",
           [](Values& v, Key k, const py::object& value) {
+            InUse::Check(&v, "Values", InUse::Access::kWrite);
             if (!v.Has(k)) throw InvalidArgument("update: there is no variable " + KeyToString(k));
             FromPython(v.TypeOf(k), value, v.Params(k), "update(" + KeyToString(k) + ")");
           },
@@ -215,24 +240,26 @@ void BindValues(py::module_& m) {
       .def(
           "at",
           [](const Values& v, Key k) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
             if (!v.Has(k)) throw InvalidArgument("there is no variable " + KeyToString(k));
             return ToPython(v.TypeOf(k), v.Params(k));
           },
           py::arg("key"))
       .def("__getitem__",
            [](const Values& v, Key k) {
+             InUse::Check(&v, "Values", InUse::Access::kRead);
              if (!v.Has(k)) throw py::key_error("no variable " + KeyToString(k));
              return ToPython(v.TypeOf(k), v.Params(k));
            })
-      .def("erase", &Values::Erase, py::arg("key"), "Removes a variable; False where there is none.")
-      .def("has", &Values::Has, py::arg("key"))
-      .def("__contains__", &Values::Has)
-      .def("__len__", &Values::size)
-      .def(
-          "keys", [](const Values& v) { return v.keys(); }, "Keys in insertion order.")
+      .def("erase", Writes(&Values::Erase, "Values"), py::arg("key"), "Removes a variable; False where there is none.")
+      .def("has", Reads(&Values::Has, "Values"), py::arg("key"))
+      .def("__contains__", Reads(&Values::Has, "Values"))
+      .def("__len__", Reads(&Values::size, "Values"))
+      .def("keys", Reads(&Values::keys, "Values"), "Keys in insertion order.")
       .def(
           "type_of",
           [](const Values& v, Key k) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
             if (!v.Has(k)) throw InvalidArgument("there is no variable " + KeyToString(k));
             return std::string(ToString(v.TypeOf(k)));
           },
@@ -240,20 +267,27 @@ void BindValues(py::module_& m) {
       .def(
           "params",
           [](const Values& v, Key k) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
             if (!v.Has(k)) throw InvalidArgument("there is no variable " + KeyToString(k));
             return CopyToArray(v.Params(k), AmbientDim(v.TypeOf(k)));
           },
           py::arg("key"), "The raw parameters (variable.h layouts: SE2 x y theta, SE3 x y z qx qy qz qw).")
       .def(
           "insert_batch",
-          [](Values& v, const std::string& type, const KeyArray& keys, const DoubleArray& params) {
+          [](Values& v, const std::string& type, const py::object& keys_in, const DoubleArray& params) {
+            InUse::Check(&v, "Values", InUse::Access::kWrite);
+            const KeyArray keys = CheckedKeys(keys_in, "keys");
             const VarType t = VarTypeByName(type);
             const py::ssize_t a = AmbientDim(t);
             ExpectShape(keys, {-1}, "keys");
             ExpectShape(params, {keys.shape(0), a}, "params");
             const std::uint64_t* k = keys.data();
+            std::unordered_set<Key> seen;
             for (py::ssize_t r = 0; r < keys.shape(0); ++r) {
               if (v.Has(k[r])) throw InvalidArgument("insert_batch: key " + KeyToString(k[r]) + " exists already");
+              if (!seen.insert(k[r]).second) {
+                throw InvalidArgument("insert_batch: key " + KeyToString(k[r]) + " is given twice");
+              }
             }
             std::vector<double> p(static_cast<std::size_t>(a));
             for (py::ssize_t r = 0; r < keys.shape(0); ++r) {
@@ -267,6 +301,7 @@ void BindValues(py::module_& m) {
       .def(
           "array",
           [](const Values& v, const std::string& type) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
             const VarType t = VarTypeByName(type);
             const py::ssize_t n = static_cast<py::ssize_t>(v.Count(t)), a = AmbientDim(t);
             py::array_t<std::uint64_t> keys(n);
@@ -286,6 +321,7 @@ void BindValues(py::module_& m) {
       .def(
           "retract",
           [](Values& v, Key k, const Eigen::VectorXd& delta) {
+            InUse::Check(&v, "Values", InUse::Access::kWrite);
             if (!v.Has(k)) throw InvalidArgument("there is no variable " + KeyToString(k));
             if (delta.size() != TangentDim(v.TypeOf(k))) {
               throw InvalidArgument("retract(" + KeyToString(k) + "): a " + std::string(ToString(v.TypeOf(k))) +
@@ -296,6 +332,7 @@ void BindValues(py::module_& m) {
           },
           py::arg("key"), py::arg("delta"), "Box-plus in place.")
       .def("__repr__", [](const Values& v) {
+        InUse::Check(&v, "Values", InUse::Access::kRead);
         if (v.size() > 20) return "Values(" + std::to_string(v.size()) + " variables)";
         std::ostringstream s;
         s << v;
@@ -326,16 +363,32 @@ void BindFactors(py::module_& m) {
           "A LossFunction, its text form ('huber:1') or None.")
       .def_property("loop_closure", &Factor::loop_closure, &Factor::set_loop_closure)
       .def(
-          "chi2", [](const Factor& f, const Values& v) { return Guarded([&] { return f.Chi2(v); }); },
+          "chi2",
+          [](const Factor& f, const Values& v) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return f.Chi2(v); });
+          },
           py::arg("values"))
       .def(
-          "cost", [](const Factor& f, const Values& v) { return Guarded([&] { return f.Cost(v); }); },
+          "cost",
+          [](const Factor& f, const Values& v) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return f.Cost(v); });
+          },
           py::arg("values"))
       .def(
-          "evaluate", [](const Factor& f, const Values& v) { return Guarded([&] { return Evaluated(f, v, false); }); },
+          "evaluate",
+          [](const Factor& f, const Values& v) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return Evaluated(f, v, false); });
+          },
           py::arg("values"), "(error (d,), [Jacobian (d, tangent) per key]) without whitening.")
       .def(
-          "linearize", [](const Factor& f, const Values& v) { return Guarded([&] { return Evaluated(f, v, true); }); },
+          "linearize",
+          [](const Factor& f, const Values& v) {
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return Evaluated(f, v, true); });
+          },
           py::arg("values"), "(R e, [R J per key]): whitened, as the solver sees it (without the loss).")
       .def("copy", [](const Factor& f) { return FactorPtr(f.Clone()); })
       .def("__repr__", [](const Factor& f) { return "<" + f.Describe() + ">"; });
@@ -437,14 +490,19 @@ void BindFactors(py::module_& m) {
 void BindFactorGraph(py::module_& m) {
   py::class_<FactorGraph>(m, "FactorGraph", "Factors by handle, and the variables held fixed.")
       .def(py::init<>())
-      .def("copy", [](const FactorGraph& g) { return FactorGraph(g); })
-      .def("__copy__", [](const FactorGraph& g) { return FactorGraph(g); })
+      .def("copy", [](const FactorGraph& g) { return CopiedGraph(g); })
+      .def("__copy__", [](const FactorGraph& g) { return CopiedGraph(g); })
       .def(
-          "add", [](FactorGraph& g, const Factor& f) { return g.Add(f.Clone()); }, py::arg("factor"),
-          "Adds a copy of the factor; returns its handle.")
+          "add",
+          [](FactorGraph& g, const Factor& f) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kWrite);
+            f.CheckShape();
+            return g.Add(f.Clone());
+          },
+          py::arg("factor"), "Adds a copy of the factor; returns its handle.")
       .def(
           "add_between_se2_batch",
-          [](FactorGraph& g, const KeyArray& i, const KeyArray& j, const DoubleArray& z, const DoubleArray& info) {
+          [](FactorGraph& g, const py::object& i, const py::object& j, const DoubleArray& z, const DoubleArray& info) {
             return AddBatch(g, i, j, z, info, 3, 3, [](Key a, Key b, const double* p, const SqrtInformation& n) {
               return std::make_unique<BetweenSE2>(a, b, SE2d(p[0], p[1], p[2]), n);
             });
@@ -454,7 +512,7 @@ void BindFactorGraph(py::module_& m) {
           "(N, 3, 3). All or nothing; returns the handles (N,).")
       .def(
           "add_between_se3_batch",
-          [](FactorGraph& g, const KeyArray& i, const KeyArray& j, const DoubleArray& z, const DoubleArray& info) {
+          [](FactorGraph& g, const py::object& i, const py::object& j, const DoubleArray& z, const DoubleArray& info) {
             return AddBatch(g, i, j, z, info, 7, 6, [](Key a, Key b, const double* p, const SqrtInformation& n) {
               return std::make_unique<BetweenSE3>(a, b, SE3d::FromParams(p), n);
             });
@@ -463,29 +521,39 @@ void BindFactorGraph(py::module_& m) {
           "N BetweenSE3 factors: z (N, 7) = (x, y, z, qx, qy, qz, qw); information (6, 6) or (N, 6, 6).")
       .def(
           "add_pose_point2_batch",
-          [](FactorGraph& g, const KeyArray& i, const KeyArray& j, const DoubleArray& z, const DoubleArray& info) {
+          [](FactorGraph& g, const py::object& i, const py::object& j, const DoubleArray& z, const DoubleArray& info) {
             return AddBatch(g, i, j, z, info, 2, 2, [](Key a, Key b, const double* p, const SqrtInformation& n) {
               return std::make_unique<PosePoint2>(a, b, Eigen::Vector2d(p[0], p[1]), n);
             });
           },
           py::arg("pose"), py::arg("point"), py::arg("z"), py::arg("information"),
           "N PosePoint2 factors: z (N, 2); information (2, 2) or (N, 2, 2).")
-      .def("remove", &FactorGraph::Remove, py::arg("handle"), "Removes a factor; False where there is none.")
-      .def("__len__", &FactorGraph::size)
-      .def("size", &FactorGraph::size)
+      .def(
+          "remove",
+          [](FactorGraph& g, FactorId id) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kWrite);
+            if (!g.Remove(id)) {
+              throw InvalidArgument("remove: the graph has no factor with handle " + std::to_string(id) +
+                                    " (handles come from add; graph.handles() lists them)");
+            }
+          },
+          py::arg("handle"), "Removes the factor with that handle; raises InvalidArgument where there is none.")
+      .def("__len__", Reads(&FactorGraph::size, "FactorGraph"))
+      .def("size", Reads(&FactorGraph::size, "FactorGraph"))
       .def(
           "__getitem__",
           [](const FactorGraph& g, long i) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
             const long n = static_cast<long>(g.size());
             if (i < 0) i += n;
             if (i < 0 || i >= n) throw py::index_error("factor index out of range");
             return FactorPtr(g.at(static_cast<std::size_t>(i)).Clone());
           },
           "A copy of the i-th factor.")
-      .def(
-          "handle", [](const FactorGraph& g, std::size_t i) { return g.id(i); }, py::arg("index"))
+      .def("handle", Reads(&FactorGraph::id, "FactorGraph"), py::arg("index"))
       .def("handles",
            [](const FactorGraph& g) {
+             InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
              std::vector<FactorId> ids(g.size());
              for (std::size_t i = 0; i < g.size(); ++i) ids[i] = g.id(i);
              return ids;
@@ -493,6 +561,7 @@ void BindFactorGraph(py::module_& m) {
       .def(
           "index_of",
           [](const FactorGraph& g, FactorId id) -> py::object {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
             std::size_t i;
             if (!g.IndexOf(id, &i)) return py::none();
             return py::int_(i);
@@ -501,23 +570,37 @@ void BindFactorGraph(py::module_& m) {
       .def(
           "set_loss",
           [](FactorGraph& g, FactorId id, const py::object& loss) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kWrite);
             std::size_t i;
             if (!g.IndexOf(id, &i)) throw InvalidArgument("the graph has no factor with handle " + std::to_string(id));
             g.at(i).set_loss(LossFrom(loss));
           },
           py::arg("handle"), py::arg("loss"), "Sets (or, with None, clears) the loss of the factor with that handle.")
-      .def("fix", &FactorGraph::Fix, py::arg("key"))
-      .def("unfix", &FactorGraph::Unfix, py::arg("key"))
-      .def("is_fixed", &FactorGraph::IsFixed, py::arg("key"))
-      .def_property_readonly("fixed", &FactorGraph::fixed)
+      .def("fix", Writes(&FactorGraph::Fix, "FactorGraph"), py::arg("key"))
+      .def("unfix", Writes(&FactorGraph::Unfix, "FactorGraph"), py::arg("key"))
+      .def("is_fixed", Reads(&FactorGraph::IsFixed, "FactorGraph"), py::arg("key"))
+      .def_property_readonly("fixed", Reads(&FactorGraph::fixed, "FactorGraph"))
       .def(
-          "chi2", [](const FactorGraph& g, const Values& v) { return Guarded([&] { return g.Chi2(v); }); },
+          "chi2",
+          [](const FactorGraph& g, const Values& v) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return g.Chi2(v); });
+          },
           py::arg("values"), "Sum of e^T Omega e over the factors (without losses).")
       .def(
-          "cost", [](const FactorGraph& g, const Values& v) { return Guarded([&] { return g.Cost(v); }); },
+          "cost",
+          [](const FactorGraph& g, const Values& v) {
+            InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
+            InUse::Check(&v, "Values", InUse::Access::kRead);
+            return Guarded([&] { return g.Cost(v); });
+          },
           py::arg("values"), "The objective the solvers minimise (losses applied).")
-      .def("has_loss", &FactorGraph::HasLoss)
-      .def("__repr__", [](const FactorGraph& g) { return "FactorGraph(" + std::to_string(g.size()) + " factors)"; });
+      .def("has_loss", Reads(&FactorGraph::HasLoss, "FactorGraph"))
+      .def("__repr__", [](const FactorGraph& g) {
+        InUse::Check(&g, "FactorGraph", InUse::Access::kRead);
+        return "FactorGraph(" + std::to_string(g.size()) + " factors)";
+      });
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // poses and the occupancy map back as arrays, the same files `tether lidar` writes.
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "common.h"
 #include "tether/core/output_file.h"
@@ -20,6 +21,8 @@ using lidar::LidarSlamOptions;
 SE2d PoseFromTuple(const py::handle& h, const char* what) {
   const std::vector<double> v = h.cast<std::vector<double>>();
   if (v.size() != 3) throw InvalidArgument(std::string(what) + " must be (x, y, theta)");
+  const std::string why = lidar::PoseProblem(v[0], v[1], v[2]);
+  if (!why.empty()) throw InvalidArgument(std::string(what) + ": " + why);
   return SE2d(v[0], v[1], v[2]);
 }
 
@@ -42,8 +45,13 @@ lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double an
   s.range_min = range_min;
   s.range_max = range_max;
   s.ranges.resize(static_cast<std::size_t>(ranges.shape(0)));
-  for (py::ssize_t i = 0; i < ranges.shape(0); ++i)
-    s.ranges[static_cast<std::size_t>(i)] = static_cast<float>(ranges.at(i));
+  for (py::ssize_t i = 0; i < ranges.shape(0); ++i) {
+    // Beyond float's range: no return (a cast would be undefined).
+    const double r = ranges.at(i);
+    s.ranges[static_cast<std::size_t>(i)] = std::abs(r) > std::numeric_limits<float>::max() && std::isfinite(r)
+                                                ? std::numeric_limits<float>::infinity()
+                                                : static_cast<float>(r);
+  }
   if (!odometry.is_none()) {
     s.odometry = PoseFromTuple(odometry, "odometry");
     s.odometry_origin = lidar::OdometryOrigin::kScanLine;

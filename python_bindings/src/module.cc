@@ -12,6 +12,44 @@ namespace python {
 
 std::mutex PendingPythonError::mutex_;
 std::exception_ptr PendingPythonError::error_;
+std::mutex InUse::mutex_;
+std::unordered_map<const void*, InUse::Use> InUse::uses_;
+
+InUse::Scope::Scope(const void* object, const char* type, const char* by, Access access)
+    : object_(object), access_(access) {
+  Check(object, type, access);
+  std::lock_guard<std::mutex> lock(mutex_);
+  Use& u = uses_[object];
+  if (access == Access::kWrite) {
+    u.writer = true;
+  } else {
+    ++u.readers;
+  }
+  u.by = by;
+}
+
+InUse::Scope::~Scope() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = uses_.find(object_);
+  if (it == uses_.end()) return;
+  if (access_ == Access::kWrite) {
+    it->second.writer = false;
+  } else {
+    --it->second.readers;
+  }
+  if (!it->second.writer && it->second.readers == 0) uses_.erase(it);
+}
+
+void InUse::Check(const void* object, const char* type, Access access) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = uses_.find(object);
+  if (it == uses_.end()) return;
+  const Use& u = it->second;
+  if (!u.writer && access == Access::kRead) return;
+  throw InUseError(std::string("this ") + type + " is in use by a running " + u.by +
+                   " (in another thread, or its own callback or Python factor); " +
+                   (access == Access::kWrite ? "change" : "read") + " it after that call returns, or use a copy");
+}
 
 void PendingPythonError::Keep() {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -33,6 +71,30 @@ void PendingPythonError::RethrowIfAny() {
     e.swap(error_);
   }
   if (e) std::rethrow_exception(e);
+}
+
+KeyArray CheckedKeys(const py::object& keys, const std::string& what) {
+  const py::array a = py::array::ensure(keys);
+  if (!a) {
+    PyErr_Clear();
+    throw InvalidArgument(what + " must be an array or sequence of integer keys");
+  }
+  const char kind = a.dtype().kind();
+  if (a.size() > 0 && kind != 'i' && kind != 'u') {
+    throw InvalidArgument(what + " must hold integer keys, got an array of dtype " + std::string(py::str(a.dtype())) +
+                          " (a float key would be truncated)");
+  }
+  if (kind == 'i' && a.size() > 0) {
+    const auto as_signed = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    const std::int64_t* p = as_signed.data();
+    for (py::ssize_t i = 0; i < as_signed.size(); ++i) {
+      if (p[i] < 0) {
+        throw InvalidArgument(what + "[" + std::to_string(i) + "] is " + std::to_string(p[i]) +
+                              "; keys are never negative");
+      }
+    }
+  }
+  return KeyArray::ensure(a);
 }
 
 DoubleArray CopyToArray(const double* p, int n) {
@@ -100,7 +162,7 @@ namespace {
 
 // The Python classes of tether's errors; created once, alive for the process.
 struct ErrorTypes {
-  py::handle error, parse, invalid, io, plugin, rank;
+  py::handle error, parse, invalid, io, plugin, rank, in_use;
 };
 ErrorTypes& Types() {
   static ErrorTypes t;
@@ -133,6 +195,9 @@ void BindErrors(py::module_& m) {
   t.plugin = NewException(m, "PluginError", py::make_tuple(t.error), "A plugin could not be loaded.");
   t.rank = NewException(m, "RankDeficientError", py::make_tuple(t.error),
                         "Marginals of a graph whose information matrix is singular.");
+  t.in_use = NewException(m, "InUseError", py::make_tuple(t.error),
+                          "The object is in use by a running call (optimize, a smoother's update or finish) in "
+                          "another thread or in that call's own callback; see docs/python.md, 'Threads'.");
   py::register_exception_translator([](std::exception_ptr p) {
     const ErrorTypes& t = Types();
     try {
@@ -147,6 +212,8 @@ void BindErrors(py::module_& m) {
       PyErr_SetString(t.plugin.ptr(), e.what());
     } catch (const RankDeficientError& e) {
       PyErr_SetString(t.rank.ptr(), e.what());
+    } catch (const InUseError& e) {
+      PyErr_SetString(t.in_use.ptr(), e.what());
     } catch (const Error& e) {
       PyErr_SetString(t.error.ptr(), e.what());
     }

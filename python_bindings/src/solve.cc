@@ -74,6 +74,9 @@ SolverSummary OptimizeFromPython(const FactorGraph& graph, Values& values, Solve
     if (!PyCallable_Check(callback.ptr())) throw InvalidArgument("optimize: callback must be callable or None");
     options.keep_going = [&callback](const IterationSummary& it) { return CallPython(callback, it); };
   }
+  InUse::Check(&values, "Values", InUse::Access::kWrite);
+  const InUse::Scope reading(&graph, "FactorGraph", "optimize", InUse::Access::kRead);
+  const InUse::Scope writing(&values, "Values", "optimize", InUse::Access::kWrite);
   return Guarded([&] {
     py::gil_scoped_release release;
     return Optimize(graph, &values, options);
@@ -215,6 +218,8 @@ void BindMarginalsAndSmoother(py::module_& m) {
                         "Marginal covariances at the given values (in tangent coordinates, the order of "
                         "box-plus). The graph and values must stay unchanged while it is used.")
       .def(py::init([](const FactorGraph& g, const Values& v, const CovarianceOptions& o) {
+             const InUse::Scope graph_read(&g, "FactorGraph", "Marginals", InUse::Access::kRead);
+             const InUse::Scope values_read(&v, "Values", "Marginals", InUse::Access::kRead);
              return Guarded([&] {
                py::gil_scoped_release release;
                return std::make_unique<Marginals>(g, v, o);
@@ -273,6 +278,7 @@ void BindMarginalsAndSmoother(py::module_& m) {
              const std::vector<FactorId>& remove) {
             FactorGraph f = factors ? *factors : FactorGraph();
             Values v = values ? *values : Values();
+            const InUse::Scope updating(&s, "IncrementalSmoother", "IncrementalSmoother.update", InUse::Access::kWrite);
             return Guarded([&] {
               py::gil_scoped_release release;
               return s.Update(std::move(f), std::move(v), remove);
@@ -281,21 +287,27 @@ void BindMarginalsAndSmoother(py::module_& m) {
           py::arg("new_factors") = py::none(), py::arg("new_values") = py::none(),
           py::arg("remove") = std::vector<FactorId>(),
           "Adds factors (their handles: SmootherUpdate.new_factor_ids), variables, and removes factors by handle.")
-      .def("estimate", &IncrementalSmoother::Estimate, "A copy of the current estimate.")
+      .def("estimate", Reads(&IncrementalSmoother::Estimate, "IncrementalSmoother"), "A copy of the current estimate.")
       .def(
-          "marginal", [](const IncrementalSmoother& s, Key k) { return Guarded([&] { return s.Marginal(k); }); },
+          "marginal",
+          [](const IncrementalSmoother& s, Key k) {
+            InUse::Check(&s, "IncrementalSmoother", InUse::Access::kRead);
+            return Guarded([&] { return s.Marginal(k); });
+          },
           py::arg("key"), "(tangent, tangent) covariance of one variable at the current estimate.")
       .def(
           "finish",
           [](IncrementalSmoother& s) {
+            const InUse::Scope finishing(&s, "IncrementalSmoother", "IncrementalSmoother.finish",
+                                         InUse::Access::kWrite);
             return Guarded([&] {
               py::gil_scoped_release release;
               return Values(s.Finish());
             });
           },
           "Solves the whole graph to convergence; returns the estimate.")
-      .def_property_readonly("finish_summary", &IncrementalSmoother::finish_summary)
-      .def("graph", &IncrementalSmoother::graph, "A copy of the smoother's graph.");
+      .def_property_readonly("finish_summary", Reads(&IncrementalSmoother::finish_summary, "IncrementalSmoother"))
+      .def("graph", Reads(&IncrementalSmoother::graph, "IncrementalSmoother"), "A copy of the smoother's graph.");
 }
 
 void BindPipeline(py::module_& m) {
@@ -316,6 +328,8 @@ void BindPipeline(py::module_& m) {
   m.def(
       "write_g2o",
       [](const std::string& path, const FactorGraph& g, const Values& v) {
+        const InUse::Scope graph_read(&g, "FactorGraph", "write_g2o", InUse::Access::kRead);
+        const InUse::Scope values_read(&v, "Values", "write_g2o", InUse::Access::kRead);
         py::gil_scoped_release release;
         WriteG2oFile(path, v, g, DefaultRegistry());
       },
@@ -333,6 +347,8 @@ void BindPipeline(py::module_& m) {
       "initialize",
       [](const FactorGraph& g, Values& v, const std::string& method) {
         const InitMethod im = EnumFrom<InitMethod>(method, "initialisation", "file, spanning-tree or chordal");
+        const InUse::Scope graph_read(&g, "FactorGraph", "initialize", InUse::Access::kRead);
+        const InUse::Scope values_write(&v, "Values", "initialize", InUse::Access::kWrite);
         return Guarded([&] {
           py::gil_scoped_release release;
           return Initialize(g, &v, im);

@@ -409,6 +409,26 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     VarType type{};
     if (!type_of(k, &type)) throw InvalidArgument("cannot fix " + KeyToString(k) + ": it has no value");
   }
+  // Each new factor once at the values it will start from, with its Jacobians: a factor that
+  // throws there (a user's factor raising) throws here, while nothing has changed yet.
+  {
+    std::vector<const double*> params;
+    Eigen::VectorXd error;
+    std::vector<Eigen::MatrixXd> jacobians;
+    std::vector<double*> jacobian_ptrs;
+    for (std::size_t i = 0; i < new_factors.size(); ++i) {
+      const Factor& f = new_factors.at(i);
+      const std::vector<VarType> types = f.variable_types();
+      params.clear();
+      jacobians.clear();
+      jacobian_ptrs.clear();
+      for (Key k : f.keys()) params.push_back(new_values.Has(k) ? new_values.Params(k) : estimate_.Params(k));
+      error.resize(f.residual_dim());
+      for (VarType t : types) jacobians.emplace_back(f.residual_dim(), TangentDim(t));
+      for (Eigen::MatrixXd& j : jacobians) jacobian_ptrs.push_back(j.data());
+      f.Evaluate(params.data(), error.data(), jacobian_ptrs.data());
+    }
+  }
 
   // The changes. Nothing below throws for bad input any more.
   SmootherUpdate u;

@@ -53,7 +53,16 @@ bool Minimizer::Iterate() {
     Diverged(it, "chi2 became non-finite after a ", chi2_);
     return false;
   }
-  if (!Keeps(new_chi2)) return RejectUphillStep(it);
+  if (!Keeps(new_chi2)) {
+    // Named before the step is taken back: where a step cannot be evaluated, say which factor.
+    if (std::isfinite(new_chi2)) {
+      step_failure_.clear();
+    } else {
+      step_failure_ = p_.DescribeNonFinite();
+    }
+    return RejectUphillStep(it);
+  }
+  step_failure_.clear();
   // The gain ratio: the decrease of chi2 over the linear model's prediction of it.
   const double rho = step.predicted_decrease > 0 ? (chi2_ - new_chi2) / step.predicted_decrease : 0.0;
   if (!uphill_) strategy_.StepAccepted(rho);
@@ -134,6 +143,12 @@ bool Minimizer::RejectUphillStep(IterationSummary& it) {
   Reject(it);
   const char* why = nullptr;
   if (strategy_.Exhausted(&why)) {
+    if (!step_failure_.empty()) {
+      s_.status = SolverStatus::kInvalidInput;
+      s_.message = "no step could be evaluated (" + std::string(why) + "): at the last step tried, " + step_failure_ +
+                   "; check that factor (its error must be finite near the current values)";
+      return false;
+    }
     s_.status = SolverStatus::kConverged;
     s_.message = why;
     return false;
@@ -153,7 +168,21 @@ bool Minimizer::Relinearize(IterationSummary& it, double old_chi2) {
       return false;
     }
     p_.Restore();
-    p_.Linearize();
+    const double again = p_.Linearize();
+    if (!std::isfinite(again) || !p_.jacobian_finite()) {
+      // It evaluated here before: a factor whose result is not a function of its variables'
+      // values alone (a user's factor that changed, or failed part-way through).
+      std::string where = p_.DescribeNonFinite();
+      s_.status = SolverStatus::kInvalidInput;
+      s_.message = "a factor no longer evaluates at values where it did before" +
+                   (where.empty() ? std::string() : ": " + where) +
+                   "; a factor's error and Jacobians must depend on its variables' values alone";
+      it.accepted = false;
+      it.chi2 = old_chi2;
+      Log(it);
+      chi2_ = old_chi2;
+      return false;
+    }
     system_.Assemble();
     s_.linearize_seconds += SecondsSince(tl);
     chi2_ = old_chi2;
@@ -167,7 +196,12 @@ bool Minimizer::Relinearize(IterationSummary& it, double old_chi2) {
 
 void Minimizer::Diverged(IterationSummary& it, const char* what, double chi2) {
   s_.status = SolverStatus::kDiverged;
-  s_.message = std::string(what) + strategy_.display_name() + " step; try --solver lm";
+  s_.message = std::string(what) + strategy_.display_name() + " step";
+  // At the values the step reached: name the factor, so that one that fails there (a user's
+  // factor undefined beyond some region) is found.
+  const std::string where = p_.DescribeNonFinite();
+  if (!where.empty()) s_.message += " (" + where + ")";
+  s_.message += "; try --solver lm";
   it.accepted = false;
   it.chi2 = chi2;
   Log(it);

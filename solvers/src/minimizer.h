@@ -7,6 +7,7 @@
 //   3. apply it and evaluate chi2                   7. log the iteration
 //   4. let the strategy refine it (LM's halving)    8. check the tolerances
 #include <chrono>
+#include <string>
 #include <vector>
 
 #include "linear_system.h"
@@ -55,6 +56,8 @@ class Minimizer {
   const bool uphill_;  // the strategy takes steps that raise chi2 (then the best visited is kept)
   double chi2_ = 0;
   double best_chi2_ = 0;
+  // The factor that could not be evaluated at the last step tried, where one could not.
+  std::string step_failure_;
   double x_norm_ = 0;  // |x| before the step, for the parameter tolerance
   std::vector<double> delta_;
   int stop_after_ = -1;  // the iteration after which keep_going returned false (-1: none)

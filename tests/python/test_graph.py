@@ -124,7 +124,9 @@ def test_graph_handles_remove_and_copies():
     n = tether.SqrtInformation.identity(3)
     h = [g.add(tether.PriorSE2(k, tether.SE2(), n)) for k in range(3)]
     assert h == [0, 1, 2] and len(g) == 3
-    assert g.remove(1) and not g.remove(1)
+    g.remove(1)
+    with pytest.raises(tether.InvalidArgument, match="no factor with handle 1"):
+        g.remove(1)
     assert g.handles() == [0, 2] and g.index_of(2) == 1 and g.index_of(1) is None
     assert g[1].keys == [2]
     g.set_loss(2, "huber:1")
@@ -174,3 +176,76 @@ def test_batch_errors_leave_the_graph_unchanged():
     with pytest.raises(tether.InvalidArgument, match=r"information\[1\]"):
         g.add_between_se2_batch(np.array([0, 1]), np.array([1, 2]), np.zeros((2, 3)), info)
     assert len(g) == 0
+
+
+def test_keys_that_would_alias_another_variable_are_refused():
+    # An index of 2**56 would spill into the letter; a NUL letter would be a plain number.
+    with pytest.raises(tether.InvalidArgument, match="below 2\\*\\*56"):
+        tether.Symbol("x", 2**56)
+    with pytest.raises(tether.InvalidArgument, match="printable"):
+        tether.Symbol("\x00", 3)
+    with pytest.raises(tether.InvalidArgument, match="printable"):
+        tether.Symbol(" ", 3)
+    assert tether.key_to_string(tether.Symbol("x", 2**56 - 1)) == f"x{2**56 - 1}"
+    v = tether.Values()
+    with pytest.raises(tether.InvalidArgument, match="integer keys.*float"):
+        v.insert_batch("Point2", np.array([0.5, 1.7]), np.zeros((2, 2)))
+    with pytest.raises(tether.InvalidArgument, match=r"keys\[1\] is -1"):
+        v.insert_batch("Point2", np.array([0, -1], dtype=np.int64), np.zeros((2, 2)))
+    with pytest.raises(tether.InvalidArgument, match="given twice"):
+        v.insert_batch("Point2", [4, 4], np.zeros((2, 2)))
+    assert len(v) == 0
+    v.insert_batch("Point2", [0, 1], np.zeros((2, 2)))  # a list of ints is fine
+    v.insert_batch("Point2", np.array([2, 3], dtype=np.uint32), np.zeros((2, 2)))
+    assert v.keys() == [0, 1, 2, 3]
+    g = tether.FactorGraph()
+    info = np.eye(3)
+    with pytest.raises(tether.InvalidArgument, match="integer keys"):
+        g.add_between_se2_batch(np.array([0.0]), np.array([1.0]), np.zeros((1, 3)), info)
+    with pytest.raises(tether.InvalidArgument, match=r"j\[0\] is -2"):
+        g.add_between_se2_batch(np.array([0]), np.array([-2]), np.zeros((1, 3)), info)
+    assert len(g) == 0
+
+
+def test_factors_the_file_reader_would_refuse_are_refused_here_too():
+    g = tether.FactorGraph()
+    noise = tether.SqrtInformation.identity(3)
+    with pytest.raises(tether.InvalidArgument, match="connects 4 to itself"):
+        g.add(tether.BetweenSE2(4, 4, tether.SE2(1, 0, 0), noise))
+    with pytest.raises(tether.InvalidArgument, match="row 1 connects 2 to itself"):
+        g.add_between_se2_batch([0, 2], [1, 2], np.zeros((2, 3)), np.eye(3))
+    z = np.zeros((2, 3))
+    z[1, 2] = np.inf
+    with pytest.raises(tether.InvalidArgument, match=r"z\[1\] is not finite"):
+        g.add_between_se2_batch([0, 1], [1, 2], z, np.eye(3))
+    assert len(g) == 0
+    g.add(tether.BetweenSE2(0, 1, tether.SE2(1, 0, 0), noise))
+    with pytest.raises(tether.InvalidArgument, match="no factor with handle 99"):
+        g.remove(99)
+    assert len(g) == 1
+
+
+def test_a_python_factor_that_fails_part_way_is_named():
+    # Residuals turn NaN after a few calls: the solve stops and names the factor, instead of
+    # blaming the graph ("rank-deficient ... add a prior") or claiming convergence.
+    for after in range(4, 14):
+        g = tether.FactorGraph()
+        v = tether.Values()
+        v.insert(0, tether.SE2(0, 0, 0))
+        v.insert(1, tether.SE2(1, 0, 0))
+        g.add(tether.PriorSE2(0, tether.SE2(0, 0, 0), tether.SqrtInformation.identity(3)))
+        g.add(tether.BetweenSE2(0, 1, tether.SE2(1, 0, 0), tether.SqrtInformation.identity(3)))
+        calls = [0]
+
+        def error(x, calls=calls, after=after):
+            calls[0] += 1
+            return np.array([np.nan]) if calls[0] > after else np.array([x[0].x - 2.0])
+
+        g.add(tether.PythonFactor([1], ["SE2"], 1, error, tether.SqrtInformation.identity(1), name="Flaky"))
+        s = tether.optimize(g, v)
+        if s.status == "converged":
+            # It converged before the factor started to fail.
+            assert calls[0] <= after + 1 and v.at(1).x == pytest.approx(2.0, abs=1e-6)
+        else:
+            assert s.status == "invalid-input", (after, s.message)
+            assert "factor 2 (Flaky, keys 1)" in s.message, (after, s.message)

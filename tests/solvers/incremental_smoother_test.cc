@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "testing/simulated.h"
@@ -285,6 +286,29 @@ TEST(IncrementalSmoother, InvalidUpdatesChangeNothing) {
   {  // fixing a variable that has no value
     FactorGraph f;
     f.Fix(99);
+    EXPECT_THROW(smoother.Update(std::move(f)), InvalidArgument);
+    unchanged();
+  }
+  {  // a new factor that throws when evaluated (a user's factor raising), beside a valid one
+    struct Raising : public BetweenSE2 {
+      using BetweenSE2::BetweenSE2;
+      bool Evaluate(const double* const*, double*, double* const*) const override {
+        throw std::runtime_error("raised by the factor");
+      }
+      std::unique_ptr<Factor> Clone() const override { return std::make_unique<Raising>(*this); }
+    };
+    FactorGraph f;
+    f.Add(odometry_19_20.Clone());
+    f.Add(std::make_unique<Raising>(19, 20, SE2d(1, 0, 0), SqrtInformation::Identity(3)));
+    Values v;
+    v.InsertParams(20, sim.initial.TypeOf(20), sim.initial.Params(20));
+    EXPECT_THROW(smoother.Update(std::move(f), std::move(v), {last}), std::runtime_error);
+    unchanged();
+    EXPECT_FALSE(smoother.Estimate().Has(20));
+  }
+  {  // a factor connecting a variable to itself
+    FactorGraph f;
+    f.Add(std::make_unique<BetweenSE2>(19, 19, SE2d(), SqrtInformation::Identity(3)));
     EXPECT_THROW(smoother.Update(std::move(f)), InvalidArgument);
     unchanged();
   }

@@ -72,8 +72,8 @@ class Factor {
   double Chi2(const Values& values) const;
   /// What the solver minimises for this factor: rho(chi2) with a loss, else chi2.
   double Cost(const Values& values) const;
-  /// Throws InvalidArgument unless the keys match variable_types() and the noise model's
-  /// dimension is the error's.
+  /// Throws InvalidArgument unless the keys match variable_types(), are distinct, and the
+  /// noise model's dimension is the error's.
   void CheckShape() const;
   /// "BetweenSE2, keys 3, 4": the type and keys, for messages.
   std::string Describe() const;

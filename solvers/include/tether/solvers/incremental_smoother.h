@@ -30,6 +30,10 @@
 // - An update that is invalid (a new value whose key exists, a factor referring to a key that
 //   has no value or a value of another type, an unknown or repeated handle) throws
 //   InvalidArgument before anything changes: graph, estimate and handles stay as they were.
+//   So does a new factor whose evaluation throws at the values it starts from (each new
+//   factor is evaluated once, with its Jacobians, before any change): that exception
+//   propagates and nothing changes. A factor that throws later, at values the solve reaches,
+//   leaves the update's changes in and throws.
 // - Variables no factor uses are held where they are (a new pose whose edges come later);
 //   a variable whose last factor an update removes is erased from the estimate.
 // - The gauge is chosen as Optimize chooses it (the graph's fixed set, else the lowest-key
