@@ -69,8 +69,8 @@ printf '\000VERTEX2 0 0 0 0\nBR 0 4 0.5 2 0.05 0.1\nBR 0 5 -2 3 0.05 0.1\n' > "$
 printf '\000ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2 3 2 1 3\nEDGE2 1 2 1 0 0 1 0 0 1 0 1\n' > "$work/corpus/isam/seed_isam"
 printf '\100ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\nLANDMARK 1 5 2 3 0.4 0.1 0.4\n' > "$work/corpus/isam/seed_isam_cov"
 printf '\000PARAMS_SE3OFFSET 1 0.1 0 0.2 0 0 0.3 0.95\nVERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 7 1 1 2 3 1 0 0 1 0 1\nEDGE_SE3_PRIOR 0 1 0 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nEDGE_RANGE_BEARING_SE2_XY 3 4 2 0.5 1 0 1\n' > "$work/corpus/g2o/seed_landmarks"
-printf '\000ODOM 0 0 0 0 0 0 9.5 h 0\nRAWLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 2 7 8 10 h 1\nODOM 1 0 0.5 0 0 0 10.5 h 1\n' > "$work/corpus/carmen/seed_raw"
-printf '\003FLASER 3 1 2 81.9 0.1 0 0 0 0 0 10 h 1\nROBOTLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 0 1 0 0 1 0 0 0 0 0 0 0 11 h 2\n' > "$work/corpus/carmen/seed_none"
+printf '\000ODOM 0 0 0 0 0 0 9.5 h 0\nRAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 2 7 8 10 h 1\nODOM 1 0 0.5 0 0 0 10.5 h 1\n' > "$work/corpus/carmen/seed_raw"
+printf '\003FLASER 3 1 2 81.9 0.1 0 0 0 0 0 10 h 1\nROBOTLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 0 1 0 0 1 0 0 0 0 0 0 0 11 h 2\n' > "$work/corpus/carmen/seed_none"
 for f in "$root"/tests/fuzz/regressions/carmen/*; do
   case "$f" in *.md) continue ;; esac
   [ -f "$f" ] && cp "$f" "$work/corpus/carmen/"

@@ -26,7 +26,10 @@ ProbabilityGrid::ProbabilityGrid(double resolution, const Eigen::Vector2d& origi
 }
 
 ProbabilityGrid::Cell ProbabilityGrid::CellOf(const Eigen::Vector2d& p) const {
-  const Eigen::Vector2d u = (p - origin_) / resolution_;
+  // Clamped before the cast (a cell that far out is refused by GrowToInclude; a cast of a
+  // value beyond int would be undefined).
+  constexpr double kFar = 1 << 30;
+  const Eigen::Vector2d u = ((p - origin_) / resolution_).cwiseMax(-kFar).cwiseMin(kFar);
   return Cell(static_cast<int>(std::floor(u.x())), static_cast<int>(std::floor(u.y())));
 }
 

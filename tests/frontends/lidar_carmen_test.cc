@@ -35,7 +35,7 @@ std::string Odom(double stamp, double x, double y, double theta) {
 
 // ROBOTLASER1 with 3 ranges and 2 remissions.
 std::string RobotLaser(const std::string& ranges = "3 1 2 3", const std::string& remissions = "2 0.5 0.6") {
-  return "ROBOTLASER1 0 -1.5 3.0 0.75 40 0.01 0 " + ranges + " " + remissions +
+  return "ROBOTLASER1 0 -1.5 1.5 0.75 40 0.01 0 " + ranges + " " + remissions +
          " 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1234.5 host 34.5\n";
 }
 
@@ -43,7 +43,7 @@ std::string RobotLaser(const std::string& ranges = "3 1 2 3", const std::string&
 std::string RawLaser(double stamp, const std::string& ranges = "3 1 2 3", const std::string& remissions = "2 0.5 0.6") {
   std::ostringstream s;
   s.precision(17);
-  s << "RAWLASER1 0 -1.5 3.0 0.75 40 0.01 0 " << ranges << " " << remissions << " " << stamp << " host " << stamp - 100
+  s << "RAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 " << ranges << " " << remissions << " " << stamp << " host " << stamp - 100
     << "\n";
   return s.str();
 }
@@ -286,11 +286,11 @@ TEST_F(CarmenErrorTest, EveryMalformedFieldNamesFileLineAndField) {
       {RobotLaser("3 1 2 3", "2 0.5 r"), "bad.clf:2: ROBOTLASER1: field 14 (remission) 'r' is not a number"},
       {"ROBOTLASER1 0 -1.5 3.0 0 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
        "bad.clf:2: ROBOTLASER1: field 4 (angular_resolution) must be positive"},
-      {"ROBOTLASER1 0 -1.5 3.0 0.7 -1 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
+      {"ROBOTLASER1 0 -1.5 1.4 0.7 -1 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
        "bad.clf:2: ROBOTLASER1: field 5 (maximum_range) must be positive"},
-      {"ROBOTLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3 extra\n",
+      {"ROBOTLASER1 0 -1.5 1.4 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3 extra\n",
        "bad.clf:2: ROBOTLASER1: expected 27 fields"},
-      {"ROBOTLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 v 0.2 0.3 0.4 1 h 3\n",
+      {"ROBOTLASER1 0 -1.5 1.4 0.7 40 0.01 0 3 1 2 3 0 10.1 20 0.3 10 20 0.3 0.5 v 0.2 0.3 0.4 1 h 3\n",
        "bad.clf:2: ROBOTLASER1: field 20 (rv) 'v' is not a number"},
       {"RAWLASER1 0 -1.5 3\n", "bad.clf:2: RAWLASER1: expected at least 9 fields (RAWLASER1 laser_type"},
       {RawLaser(7, "3 1 2 3", "3 0.5 0.6"), "bad.clf:2: RAWLASER1: expected 19 fields"},
@@ -301,21 +301,70 @@ TEST_F(CarmenErrorTest, EveryMalformedFieldNamesFileLineAndField) {
       {RawLaser(7, "3 1 2 3", "2 0.5 e"), "bad.clf:2: RAWLASER1: field 14 (remission) 'e' is not a number"},
       {"RAWLASER1 0 -1.5 3.0 0 40 0.01 0 3 1 2 3 0 7 h 3\n",
        "bad.clf:2: RAWLASER1: field 4 (angular_resolution) must be positive"},
-      {"RAWLASER1 0 -1.5 3.0 0.7 0 0.01 0 3 1 2 3 0 7 h 3\n",
+      {"RAWLASER1 0 -1.5 1.4 0.7 0 0.01 0 3 1 2 3 0 7 h 3\n",
        "bad.clf:2: RAWLASER1: field 5 (maximum_range) must be positive"},
       {"RAWLASER1 0 -1.5 -3 0.7 40 0.01 0 3 1 2 3 0 7 h 3\n",
        "bad.clf:2: RAWLASER1: field 3 (field_of_view) must be positive"},
-      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 t h 3\n",
+      {"RAWLASER1 0 -1.5 1.4 0.7 40 0.01 0 3 1 2 3 0 t h 3\n",
        "bad.clf:2: RAWLASER1: field 13 (ipc_timestamp) 't' is not a number"},
-      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 7 h l\n",
+      {"RAWLASER1 0 -1.5 1.4 0.7 40 0.01 0 3 1 2 3 0 7 h l\n",
        "bad.clf:2: RAWLASER1: field 15 (logger_timestamp) 'l' is not a number"},
-      {"RAWLASER1 0 -1.5 3.0 0.7 40 0.01 0 3 1 2 3 0 7 h\n", "bad.clf:2: RAWLASER1: expected 16 fields"},
+      {"RAWLASER1 0 -1.5 1.4 0.7 40 0.01 0 3 1 2 3 0 7 h\n", "bad.clf:2: RAWLASER1: expected 16 fields"},
   };
   for (const auto& c : cases) {
     const std::string message = Error(c.line);
     EXPECT_NE(message.find(c.message), std::string::npos) << "line: " << c.line << "\nmessage: " << message;
     EXPECT_NE(message.find(P("bad.clf") + ":2:"), std::string::npos) << message;
   }
+}
+
+// Values each finite but beyond any sensor or robot (a hostile or damaged log): refused with
+// file:line before they reach the map (cell indices beyond int, rays of billions of cells).
+TEST_F(CarmenErrorTest, AbsurdGeometryRangesPosesAndStampsAreRefused) {
+  const std::string tail = " 10.1 20 0.3 10 20 0.3 0.5 0.1 0.2 0.3 0.4 1234.5 host 34.5\n";
+  const struct {
+    std::string line, message;
+  } cases[] = {
+      {"ROBOTLASER1 0 -1.5 1.5 0.75 1e300 0.01 0 3 1 2 3 0" + tail, "the maximum range 1e+300 m must be"},
+      {"ROBOTLASER1 0 -1.5 1.5 0.75 1001 0.01 0 3 1 2 3 0" + tail, "at most 1000 m"},
+      {"ROBOTLASER1 0 -1.5 1e300 1e300 40 0.01 0 3 1 2 3 0" + tail, "more than a full turn"},
+      {"ROBOTLASER1 0 -1.5 2e-300 1e-300 40 0.01 0 3 1 2 3 0" + tail, "the angle step 1e-300 rad"},
+      {"ROBOTLASER1 0 1e300 1.5 0.75 40 0.01 0 3 1 2 3 0" + tail, "the start angle 1e+300 rad is not within"},
+      {"ROBOTLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 0" + tail, "field 3 (field_of_view) 3 rad does not match 3"},
+      {"ROBOTLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 0 1e5 0 0 1e8 0 0.3 0.5 0.1 0.2 0.3 0.4 1 h 3\n",
+       "(robot_x robot_y robot_theta): a pose lies 1e+08 m from the origin"},
+      {Flaser(7, "1 2 1e300", "1 2 0.5"), "(x y theta): a heading of 1e+300 rad is beyond"},
+      {Flaser(7, "1 2 0.5", "1e30 2 0.5"), "(odom_x odom_y odom_theta): a pose lies 1e+30 m"},
+      {Flaser(1e245), "field 12 (ipc_timestamp): the stamp 1e+245 is beyond"},
+      {"ODOM 1e30 0 0 0 0 0 7 h 8\n", "ODOM: fields 1-3 (x y theta): a pose lies 1e+30 m from the origin"},
+      {"ODOM 0 0 0 0 0 0 1e300 h 8\n", "ODOM: field 7 (ipc_timestamp): the stamp 1e+300 is beyond"},
+  };
+  for (const auto& c : cases) {
+    const std::string message = Error(c.line);
+    EXPECT_NE(message.find(c.message), std::string::npos) << "line: " << c.line << "\nmessage: " << message;
+    EXPECT_NE(message.find(P("bad.clf") + ":2:"), std::string::npos) << message;
+  }
+  // Both conventions for the field of view ((n - 1) or n steps) are read.
+  const std::string n_steps = "ROBOTLASER1 0 -1.5 2.25 0.75 40 0.01 0 3 1 2 3 0" + tail;
+  EXPECT_EQ(ReadCarmenLog(Write("n.clf", n_steps)).scans.size(), 1u);
+  // A range beyond float (and the maximum) is no return, not undefined behaviour.
+  const LidarLog far = ReadCarmenLog(Write("f.clf", Flaser(7, "1 2 0.5", "1 2 0.5", "4 1e300 2 1e30 3")));
+  EXPECT_FALSE(far.scans[0].Valid(0));
+  EXPECT_TRUE(far.scans[0].Valid(1));
+  EXPECT_FALSE(far.scans[0].Valid(2));
+}
+
+TEST_F(CarmenErrorTest, ALogWithoutASingleValidBeamIsRefused) {
+  // Every range 0 (low-cost scanners' "no return") or beyond the maximum.
+  const std::string zeros = Flaser(7, "1 2 0.5", "1 2 0.5", "4 0 0 0 0") + Flaser(8, "1 2 0.5", "1 2 0.5", "4 0 0 0 0");
+  std::string m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("z.clf", zeros)); });
+  EXPECT_NE(m.find("none of the 2 scans has a valid range"), std::string::npos) << m;
+  // So is a log whose every beam an option drops; the message gives the options' values.
+  LidarReadOptions o;
+  o.limits.max_range = 1e-9;
+  m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("a.clf", Flaser(7)), o); });
+  EXPECT_NE(m.find("none of the 1 scans has a valid range"), std::string::npos) << m;
+  EXPECT_NE(m.find("maximum 1e-09 m"), std::string::npos) << m;
 }
 
 TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {

@@ -39,19 +39,19 @@ TEST(CarmenFuzzRegressionTest, EveryKeptInputReadsOrIsRefusedCleanly) {
 }
 
 TEST(CarmenFuzzRegressionTest, HostileLogsAreReadOrRefusedCleanly) {
-  const std::string raw = "RAWLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 0 10 h 1\n";
+  const std::string raw = "RAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 0 10 h 1\n";
   const std::vector<std::string> logs = {
       "",
       "\n\n\n",
       raw,
       "ODOM 1e308 -1e308 1e308 0 0 0 10 h 1\n" + raw,
-      "ROBOTLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 0 1e308 0 0 1e308 0 0 0 0 0 0 0 10 h 1\n",
+      "ROBOTLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 0 1e308 0 0 1e308 0 0 0 0 0 0 0 10 h 1\n",
       "ROBOTLASER1 0 -1e308 1e308 1e308 1e308 0 0 3 1 2 3 0 0 0 0 0 0 0 0 0 0 0 0 10 h 1\n",
       "RAWLASER1 0 1e308 1e308 1e-320 1e-320 0 0 2 0 1e-320 0 1e308 h -1e308\n",
       "FLASER 2 0 0 1e308 1e308 1e308 -1e308 -1e308 -1e308 1e308 h 1\n",
       "ODOM 0 0 0 0 0 0 1 h 1\nODOM 1 0 0 0 0 0 1 h 1\n" + raw + "RAWLASER1 0 0 1 0.5 9 0 0 2 1 1 0 1 h 1\n",
-      "RAWLASER1 0 -1.5 3 0.75 40 0.01 0 1048577 1\n",
-      "RAWLASER1 0 -1.5 3 0.75 40 0.01 0 3 1 2 3 1048576 1\n",
+      "RAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 1048577 1\n",
+      "RAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 1048576 1\n",
   };
   for (const std::string& log : logs) {
     SCOPED_TRACE(log.substr(0, 80));

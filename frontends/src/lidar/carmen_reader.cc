@@ -6,11 +6,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/registry.h"
 
 namespace tether {
 namespace lidar {
@@ -164,21 +166,40 @@ std::vector<float> Ranges(const Fields& f, std::size_t first, std::size_t n) {
     const std::string name = "range " + std::to_string(k);
     const double v = f.Number(first + k, name.c_str());
     if (v < 0) f.Fail(Fields::Where(first + k, name.c_str()) + " " + f[first + k] + " is negative");
-    r[k] = static_cast<float>(v);
+    // Beyond float's range: no return (any range above the maximum is one).
+    r[k] = v > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity() : static_cast<float>(v);
   }
   return r;
 }
 
 SE2<double> Pose(const Fields& f, std::size_t first, const char* x, const char* y, const char* theta) {
-  return SE2<double>(f.Number(first, x), f.Number(first + 1, y), f.Number(first + 2, theta));
+  const double px = f.Number(first, x), py = f.Number(first + 1, y), pt = f.Number(first + 2, theta);
+  const std::string why = PoseProblem(px, py, pt);
+  if (!why.empty())
+    f.Fail("fields " + std::to_string(first) + "-" + std::to_string(first + 2) + " (" + x + " " + y + " " + theta +
+           "): " + why);
+  return SE2<double>(px, py, pt);
+}
+
+double Stamp(const Fields& f, std::size_t i, const char* name) {
+  const double v = f.Number(i, name);
+  const std::string why = StampProblem(v);
+  if (!why.empty()) f.Fail(Fields::Where(i, name) + ": " + why);
+  return v;
+}
+
+// Refuses a scan whose geometry or values cannot be used (ScanProblem), naming the line.
+void CheckScan(const Fields& f, const LaserScan& s) {
+  const std::string why = ScanProblem(s);
+  if (!why.empty()) f.Fail(why);
 }
 
 void ParseOdom(const Fields& f, LidarLog* log) {
   f.NeedCount(10, "ODOM x y theta tv rv accel ipc_timestamp host logger_timestamp");
   const SE2<double> pose = Pose(f, 1, "x", "y", "theta");
   for (std::size_t i = 4; i <= 6; ++i) f.Number(i, i == 4 ? "tv" : i == 5 ? "rv" : "accel");
-  log->odometry.Add(f.Number(7, "ipc_timestamp"), pose);
-  f.Number(9, "logger_timestamp");
+  log->odometry.Add(Stamp(f, 7, "ipc_timestamp"), pose);
+  Stamp(f, 9, "logger_timestamp");
 }
 
 void ParseFlaser(const Fields& f, long line, const LidarReadOptions& o, LidarLog* log) {
@@ -193,13 +214,14 @@ void ParseFlaser(const Fields& f, long line, const LidarReadOptions& o, LidarLog
   s.odometry = Pose(f, n + 5, "odom_x", "odom_y", "odom_theta");
   s.odometry_origin = OdometryOrigin::kScanLine;
   s.laser_in_robot = s.odometry.Inverse() * laser;
-  s.stamp = f.Number(n + 8, "ipc_timestamp");
-  s.logger_stamp = f.Number(n + 10, "logger_timestamp");
+  s.stamp = Stamp(f, n + 8, "ipc_timestamp");
+  s.logger_stamp = Stamp(f, n + 10, "logger_timestamp");
   s.angle_min = -o.flaser_fov / 2;
   s.angle_increment = o.flaser_fov / static_cast<double>(n - 1);
   s.range_min = 0;
   s.range_max = o.flaser_max_range;
   s.source_index = line;
+  CheckScan(f, s);
   log->scans.push_back(std::move(s));
 }
 
@@ -220,6 +242,12 @@ std::size_t ParseLaserFields(const Fields& f, const char* layout, std::size_t ta
   if (!(s->angle_increment > 0)) f.Fail(Fields::Where(4, "angular_resolution") + " must be positive");
   if (!(s->range_max > 0)) f.Fail(Fields::Where(5, "maximum_range") + " must be positive");
   if (!(fov > 0)) f.Fail(Fields::Where(3, "field_of_view") + " must be positive");
+  // Writers give the field of view as (n - 1) or n steps; anything else is another scan's.
+  const double span = static_cast<double>(n - 1) * s->angle_increment;
+  if (std::abs(fov - span) > 1.5 * s->angle_increment + 1e-3) {
+    f.Fail(Fields::Where(3, "field_of_view") + " " + f[3] + " rad does not match " + std::to_string(n) + " readings " +
+           f[4] + " rad apart (they span " + FormatDouble(span) + " rad)");
+  }
   f.NeedAtLeast(n + 10, layout);
   const std::size_t m = static_cast<std::size_t>(f.Count(n + 9, "number of remissions", kMaxBeams));
   f.NeedCount(n + m + 10 + tail, layout);
@@ -242,9 +270,10 @@ void ParseRobotLaser1(const Fields& f, long line, LidarLog* log) {
   s.laser_in_robot = s.odometry.Inverse() * laser;
   const char* names[] = {"tv", "rv", "forward_safety_dist", "side_safety_dist", "turn_axis"};
   for (std::size_t k = 0; k < 5; ++k) f.Number(p + 6 + k, names[k]);
-  s.stamp = f.Number(p + 11, "ipc_timestamp");
-  s.logger_stamp = f.Number(p + 13, "logger_timestamp");
+  s.stamp = Stamp(f, p + 11, "ipc_timestamp");
+  s.logger_stamp = Stamp(f, p + 13, "logger_timestamp");
   s.source_index = line;
+  CheckScan(f, s);
   log->scans.push_back(std::move(s));
 }
 
@@ -257,9 +286,10 @@ void ParseRawLaser1(const Fields& f, long line, LidarLog* log) {
   LaserScan s;
   const std::size_t p = ParseLaserFields(f, layout, 3, &s);
   s.odometry_origin = OdometryOrigin::kNone;
-  s.stamp = f.Number(p, "ipc_timestamp");
-  s.logger_stamp = f.Number(p + 2, "logger_timestamp");
+  s.stamp = Stamp(f, p, "ipc_timestamp");
+  s.logger_stamp = Stamp(f, p + 2, "logger_timestamp");
   s.source_index = line;
+  CheckScan(f, s);
   log->scans.push_back(std::move(s));
 }
 

@@ -7,6 +7,7 @@
 
 #include "tether/core/enum_names.h"
 #include "tether/core/error.h"
+#include "tether/core/registry.h"
 #include "tether/frontends/lidar/carmen_reader.h"
 #include "tether/frontends/lidar/rosbag_reader.h"
 
@@ -36,8 +37,8 @@ bool LidarReadOptions::IsValid(std::string* why) const {
   if (limits.max_range > 0 && limits.min_range >= limits.max_range) {
     return fail("the minimum range must be below the maximum range");
   }
-  if (!(flaser_max_range > 0) || !std::isfinite(flaser_max_range)) {
-    return fail("flaser_max_range must be positive and finite");
+  if (!(flaser_max_range > 0) || !(flaser_max_range <= scan_bounds::kMaxRange)) {
+    return fail("flaser_max_range must be positive and at most 1000 m");
   }
   if (!(flaser_fov > 0) || !(flaser_fov <= 2 * M_PI)) return fail("flaser_fov must be in (0, 2 pi] radians");
   if (scan_topic.empty() || odom_topic.empty()) return fail("empty topic name");
@@ -95,12 +96,29 @@ LidarLog ReadLidarLog(const std::string& path, const LidarReadOptions& options) 
 }
 
 void FinishLog(const LidarReadOptions& options, LidarLog* log) {
+  bool any_valid = false;
   for (LaserScan& s : log->scans) {
     if (options.limits.min_range > 0) s.range_min = std::max(s.range_min, options.limits.min_range);
     if (options.limits.max_range > 0) s.range_max = std::min(s.range_max, options.limits.max_range);
+    any_valid = any_valid || s.ValidCount() > 0;
+  }
+  if (!any_valid) {
+    std::string limits;
+    if (options.limits.min_range > 0 || options.limits.max_range > 0) {
+      limits = " (with the range limits given: minimum " + FormatDouble(options.limits.min_range) + " m, maximum " +
+               FormatDouble(options.limits.max_range) + " m; 0 = the log's own)";
+    }
+    throw ParseError(log->path + ": none of the " + std::to_string(log->scans.size()) +
+                     " scans has a valid range: every beam is 0, not finite, or outside the scan's range limits" +
+                     limits + "; nothing can be mapped");
   }
   AttachOdometry(log->path, options.odometry, log);
   log->odometry.Sorted();  // sorted now, so that later const calls change nothing
+}
+
+std::string ScanLocation(const LidarLog& log, const LaserScan& scan) {
+  if (log.format == LogFormat::kRosBag) return log.path + ": message " + std::to_string(scan.source_index);
+  return log.path + ":" + std::to_string(scan.source_index);
 }
 
 std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log) {

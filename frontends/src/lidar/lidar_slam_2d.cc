@@ -120,8 +120,22 @@ LidarSlam2D::~LidarSlam2D() = default;
 
 void LidarSlam2D::AddScan(const LaserScan& scan) {
   if (finished_) throw InvalidArgument("LidarSlam2D::AddScan after Finish(): make a new LidarSlam2D for another run");
+  if (!failed_.empty()) {
+    throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(scans_.size()) + " failed part-way (" +
+                          failed_ + "); make a new LidarSlam2D for another run");
+  }
+  const std::string why = ScanProblem(scan);
+  if (!why.empty()) {
+    throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(scans_.size()) + ": " + why);
+  }
   const auto t0 = std::chrono::steady_clock::now();
-  LocalScanResult r = local_->AddScan(scan);
+  LocalScanResult r;
+  try {
+    r = local_->AddScan(scan);
+  } catch (const std::exception& e) {
+    failed_ = e.what();
+    throw;
+  }
   report_.matching_seconds += r.scan_to_scan_seconds + r.correlative_seconds + r.refine_seconds;
   report_.scan_to_scan += r.scan_to_scan;
   report_.insert_seconds += r.insert_seconds;
@@ -145,10 +159,19 @@ void LidarSlam2D::Run(const LidarLog& log, long max_scans, long progress_every,
   const long n =
       max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
   for (long i = 0; i < n; ++i) {
-    AddScan(log.scans[static_cast<std::size_t>(i)]);
+    const LaserScan& scan = log.scans[static_cast<std::size_t>(i)];
+    try {
+      AddScan(scan);
+    } catch (const Error& e) {
+      throw ParseError(ScanLocation(log, scan) + ": scan " + std::to_string(i) + ": " + e.what());
+    }
     if (progress && progress_every > 0 && (i + 1) % progress_every == 0) progress(i + 1);
   }
-  Finish();
+  try {
+    Finish();
+  } catch (const Error& e) {
+    throw ParseError(log.path + ": after the last scan: " + e.what());
+  }
 }
 
 void LidarSlam2D::Finish() {

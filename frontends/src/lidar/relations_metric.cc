@@ -10,6 +10,7 @@
 
 #include "number_lines.h"
 #include "tether/core/error.h"
+#include "tether/core/format.h"
 
 namespace tether {
 namespace lidar {
@@ -118,20 +119,17 @@ RelationsResult EvaluateRelations(const std::vector<StampedPose2>& trajectory, c
 }
 
 std::string RelationsResult::Report() const {
-  char buf[1024];
-  std::snprintf(buf, sizeof(buf),
-                "relations: %zu in the file, %zu scored, %zu unmatched (no pose within the tolerance)\n"
-                "translational error: %.4f +- %.4f m (max %.4f)\n"
-                "rotational error:    %.3f +- %.3f deg (max %.3f)\n"
-                "squared translational error: %.6f +- %.6f m^2\n"
-                "squared rotational error:    %.4f +- %.4f deg^2\n"
-                "relations off by more than 1 m: %zu\n",
-                relations, matched, unmatched, translation.mean, translation.std, max_translation, rotation.mean,
-                rotation.std, max_rotation, translation_squared.mean, translation_squared.std, rotation_squared.mean,
-                rotation_squared.std,
-                static_cast<std::size_t>(std::count_if(translation_errors.begin(), translation_errors.end(),
-                                                       [](double e) { return e > 1; })));
-  return buf;
+  return StringPrintf(
+      "relations: %zu in the file, %zu scored, %zu unmatched (no pose within the tolerance)\n"
+      "translational error: %.4f +- %.4f m (max %.4f)\n"
+      "rotational error:    %.3f +- %.3f deg (max %.3f)\n"
+      "squared translational error: %.6f +- %.6f m^2\n"
+      "squared rotational error:    %.4f +- %.4f deg^2\n"
+      "relations off by more than 1 m: %zu\n",
+      relations, matched, unmatched, translation.mean, translation.std, max_translation, rotation.mean, rotation.std,
+      max_rotation, translation_squared.mean, translation_squared.std, rotation_squared.mean, rotation_squared.std,
+      static_cast<std::size_t>(
+          std::count_if(translation_errors.begin(), translation_errors.end(), [](double e) { return e > 1; })));
 }
 
 }  // namespace lidar

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <utility>
+#include <vector>
 
 #include "tether/core/error.h"
 
@@ -89,7 +91,7 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
       throw ParseError(path + ": no topic " + options.scan_topic + "; the bag has" + (have.empty() ? " none" : have) +
                        "; choose the scan topic");
     }
-    std::vector<rosbag::MessageInstance> statics;
+    std::vector<std::pair<long, rosbag::MessageInstance>> statics;
     for (const rosbag::MessageInstance& m : view) {
       ++index;
       if (m.getTopic() == options.scan_topic) {
@@ -104,12 +106,8 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
         s.range_max = msg->range_max;
         s.ranges = msg->ranges;
         s.source_index = index;
-        if (s.ranges.size() < 2 || !std::isfinite(s.angle_min) || !std::isfinite(s.angle_increment) ||
-            !(s.angle_increment != 0) || !std::isfinite(s.range_min) || !(s.range_max > s.range_min)) {
-          throw ParseError(MessageWhere(path, index, m.getTopic()) +
-                           "unusable scan (fewer than 2 ranges, a zero or non-finite angle step, or range_max not "
-                           "above range_min)");
-        }
+        const std::string why = ScanProblem(s);
+        if (!why.empty()) throw ParseError(MessageWhere(path, index, m.getTopic()) + why);
         if (laser_frame.empty()) laser_frame = msg->header.frame_id;
         log.scans.push_back(std::move(s));
       } else if (m.getTopic() == options.odom_topic) {
@@ -122,15 +120,25 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
           throw ParseError(MessageWhere(path, index, m.getTopic()) +
                            "non-finite position or a quaternion far from unit length");
         }
-        log.odometry.Add(msg->header.stamp.toSec(), SE2<double>(p.x, p.y, Yaw(q.x, q.y, q.z, q.w)));
+        const double yaw = Yaw(q.x, q.y, q.z, q.w);
+        std::string why = PoseProblem(p.x, p.y, yaw);
+        if (why.empty()) why = StampProblem(msg->header.stamp.toSec());
+        if (!why.empty()) throw ParseError(MessageWhere(path, index, m.getTopic()) + why);
+        log.odometry.Add(msg->header.stamp.toSec(), SE2<double>(p.x, p.y, yaw));
       } else {
-        statics.push_back(m);
+        statics.emplace_back(index, m);
       }
     }
     if (log.scans.empty()) throw ParseError(path + ": no message on " + options.scan_topic + ": not a laser log");
     SE2<double> laser_in_robot;
-    for (const rosbag::MessageInstance& m : statics) {
-      if (FindStaticTransform(m, laser_frame, &laser_in_robot)) break;
+    for (const auto& [static_index, m] : statics) {
+      if (!FindStaticTransform(m, laser_frame, &laser_in_robot)) continue;
+      const std::string why = PoseProblem(laser_in_robot.x(), laser_in_robot.y(), laser_in_robot.theta());
+      if (!why.empty()) {
+        throw ParseError(MessageWhere(path, static_index, m.getTopic()) + "the transform to the laser frame '" +
+                         laser_frame + "': " + why);
+      }
+      break;
     }
     for (LaserScan& s : log.scans) s.laser_in_robot = laser_in_robot;
   } catch (const Error&) {

@@ -9,6 +9,7 @@
 
 #include "number_lines.h"
 #include "tether/core/error.h"
+#include "tether/core/format.h"
 #include "tether/core/output_file.h"
 
 namespace tether {
@@ -16,12 +17,10 @@ namespace lidar {
 
 void WriteTum(std::ostream& out, const std::vector<StampedPose2>& poses) {
   out << "# timestamp x y z qx qy qz qw\n";
-  char line[256];
   for (const StampedPose2& p : poses) {
     const double h = p.pose.theta() / 2;
-    std::snprintf(line, sizeof(line), "%.9f %.17g %.17g 0 0 0 %.17g %.17g\n", p.stamp, p.pose.x(), p.pose.y(),
-                  std::sin(h), std::cos(h));
-    out << line;
+    out << StringPrintf("%.9f %.17g %.17g 0 0 0 %.17g %.17g\n", p.stamp, p.pose.x(), p.pose.y(), std::sin(h),
+                        std::cos(h));
   }
 }
 

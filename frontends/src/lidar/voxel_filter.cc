@@ -1,5 +1,6 @@
 #include "tether/frontends/lidar/voxel_filter.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -14,7 +15,9 @@ namespace {
 
 struct CellHash {
   std::size_t operator()(const std::pair<std::int64_t, std::int64_t>& c) const {
-    return std::hash<std::int64_t>()(c.first * 73856093LL) ^ std::hash<std::int64_t>()(c.second * 19349663LL);
+    // Unsigned: the products wrap instead of overflowing.
+    return std::hash<std::uint64_t>()(static_cast<std::uint64_t>(c.first) * 73856093ULL) ^
+           std::hash<std::uint64_t>()(static_cast<std::uint64_t>(c.second) * 19349663ULL);
   }
 };
 
@@ -32,8 +35,11 @@ std::vector<Eigen::Vector2d> VoxelFilter(const std::vector<Eigen::Vector2d>& poi
   std::vector<Cell> cells;
   for (const Eigen::Vector2d& p : points) {
     if (!p.allFinite()) continue;
-    const std::pair<std::int64_t, std::int64_t> key(static_cast<std::int64_t>(std::floor(p.x() / edge)),
-                                                    static_cast<std::int64_t>(std::floor(p.y() / edge)));
+    // Clamped before the cast (beyond int64 it would be undefined); such points share a cell.
+    constexpr double kFar = 4e18;
+    const std::pair<std::int64_t, std::int64_t> key(
+        static_cast<std::int64_t>(std::clamp(std::floor(p.x() / edge), -kFar, kFar)),
+        static_cast<std::int64_t>(std::clamp(std::floor(p.y() / edge), -kFar, kFar)));
     const auto it = index.emplace(key, cells.size());
     if (it.second) cells.emplace_back();
     Cell& c = cells[it.first->second];

@@ -49,6 +49,33 @@ struct LaserScan {
   std::size_t ValidCount() const;
 };
 
+/// What a scan or pose read from a log (or given through the API) must keep to. Beyond these
+/// a log is damaged or in other units, not a sensor; the readers refuse it naming file:line.
+namespace scan_bounds {
+/// [m] the longest maximum range accepted (2D scanners reach 30-250 m).
+constexpr double kMaxRange = 1000;
+/// [m] the largest pose coordinate (UTM northings fit).
+constexpr double kMaxCoordinate = 1e7;
+/// [rad] the largest heading as written (unwrapped headings of long runs fit).
+constexpr double kMaxHeading = 1e6;
+/// [s] the largest stamp (Unix time until the year 5000; nanoseconds do not fit).
+constexpr double kMaxStamp = 1e11;
+/// [rad] the finest angle step (a million beams on a circle would be 6e-6).
+constexpr double kMinAngleIncrement = 1e-6;
+}  // namespace scan_bounds
+
+/// Why `scan` cannot be used, or "" where it can: at least 2 ranges; a finite start angle
+/// within +-2 pi; an angle step finite, at least kMinAngleIncrement in size and spanning at
+/// most a full turn over the beams; 0 <= range_min < range_max <= kMaxRange; finite stamps
+/// within kMaxStamp; odometry and laser pose finite, within kMaxCoordinate. The individual
+/// ranges are not checked (NaN, inf, negative or out of limits: no return).
+std::string ScanProblem(const LaserScan& scan);
+/// Why a pose written as (x, y, theta) cannot be used, or "": finite, |x|, |y| within
+/// kMaxCoordinate, |theta| within kMaxHeading.
+std::string PoseProblem(double x, double y, double theta);
+/// Why a stamp cannot be used, or "": finite and within kMaxStamp.
+std::string StampProblem(double stamp);
+
 /// Optional tighter range limits applied on top of a scan's own (0: keep the scan's).
 struct RangeLimits {
   double min_range = 0;

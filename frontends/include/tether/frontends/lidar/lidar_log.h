@@ -71,6 +71,10 @@ struct LidarLog {
 /// or where bag support was not built (see RosBagSupported()).
 LidarLog ReadLidarLog(const std::string& path, const LidarReadOptions& options = {});
 
+/// Where a scan of the log came from, for messages: "log.clf:1234" (a CARMEN line) or
+/// "run.bag: message 56" (a bag).
+std::string ScanLocation(const LidarLog& log, const LaserScan& scan);
+
 /// The robot's odometry pose of every scan, in scan order.
 std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log);
 

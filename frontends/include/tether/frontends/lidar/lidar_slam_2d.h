@@ -90,10 +90,14 @@ class LidarSlam2D {
   LidarSlam2D(const LidarSlam2D&) = delete;
   LidarSlam2D& operator=(const LidarSlam2D&) = delete;
 
-  /// Adds the next scan (time order); throws LogicError after Finish().
+  /// Adds the next scan (time order). Throws InvalidArgument for a scan ScanProblem refuses
+  /// (nothing changes), after Finish(), and after an earlier scan failed part-way (a point
+  /// far outside any map): the run cannot go on then.
   void AddScan(const LaserScan& scan);
   /// Adds the first `max_scans` scans of a log (0: all) and calls Finish(); `progress`, where
-  /// given, is called after every `progress_every`-th scan with the scans added so far.
+  /// given, is called after every `progress_every`-th scan with the scans added so far. An
+  /// error adding a scan is raised again as a ParseError naming the scan's file:line (or bag
+  /// message).
   void Run(const LidarLog& log, long max_scans = 0, long progress_every = 0,
            const std::function<void(long)>& progress = nullptr);
   /// Waits for the searches, solves the graph, builds the map and runs the checks. Once.
@@ -135,6 +139,7 @@ class LidarSlam2D {
   std::vector<LoopClosureCheck> checks_;
   LidarSlamReport report_;
   bool finished_ = false;
+  std::string failed_;  ///< why an earlier AddScan failed part-way, if one did
 };
 
 }  // namespace lidar
