@@ -1,16 +1,21 @@
 #include "tether/core/output_file.h"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <climits>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <ostream>
 #include <random>
 #include <sstream>
@@ -174,13 +179,148 @@ std::string TempName(const std::string& dir, const std::string& base) {
   return dir + "/." + base + tail;
 }
 
+struct CommitRecord {
+  std::string target, temp, backup;
+};
+
 mode_t CurrentUmask() {
   const mode_t m = ::umask(0);
   ::umask(m);
   return m;
 }
 
+// The journal of an all-or-nothing commit: per file, "target NUL temp NUL backup NUL" (backup
+// empty where the target did not exist), written whole and synced before the first rename.
+constexpr const char* kJournalPrefix = ".tether-commit-";
+constexpr const char* kJournalSuffix = ".journal";
+
+std::string WriteJournal(const std::string& dir, const std::vector<CommitRecord>& records) {
+  std::string text;
+  for (const CommitRecord& r : records) {
+    for (const std::string* f : {&r.target, &r.temp, &r.backup}) {
+      text += *f;
+      text.push_back('\0');
+    }
+  }
+  int err = 0;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    char tail[64];
+    std::snprintf(tail, sizeof tail, "%ld-%u%s", static_cast<long>(::getpid()), g_temp_counter++, kJournalSuffix);
+    const std::string name = dir + "/" + kJournalPrefix + tail;
+    const int fd = ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) {
+      err = errno;
+      if (err == EEXIST) continue;
+      break;
+    }
+    const bool ok = WriteAll(fd, text.data(), text.size()) && ::fsync(fd) == 0;
+    err = errno;
+    ::close(fd);
+    if (ok) return name;
+    ::unlink(name.c_str());
+    break;
+  }
+  throw IoError("'" + dir + "': cannot write the journal that lets an interrupted commit of the outputs be undone (" +
+                ErrText(err) + "); " + Hint(err));
+}
+
+// True where process `pid` is this one or still runs (its files are not to be touched).
+bool Running(long pid) {
+  if (pid <= 0) return true;  // not a name of ours
+  if (pid == static_cast<long>(::getpid())) return true;
+  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
+}
+
+// Puts the old files back for the first `renamed` records (a new file where there was none is
+// removed), removes the temporary files of the rest; returns what the message adds.
+std::string UndoRecords(const std::vector<CommitRecord>& records, std::size_t renamed) {
+  std::string failed;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const CommitRecord& r = records[i];
+    if (i < renamed) {
+      const bool ok = r.backup.empty() ? (::unlink(r.target.c_str()) == 0 || errno == ENOENT)
+                                       : std::rename(r.backup.c_str(), r.target.c_str()) == 0;
+      if (!ok) failed += " '" + r.target + "' (" + ErrText(errno) + ")";
+    }
+    ::unlink(r.temp.c_str());
+  }
+  if (records.empty()) return "";
+  if (!failed.empty()) return "; could not put back the old" + failed + ": check those files";
+  return renamed == 0 ? "; nothing was replaced" : "; every replaced file was put back as it was";
+}
+
 }  // namespace
+
+std::vector<std::string> RecoverInterruptedCommits(const std::string& folder) {
+  std::vector<std::string> notes;
+  DIR* d = ::opendir(folder.c_str());
+  if (d == nullptr) return notes;
+  std::vector<std::string> journals;
+  std::vector<std::string> stale;
+  while (const dirent* e = ::readdir(d)) {
+    const std::string name = e->d_name;
+    if (name.compare(0, std::strlen(kJournalPrefix), kJournalPrefix) == 0 &&
+        name.find(kJournalSuffix) != std::string::npos) {
+      journals.push_back(name);
+      continue;
+    }
+    // A temporary file or old copy of a process that no longer runs: ".NAME.tether-PID-N-XXXXXX".
+    const std::size_t at = name.rfind(".tether-");
+    if (name.size() > 1 && name[0] == '.' && at != std::string::npos && at > 0) {
+      unsigned long long counter = 0, random = 0;
+      long pid = 0;
+      int used = 0;
+      if (std::sscanf(name.c_str() + at, ".tether-%ld-%llu-%6llx%n", &pid, &counter, &random, &used) == 3 &&
+          static_cast<std::size_t>(used) == name.size() - at && !Running(pid)) {
+        stale.push_back(name);
+      }
+    }
+  }
+  ::closedir(d);
+  for (const std::string& name : journals) {
+    const long pid = std::atol(name.c_str() + std::strlen(kJournalPrefix));
+    if (Running(pid)) continue;
+    const std::string path = folder + "/" + name;
+    const bool done = name.size() > 5 && name.compare(name.size() - 5, 5, ".done") == 0;
+    std::ifstream in(path, std::ios::binary);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<std::string> fields;
+    std::size_t start = 0;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      if (text[i] == '\0') {
+        fields.push_back(text.substr(start, i - start));
+        start = i + 1;
+      }
+    }
+    std::vector<CommitRecord> records;
+    for (std::size_t i = 0; i + 2 < fields.size(); i += 3) records.push_back({fields[i], fields[i + 1], fields[i + 2]});
+    std::string targets;
+    for (const CommitRecord& r : records) {
+      targets += (targets.empty() ? "" : ", ") + BaseName(r.target);
+      if (done) {
+        // Finished: the new files stand; only the old ones and leftovers go.
+        if (!r.backup.empty()) ::unlink(r.backup.c_str());
+        ::unlink(r.temp.c_str());
+      } else if (!r.backup.empty()) {
+        std::rename(r.backup.c_str(), r.target.c_str());
+        ::unlink(r.temp.c_str());
+      } else {
+        // No old file: the target is the new one where it was renamed already, else absent.
+        struct stat t, n;
+        if (::stat(r.temp.c_str(), &n) != 0 && ::stat(r.target.c_str(), &t) == 0) ::unlink(r.target.c_str());
+        ::unlink(r.temp.c_str());
+      }
+    }
+    ::unlink(path.c_str());
+    notes.push_back(
+        std::string("an earlier run (process ") + std::to_string(pid) + ") was stopped while it " +
+        (done ? "cleaned up after replacing" : "replaced") + " its outputs in '" + folder + "' (" + targets +
+        "): " + (done ? "its new files stand, the old copies were removed" : "the old files were put back"));
+  }
+  // After the journals: their records name some of these.
+  for (const std::string& name : stale) ::unlink((folder + "/" + name).c_str());
+  return notes;
+}
 
 struct OutputFile::Staging {
   int fd = -1;
@@ -394,6 +534,12 @@ void OutputFile::Commit() {
     committed_ = true;
     return;
   }
+  NameStaged();
+  RenameStaged();
+}
+
+const std::string& OutputFile::NameStaged() {
+  Staging& s = *staging_;
   const std::string dir = DirName(target_);
   if (s.temp_name.empty()) {
     // An unnamed temporary file: give it a name beside the target, then rename that.
@@ -414,6 +560,11 @@ void OutputFile::Commit() {
     }
   }
   s.Close();
+  return s.temp_name;
+}
+
+void OutputFile::RenameStaged() {
+  Staging& s = *staging_;
   if (std::rename(s.temp_name.c_str(), target_.c_str()) != 0) {
     const int e = errno;
     s.Remove();
@@ -432,6 +583,13 @@ void OutputSet::AddInput(const std::string& path, const std::string& what) {
 
 OutputFile& OutputSet::Add(const std::string& path, const std::string& what) {
   auto out = std::make_unique<OutputFile>(path, what);
+  if (out->mode() == OutputMode::kReplace) {
+    const std::string folder = DirName(out->target());
+    if (std::find(checked_folders_.begin(), checked_folders_.end(), folder) == checked_folders_.end()) {
+      checked_folders_.push_back(folder);
+      for (std::string& note : RecoverInterruptedCommits(folder)) recovered_.push_back(std::move(note));
+    }
+  }
   for (const Input& in : inputs_) {
     if (in.identity == out->identity()) {
       throw InvalidArgument("the " + what + " '" + path + "' is the " + in.what + " '" + in.path +
@@ -450,7 +608,7 @@ OutputFile& OutputSet::Add(const std::string& path, const std::string& what) {
 }
 
 std::vector<std::string> OutputSet::Notes() const {
-  std::vector<std::string> notes;
+  std::vector<std::string> notes = recovered_;
   for (const auto& o : outputs_) {
     if (!o->note().empty()) notes.push_back(o->note());
   }
@@ -458,21 +616,94 @@ std::vector<std::string> OutputSet::Notes() const {
 }
 
 void OutputSet::CommitAll() {
+  std::vector<OutputFile*> files, devices;
+  for (const auto& o : outputs_) {
+    if (!o->staged()) continue;
+    (o->mode() == OutputMode::kReplace ? files : devices).push_back(o.get());
+  }
   try {
     // Devices and FIFOs are opened first, so one that cannot be (a FIFO without a reader)
     // fails before any file is replaced.
-    for (const auto& o : outputs_) {
-      if (o->staged()) o->Prepare();
+    for (OutputFile* o : devices) o->Prepare();
+    if (files.size() <= 1 && devices.empty()) {
+      // One rename is all or nothing by itself.
+      for (OutputFile* o : files) o->Commit();
+      return;
     }
-    for (int pass = 0; pass < 2; ++pass) {
-      for (const auto& o : outputs_) {
-        if ((o->mode() == OutputMode::kReplace) == (pass == 0) && o->staged()) o->Commit();
-      }
-    }
+  } catch (const IoError& e) {
+    DiscardAll();
+    throw IoError(std::string(e.what()) + "; nothing was replaced");
   } catch (...) {
     DiscardAll();
     throw;
   }
+  CommitFiles(files, devices);
+}
+
+void OutputSet::CommitFiles(const std::vector<OutputFile*>& files, const std::vector<OutputFile*>& devices) {
+  std::vector<CommitRecord> records;
+  std::string journal;
+  std::size_t renamed = 0;
+  // Tests only: SIGKILL before the N-th rename (N = the number of files: after the commit
+  // point, before the clean-up), to check what a later run makes of it.
+  const char* kill_after = std::getenv("TETHER_TEST_KILL_AFTER_RENAMES");
+  const auto undo = [&](const std::string& why) {
+    std::string back = UndoRecords(records, renamed);
+    for (const CommitRecord& r : records) {
+      if (!r.backup.empty()) ::unlink(r.backup.c_str());
+    }
+    if (!journal.empty()) ::unlink(journal.c_str());
+    DiscardAll();
+    return why + back;
+  };
+  try {
+    for (OutputFile* o : files) {
+      CommitRecord r;
+      r.target = o->target();
+      r.temp = o->NameStaged();
+      records.push_back(r);
+    }
+    // A hard link keeps each old file under another name; renaming the new one over the
+    // target then leaves it there, to be put back. The names are in the journal before any
+    // link is made, so that a process killed from here on leaves nothing a later run cannot
+    // clear up.
+    for (CommitRecord& r : records) {
+      struct stat st;
+      if (::lstat(r.target.c_str(), &st) == 0) r.backup = TempName(DirName(r.target), BaseName(r.target));
+    }
+    journal = WriteJournal(DirName(records.front().target), records);
+    for (CommitRecord& r : records) {
+      if (r.backup.empty() || ::link(r.target.c_str(), r.backup.c_str()) == 0) continue;
+      const int err = errno;
+      throw IoError("'" + r.target + "': cannot keep the old file under another name while the new set of outputs " +
+                    "is put in place (" + ErrText(err) + "); " + Hint(err));
+    }
+
+    for (OutputFile* o : files) {
+      if (kill_after != nullptr && static_cast<long>(renamed) == std::atol(kill_after)) ::raise(SIGKILL);
+      o->RenameStaged();
+      ++renamed;
+    }
+    for (OutputFile* o : devices) o->Commit();
+  } catch (const IoError& e) {
+    throw IoError(undo(e.what()));
+  } catch (...) {
+    undo("");
+    throw;
+  }
+  // The commit point: the journal says "done" (an interrupted clean-up is finished, never
+  // undone), then the old files and the journal go.
+  const std::string done = journal + ".done";
+  if (std::rename(journal.c_str(), done.c_str()) != 0) {
+    // Without it the old files could be put back by a later run: keep them all, undo.
+    const int e = errno;
+    throw IoError(undo("cannot mark the commit of the outputs finished in '" + journal + "' (" + ErrText(e) + ")"));
+  }
+  if (kill_after != nullptr && std::atol(kill_after) == static_cast<long>(files.size())) ::raise(SIGKILL);
+  for (const CommitRecord& r : records) {
+    if (!r.backup.empty()) ::unlink(r.backup.c_str());
+  }
+  ::unlink(done.c_str());
 }
 
 void OutputSet::DiscardAll() {

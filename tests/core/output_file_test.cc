@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -297,6 +298,96 @@ TEST_F(OutputFileTest, FileSizeLimitIsAnErrorNamingTheFile) {
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0) << "1: no error, 2: the message did not name the file and the limit";
   EXPECT_TRUE(Names().empty());
+}
+
+// A failure after some files were renamed (here the device written last) puts every old file
+// back and removes the new file that had no old one; the message says so.
+TEST_F(OutputFileTest, AFailureAfterTheRenamesPutsTheOldSetBack) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full here";
+  Put(Path("a.txt"), "old a");
+  Put(Path("c.txt"), "old c");
+  OutputSet set;
+  OutputFile& a = set.Add(Path("a.txt"), "graph");
+  OutputFile& b = set.Add(Path("b.txt"), "plot");
+  OutputFile& c = set.Add(Path("c.txt"), "table");
+  OutputFile& full = set.Add("/dev/full", "log");
+  a.Stage("new a");
+  b.Stage("new b");
+  c.Stage("new c");
+  full.Stage("anything");
+  const std::string message = MessageOf([&] { set.CommitAll(); });
+  EXPECT_NE(message.find("/dev/full"), std::string::npos) << message;
+  EXPECT_NE(message.find("every replaced file was put back as it was"), std::string::npos) << message;
+  EXPECT_EQ(Read(Path("a.txt")), "old a");
+  EXPECT_EQ(Read(Path("c.txt")), "old c");
+  EXPECT_EQ(Names(), (std::vector<std::string>{"a.txt", "c.txt"}));  // no b.txt, journal or copy
+}
+
+// Killed part-way through the renames, a set is mixed on disk; the next OutputSet that writes
+// into that folder puts the old set back. Killed after the commit point, the new set stands
+// and only the old copies go.
+TEST_F(OutputFileTest, AKilledCommitIsUndoneOrFinishedByTheNextRun) {
+  for (int kill_after : {0, 1, 2, 3}) {
+    SCOPED_TRACE("killed before rename " + std::to_string(kill_after));
+    fs::remove_all(dir_);
+    fs::create_directory(dir_);
+    Put(Path("a.txt"), "old a");
+    Put(Path("b.txt"), "old b");
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::setenv("TETHER_TEST_KILL_AFTER_RENAMES", std::to_string(kill_after).c_str(), 1);
+      OutputSet set;
+      set.Add(Path("a.txt"), "graph").Stage("new a");
+      set.Add(Path("b.txt"), "plot").Stage("new b");
+      set.Add(Path("c.txt"), "table").Stage("new c");
+      set.CommitAll();
+      std::_Exit(0);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << status;
+    // The journal is there, and (killed mid-way) the folder is mixed.
+    const std::vector<std::string> left = Names();
+    EXPECT_TRUE(
+        std::any_of(left.begin(), left.end(), [](const std::string& n) { return n.rfind(".tether-commit-", 0) == 0; }));
+    if (kill_after == 1) {
+      EXPECT_EQ(Read(Path("a.txt")), "new a");
+    }
+
+    OutputSet next;
+    next.Add(Path("other.txt"), "another output");
+    const std::vector<std::string> notes = next.Notes();
+    ASSERT_EQ(notes.size(), 1u);
+    if (kill_after < 3) {
+      EXPECT_NE(notes[0].find("the old files were put back"), std::string::npos) << notes[0];
+      EXPECT_EQ(Read(Path("a.txt")), "old a");
+      EXPECT_EQ(Read(Path("b.txt")), "old b");
+      EXPECT_EQ(Names(), (std::vector<std::string>{"a.txt", "b.txt"}));
+    } else {
+      EXPECT_NE(notes[0].find("its new files stand"), std::string::npos) << notes[0];
+      EXPECT_EQ(Read(Path("a.txt")), "new a");
+      EXPECT_EQ(Read(Path("b.txt")), "new b");
+      EXPECT_EQ(Read(Path("c.txt")), "new c");
+      EXPECT_EQ(Names(), (std::vector<std::string>{"a.txt", "b.txt", "c.txt"}));
+    }
+  }
+}
+
+// A temporary file a killed process left (no journal: killed while staging) is cleared by the
+// next set that writes there; one of a running process is not.
+TEST_F(OutputFileTest, TemporaryFilesOfDeadProcessesAreCleared) {
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) std::_Exit(0);
+  ::waitpid(pid, nullptr, 0);  // a PID no process has now
+  const std::string dead = ".a.txt.tether-" + std::to_string(pid) + "-0-00abcd";
+  const std::string alive = ".a.txt.tether-" + std::to_string(::getppid()) + "-0-00abcd";
+  const std::string unrelated = ".a.txt.tether-notes";
+  for (const std::string& n : {dead, alive, unrelated}) Put(Path(n), "x");
+  OutputSet set;
+  set.Add(Path("a.txt"), "graph");
+  EXPECT_EQ(Names(), (std::vector<std::string>{alive, unrelated}));
 }
 
 }  // namespace

@@ -490,9 +490,14 @@ int RunSimulate(const SimulateCommand& cmd, std::ostream& out, std::ostream& err
     if (truth_file != nullptr) {
       truth_file->Stage([&](std::ostream& s) { WriteG2o(s, sim.ground_truth, sim.graph, DefaultRegistry()); });
     }
-    outputs.CommitAll();
   } catch (const Error& e) {
     err << "error: " << e.what() << "; nothing was written\n";
+    return kExitWriteFailed;
+  }
+  try {
+    outputs.CommitAll();  // its message says what became of the files
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
     return kExitWriteFailed;
   }
   const GraphCounts counts = Count(sim.ground_truth);

@@ -92,12 +92,20 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   }
   namespace fs = std::filesystem;
   std::error_code ec;
+  const bool folder_existed = fs::exists(cmd.output_dir, ec);
   fs::create_directories(cmd.output_dir, ec);
   if (ec || !fs::is_directory(cmd.output_dir)) {
     err << "tether lidar: cannot make the output folder '" << cmd.output_dir << "' (" << ec.message()
         << "); give a folder that can be written\n";
     return kExitWriteFailed;
   }
+  // A failed run leaves no folder it made behind (it is still empty then: outputs are
+  // written only at the end, all or nothing).
+  const auto fail = [&](int code) {
+    std::error_code ignored;
+    if (!folder_existed && fs::is_empty(cmd.output_dir, ignored)) fs::remove(cmd.output_dir, ignored);
+    return code;
+  };
   OutputSet outputs;
   std::vector<OutputFile*> files;
   const int rc = CheckOutputs(
@@ -110,18 +118,18 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
         }
       },
       err);
-  if (rc != 0) return rc;
+  if (rc != 0) return fail(rc);
 
   lidar::LidarLog log;
   try {
     log = lidar::ReadLidarLog(cmd.log, cmd.read);
   } catch (const Error& e) {  // IoError, ParseError; InvalidArgument where bags are not supported
     err << "error: " << e.what() << "\n";
-    return kExitBadInput;
+    return fail(kExitBadInput);
   }
   if (log.scans.empty()) {
     err << "error: " << cmd.log << " has no scans\n";
-    return kExitBadInput;
+    return fail(kExitBadInput);
   }
   std::vector<lidar::StampedPose2> truth;
   if (!cmd.ground_truth.empty()) {
@@ -129,7 +137,7 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
       truth = lidar::ReadTumFile(cmd.ground_truth);
     } catch (const Error& e) {
       err << "error: " << e.what() << "\n";
-      return kExitBadInput;
+      return fail(kExitBadInput);
     }
   }
   if (cmd.laser_offset.size() == 3) {
@@ -152,16 +160,21 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
           << std::flush;
     });
   } catch (const Error& e) {  // a scan the mapping cannot take (a reader lets none through)
-    err << "error: " << cmd.log << ": " << e.what() << "; nothing was written\n";
-    return kExitBadInput;
+    err << "error: " << e.what() << "; nothing was written\n";  // names the log and line
+    return fail(kExitBadInput);
   }
   try {
     const std::vector<lidar::LidarOutput> written = slam.Outputs();
     for (std::size_t i = 0; i < written.size(); ++i) files[i]->Stage(written[i].bytes);
-    outputs.CommitAll();
   } catch (const Error& e) {
     err << "error: " << e.what() << "; nothing was written\n";
-    return kExitWriteFailed;
+    return fail(kExitWriteFailed);
+  }
+  try {
+    outputs.CommitAll();  // all or nothing; its message says what became of the files
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return fail(kExitWriteFailed);
   }
   out << slam.report().Summary(cmd.options.pose_graph.threads);
   if (!cmd.ground_truth.empty()) {

@@ -88,8 +88,14 @@ class OutputFile {
   const std::string& identity() const { return identity_; }
 
  private:
+  friend class OutputSet;
   struct Staging;
   void Fail(const std::string& why, int err) const;
+  // The two halves of committing a kReplace output, for OutputSet's all-or-nothing commit:
+  // give the staged temporary file a name beside the target (returned), then rename it over
+  // the target.
+  const std::string& NameStaged();
+  void RenameStaged();
 
   std::string path_, what_, target_, note_, identity_;
   OutputMode mode_ = OutputMode::kReplace;
@@ -112,10 +118,17 @@ class OutputSet {
   OutputFile& Add(const std::string& path, const std::string& what);
   /// Notes of every output (OutputFile::note), one per line, for the command to print.
   std::vector<std::string> Notes() const;
-  /// Commits every staged output: devices and FIFOs are opened first (a FIFO without a reader
-  /// fails before anything is replaced), then files are renamed into place, then devices and
-  /// FIFOs written. Outputs not staged are skipped. Throws IoError at the first failure; what was staged
-  /// and not committed is discarded.
+  /// Commits every staged output as one set: either all of them are replaced, or none is.
+  /// Devices and FIFOs are opened first (a FIFO without a reader fails before anything is
+  /// replaced). With two or more files, a journal (".tether-commit-*.journal" in the first
+  /// file's folder) lists them and a hard link keeps each old file before any is renamed over;
+  /// a failure part-way renames every old file back (and removes the new ones that had none),
+  /// and the IoError says so. Devices and FIFOs are written after the files, before the journal
+  /// is dropped (a failure there puts the files back too; what a device received stays). A
+  /// process killed part-way leaves the journal: the next OutputSet that adds an output in
+  /// that folder finishes the commit where it had been completed, else puts the old files back
+  /// (Notes() says which). Outputs not staged are skipped; what was staged and not committed is
+  /// discarded.
   void CommitAll();
   /// Drops everything staged.
   void DiscardAll();
@@ -126,7 +139,14 @@ class OutputSet {
   };
   std::vector<Input> inputs_;
   std::vector<std::unique_ptr<OutputFile>> outputs_;
+  void CommitFiles(const std::vector<OutputFile*>& files, const std::vector<OutputFile*>& devices);
+  std::vector<std::string> recovered_;        // notes of interrupted commits finished or undone
+  std::vector<std::string> checked_folders_;  // folders already searched for journals
 };
+
+/// Finishes or undoes the commits interrupted in `folder` (journals of processes no longer
+/// running; see OutputSet::CommitAll) and returns one note per journal handled. Never throws.
+std::vector<std::string> RecoverInterruptedCommits(const std::string& folder);
 
 /// Identity of an existing file ("dev:inode"), or "" where it cannot be stat'ed.
 std::string FileIdentity(const std::string& path);
