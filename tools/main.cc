@@ -10,6 +10,7 @@
 #include "tether/tools/lidar_eval.h"
 #include "tether/tools/lidar_simulate.h"
 #include "tether/tools/lidar_slam.h"
+#include "tether/tools/option_checks.h"
 #include "tether/tools/replay.h"
 
 int main(int argc, char** argv) {
@@ -423,6 +424,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   lidar_degrade->add_option("--odom-topic", ldc.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
 
+  tether::AddOptionChecks(&app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
