@@ -625,9 +625,10 @@ void OutputSet::CommitAll() {
     // Devices and FIFOs are opened first, so one that cannot be (a FIFO without a reader)
     // fails before any file is replaced.
     for (OutputFile* o : devices) o->Prepare();
-    if (files.size() <= 1 && devices.empty()) {
-      // One rename is all or nothing by itself.
+    if (files.empty() || (files.size() == 1 && devices.empty())) {
+      // One rename is all or nothing by itself; devices alone have nothing to put back.
       for (OutputFile* o : files) o->Commit();
+      for (OutputFile* o : devices) o->Commit();
       return;
     }
   } catch (const IoError& e) {

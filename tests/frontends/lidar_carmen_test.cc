@@ -344,6 +344,10 @@ TEST_F(CarmenErrorTest, AbsurdGeometryRangesPosesAndStampsAreRefused) {
     EXPECT_NE(message.find(c.message), std::string::npos) << "line: " << c.line << "\nmessage: " << message;
     EXPECT_NE(message.find(P("bad.clf") + ":2:"), std::string::npos) << message;
   }
+  // Bytes a terminal would act on are shown escaped, never sent raw.
+  const std::string escaped = Error("FLASER 2 1 \x1b[2J 1 2 0.5 1 2 0.5 1 h 1\n");
+  EXPECT_NE(escaped.find("field 3 (range 1) '\\x1b[2J' is not a number"), std::string::npos) << escaped;
+  EXPECT_EQ(escaped.find('\x1b'), std::string::npos);
   // Both conventions for the field of view ((n - 1) or n steps) are read.
   const std::string n_steps = "ROBOTLASER1 0 -1.5 2.25 0.75 40 0.01 0 3 1 2 3 0" + tail;
   EXPECT_EQ(ReadCarmenLog(Write("n.clf", n_steps)).scans.size(), 1u);

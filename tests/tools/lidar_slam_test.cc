@@ -173,30 +173,31 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --search-every 0").code, 2);
   const auto huber = Tether("lidar " + log + " -o " + P("o") + " --huber -1");
   EXPECT_EQ(huber.code, 2);
-  EXPECT_NE(huber.output.find("huber_delta"), std::string::npos) << huber.output;
+  EXPECT_NE(huber.output.find("--huber: '-1' is outside its range"), std::string::npos) << huber.output;
   const auto rival = Tether("lidar " + log + " -o " + P("o") + " --rival-ratio 1.5");
   EXPECT_EQ(rival.code, 2);
-  EXPECT_NE(rival.output.find("rival_ratio"), std::string::npos) << rival.output;
+  EXPECT_NE(rival.output.find("--rival-ratio: '1.5' is outside its range [0, 1]"), std::string::npos) << rival.output;
   EXPECT_EQ(Tether("lidar " + log + " -o " + P("o") + " --local-sigma-t 0").code, 2);
-  // Local matching's and the search window's options, checked by LocalSlamOptions::IsValid and
-  // PoseGraphOptions::IsValid before anything is written.
+  // Local matching's and the search window's options: out of their range, refused by name while
+  // the command line is parsed; in range but inconsistent, by LocalSlamOptions::IsValid and
+  // PoseGraphOptions::IsValid. Either way before anything is written.
   const struct {
     const char* option;
     const char* field;
-  } local[] = {{"--min-match-probability 1.5", "min_match_probability"},
-               {"--correlative-rotation-weight -1", "rotation_delta_cost_weight"},
-               {"--correlative-angle -5", "angular_search_window"},
+  } local[] = {{"--min-match-probability 1.5", "--min-match-probability: '1.5' is outside its range"},
+               {"--correlative-rotation-weight -1", "--correlative-rotation-weight: '-1' is outside"},
+               {"--correlative-angle -5", "--correlative-angle: '-5' is outside"},
                {"--match-rotation-weight 0", "rotation"},
-               {"--still-angle -1", "still_"},
-               {"--search-window -1", "linear_search_window"},
-               {"--search-angle 200", "angular_search_window"},
-               {"--search-voxel -1", "search_voxel_size"},
-               {"--search-window-growth -0.1", "search_window_growth"},
-               {"--max-search-window nan", "max_search_window"},
-               {"--max-search-angle 4", "max_search_angle"},
-               {"--search-angle-growth -1", "search_angle_growth"},
-               {"--consecutive-sigma-r 0", "consecutive"},
-               {"--local-huber -1", "local_huber_delta"}};
+               {"--still-angle -1", "--still-angle: '-1' is outside"},
+               {"--search-window -1", "--search-window: '-1' is outside"},
+               {"--search-angle 200", "--search-angle: '200' is outside its range [0, 180]"},
+               {"--search-voxel -1", "--search-voxel: '-1' is outside"},
+               {"--search-window-growth -0.1", "--search-window-growth: '-0.1' is outside"},
+               {"--max-search-window nan", "--max-search-window: 'nan' is not a finite number"},
+               {"--max-search-angle 4", "--max-search-angle: '4' is outside"},
+               {"--search-angle-growth -1", "--search-angle-growth: '-1' is outside"},
+               {"--consecutive-sigma-r 0", "--consecutive-sigma-t and --consecutive-sigma-r must both be positive"},
+               {"--local-huber -1", "--local-huber: '-1' is outside"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

@@ -75,15 +75,16 @@ class OptionChecksTest : public ::testing::Test {
 const struct {
   const char* command;
   const char* base;
+  bool runs_without_input;
 } kCommands[] = {
-    {"optimize", "missing.g2o"},
-    {"simulate", "manhattan -o sim.g2o --poses 20"},
-    {"bench", "missing.g2o"},
-    {"replay", "missing.g2o"},
-    {"ekf-demo", "--seeds 1 --steps 3 --no-graph -q"},
-    {"lidar", "missing.clf -o out"},
-    {"lidar-eval", "missing.tum missing.relations"},
-    {"lidar-degrade", "missing.clf -o out.clf"},
+    {"optimize", "missing.g2o", false},
+    {"simulate", "manhattan -o sim.g2o --poses 20", true},
+    {"bench", "missing.g2o", false},
+    {"replay", "missing.g2o", false},
+    {"ekf-demo", "--seeds 1 --steps 3 --no-graph -q", true},
+    {"lidar", "missing.clf -o out", false},
+    {"lidar-eval", "missing.tum missing.relations", false},
+    {"lidar-degrade", "missing.clf -o out.clf", false},
 };
 
 TEST_F(OptionChecksTest, EveryNumericOptionRefusesNonNumbersAndOutOfRangeValuesByName) {
@@ -111,7 +112,10 @@ TEST_F(OptionChecksTest, EveryNumericOptionRefusesNonNumbersAndOutOfRangeValuesB
           EXPECT_NE(r.err.find(flag), std::string::npos) << "the message does not name the option";
         } else {
           ++taken;
-          EXPECT_NE(r.code, 0) << "a missing input was not reported";
+          // Commands with an input stop at the missing one; ekf-demo and simulate read none.
+          if (!c.runs_without_input) {
+            EXPECT_NE(r.code, 0) << "a missing input was not reported";
+          }
         }
       }
     }

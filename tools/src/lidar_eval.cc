@@ -1,12 +1,14 @@
 #include "tether/tools/lidar_eval.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <ostream>
 #include <sstream>
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/frontends/lidar/laser_scan.h"
 #include "tether/frontends/lidar/lidar_log.h"
 #include "tether/frontends/lidar/relations_metric.h"
 #include "tether/frontends/lidar/restamp.h"
@@ -71,6 +73,15 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
     err << usage << "--pose-offset takes x,y,theta (metres, radians), got '" << cmd.pose_offset << "'\n";
     return kExitUsage;
   }
+  if (!cmd.pose_offset.empty()) {
+    double v[3] = {0, 0, 0};
+    std::sscanf(cmd.pose_offset.c_str(), "%lf,%lf,%lf", &v[0], &v[1], &v[2]);
+    const std::string why = lidar::PoseProblem(v[0], v[1], v[2]);
+    if (!why.empty()) {
+      err << usage << "--pose-offset '" << cmd.pose_offset << "': " << why << "\n";
+      return kExitUsage;
+    }
+  }
   read.scan_topic = cmd.scan_topic;
   read.odom_topic = cmd.odom_topic;
   OutputSet outputs;
@@ -119,7 +130,15 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
       out << "every pose composed with the offset (" << offset.x() << ", " << offset.y() << ", " << offset.theta()
           << ")\n";
     }
+    if (poses.empty()) {
+      err << "error: " << cmd.trajectory << ": the trajectory has no pose; nothing to score\n";
+      return kExitBadInput;
+    }
     const std::vector<lidar::Relation> relations = lidar::ReadRelationsFile(cmd.relations);
+    if (relations.empty()) {
+      err << "error: " << cmd.relations << ": the relations file has no relation; nothing to score\n";
+      return kExitBadInput;
+    }
     lidar::RelationsOptions ro;
     ro.tolerance = cmd.tolerance;
     const lidar::RelationsResult result = lidar::EvaluateRelations(poses, relations, ro);

@@ -86,6 +86,12 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
     return kExitUsage;
   }
   std::string why;
+  const lidar::PoseGraphOptions& pg = cmd.options.pose_graph;
+  if ((pg.consecutive_translation_sigma > 0) != (pg.consecutive_rotation_sigma > 0)) {
+    err << "tether lidar: --consecutive-sigma-t and --consecutive-sigma-r must both be positive, or both 0 (no "
+           "consecutive constraints)\n";
+    return kExitUsage;
+  }
   if (!cmd.options.IsValid(&why) || !cmd.read.IsValid(&why)) {
     err << "tether lidar: " << why << "\n";
     return kExitUsage;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/fields.h"
 #include "tether/core/registry.h"
 
 namespace tether {
@@ -127,8 +128,8 @@ class Fields {
     char* end = nullptr;
     errno = 0;
     const double v = std::strtod(s.c_str(), &end);
-    if (end == s.c_str() || *end != '\0') Fail(Where(i, name) + " '" + s + "' is not a number");
-    if (!std::isfinite(v)) Fail(Where(i, name) + " '" + s + "' is not finite");
+    if (end == s.c_str() || *end != '\0') Fail(Where(i, name) + " " + QuoteToken(s) + " is not a number");
+    if (!std::isfinite(v)) Fail(Where(i, name) + " " + QuoteToken(s) + " is not finite");
     return v;
   }
   long Count(std::size_t i, const char* name, long max) const {
@@ -136,7 +137,8 @@ class Fields {
     char* end = nullptr;
     errno = 0;
     const long v = std::strtol(s.c_str(), &end, 10);
-    if (end == s.c_str() || *end != '\0' || errno == ERANGE) Fail(Where(i, name) + " '" + s + "' is not an integer");
+    if (end == s.c_str() || *end != '\0' || errno == ERANGE)
+      Fail(Where(i, name) + " " + QuoteToken(s) + " is not an integer");
     if (v < 0 || v > max) Fail(Where(i, name) + " " + s + " is outside [0, " + std::to_string(max) + "]");
     return v;
   }

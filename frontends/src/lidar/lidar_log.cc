@@ -1,5 +1,7 @@
 #include "tether/frontends/lidar/lidar_log.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -57,6 +59,10 @@ const char* ToString(LogFormat f) { return NameOf(kLogFormatNames, f); }
 bool FromString(const std::string& name, LogFormat* f) { return ValueOf(kLogFormatNames, name, f); }
 
 LogFormat DetectLogFormat(const std::string& path) {
+  // A pipe (`<(zcat log.gz)`, /dev/stdin) cannot be read twice: peeking would eat its first
+  // bytes. A bag needs seeking, so whatever comes through a pipe is read as a CARMEN log.
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) return LogFormat::kCarmen;
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path + ": cannot open the log (" + std::strerror(errno) + ")");
   char head[13] = {};

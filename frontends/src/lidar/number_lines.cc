@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "tether/core/error.h"
+#include "tether/core/fields.h"
 
 namespace tether {
 namespace lidar {
@@ -27,8 +28,9 @@ bool ReadNumberLine(std::istream& in, const std::string& name, const char* const
       if (k == n) fail("more than " + std::to_string(n) + " fields");
       char* end = nullptr;
       values[k] = std::strtod(token.c_str(), &end);
-      if (end == token.c_str() || *end != '\0') fail(std::string(fields[k]) + " '" + token + "' is not a number");
-      if (!std::isfinite(values[k])) fail(std::string(fields[k]) + " '" + token + "' is not finite");
+      if (end == token.c_str() || *end != '\0')
+        fail(std::string(fields[k]) + " " + QuoteToken(token) + " is not a number");
+      if (!std::isfinite(values[k])) fail(std::string(fields[k]) + " " + QuoteToken(token) + " is not finite");
       ++k;
     }
     if (k < n) fail("found " + std::to_string(k) + " fields, expected " + std::to_string(n));
