@@ -3,6 +3,7 @@ GIL; a smoother's update and finish too) refuses to be changed from another thre
 call's own callback or Python factor, with tether.InUseError; what may run at once still does."""
 import math
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -101,9 +102,16 @@ def test_other_threads_changing_a_graph_and_values_being_solved_are_refused_neve
     done = threading.Event()
     outcome = {"refused": 0, "summary": None}
 
+    def wait_for_a_refusal(it):
+        # The solve holds on (the GIL released) until the other threads have met it at least
+        # once, however busy the machine is.
+        deadline = time.monotonic() + 10
+        while outcome["refused"] == 0 and time.monotonic() < deadline:
+            time.sleep(0.001)
+
     def solve():
         try:
-            outcome["summary"] = tether.optimize(g, v)
+            outcome["summary"] = tether.optimize(g, v, callback=wait_for_a_refusal)
         finally:
             done.set()
 
