@@ -3,6 +3,14 @@
 // are absent.
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/lidar_log.h"
@@ -92,6 +100,60 @@ TEST_F(RosBagTest, FilesThatAreNotBags) {
   const std::string cut = Write("cut.bag", bytes.substr(0, bytes.size() / 2));
   m = ErrorOf<ParseError>([&] { ReadRosBag(cut); });
   EXPECT_NE(m.find(cut + ":"), std::string::npos) << m;
+}
+
+// A ROS 1 bag record: header fields (4-byte length, "name=value"), then the data.
+std::string BagRecord(const std::vector<std::string>& fields, const std::string& data) {
+  const auto u32 = [](std::size_t v) {
+    std::string b(4, '\0');
+    for (int k = 0; k < 4; ++k) b[k] = static_cast<char>((v >> (8 * k)) & 0xff);
+    return b;
+  };
+  std::string header;
+  for (const std::string& f : fields) header += u32(f.size()) + f;
+  return u32(header.size()) + header + u32(data.size()) + data;
+}
+
+// Lengths inside a bag made huge: refused by position before the bag library would allocate
+// them (it read 8 GB before).
+TEST(BagRecordCheck, DamagedLengthsAreRefusedBeforeAnythingIsAllocated) {
+  const std::string message = BagRecord({std::string("op=\x02", 4), "conn=0000"}, std::string(40, 'x'));
+  const std::string chunk =
+      BagRecord({std::string("op=\x05", 4), "compression=none", "size=" + std::string("\x30\0\0\0", 4)}, message);
+  const std::string good = "#ROSBAG V2.0\n" + BagRecord({std::string("op=\x03", 4)}, std::string(16, ' ')) + chunk;
+  char tmpl[] = "/tmp/tether_bag_XXXXXX";
+  ASSERT_NE(::mkdtemp(tmpl), nullptr);
+  const std::string dir = tmpl;
+  const auto write = [&](const std::string& name, const std::string& bytes) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << bytes;
+    return dir + "/" + name;
+  };
+  EXPECT_NO_THROW(CheckBagRecords(write("good.bag", good)));
+  // The message's data length inside the uncompressed chunk.
+  std::string damaged = good;
+  const std::size_t message_at = good.size() - message.size();
+  const std::size_t data_len_at = message_at + 4 + (message.size() - 8 - 40);
+  damaged[data_len_at + 3] = '\x7f';
+  std::string m = ErrorOf<ParseError>([&] { CheckBagRecords(write("inner.bag", damaged)); });
+  EXPECT_NE(m.find("inner.bag: not a readable ROS 1 bag (byte " + std::to_string(data_len_at)), std::string::npos) << m;
+  EXPECT_NE(m.find("past its end"), std::string::npos) << m;
+  EXPECT_NE(m.find("in the chunk at byte"), std::string::npos) << m;
+  // A header field longer than its header.
+  damaged = good;
+  damaged[13 + 4 + 3] = '\x7f';
+  m = ErrorOf<ParseError>([&] { CheckBagRecords(write("field.bag", damaged)); });
+  EXPECT_NE(m.find("a header field claims"), std::string::npos) << m;
+  // A chunk that claims 4 GB uncompressed.
+  damaged = good;
+  const std::size_t size_at = good.find("size=") + 5;
+  damaged.replace(size_at, 4, "\xff\xff\xff\xff");
+  m = ErrorOf<ParseError>([&] { CheckBagRecords(write("size.bag", damaged)); });
+  EXPECT_NE(m.find("a chunk claims 4294967295 bytes uncompressed"), std::string::npos) << m;
+  // Cut anywhere: refused, never read past the end.
+  for (std::size_t n = 14; n < good.size(); n += 7) {
+    EXPECT_THROW(CheckBagRecords(write("cut.bag", good.substr(0, n))), ParseError) << n;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST(RosBagSupport, WithoutItTheReaderSaysHowToGetIt) {

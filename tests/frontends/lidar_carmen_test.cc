@@ -358,6 +358,12 @@ TEST_F(CarmenErrorTest, AbsurdGeometryRangesPosesAndStampsAreRefused) {
   EXPECT_FALSE(far.scans[0].Valid(2));
 }
 
+TEST_F(CarmenErrorTest, ALineLongerThan32MegabytesIsRefusedBeforeItFillsMemory) {
+  const std::string huge = Odom(1, 0, 0, 0) + "FLASER 3 " + std::string(33u << 20, '1') + "\n";
+  const std::string m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("huge.clf", huge)); });
+  EXPECT_NE(m.find("huge.clf:2: the line is longer than 32 MB"), std::string::npos) << m.substr(0, 300);
+}
+
 TEST_F(CarmenErrorTest, ALogWithoutASingleValidBeamIsRefused) {
   // Every range 0 (low-cost scanners' "no return") or beyond the maximum.
   const std::string zeros = Flaser(7, "1 2 0.5", "1 2 0.5", "4 0 0 0 0") + Flaser(8, "1 2 0.5", "1 2 0.5", "4 0 0 0 0");

@@ -25,6 +25,9 @@ namespace {
 // and would join the two halves of such a line to the next one).
 class GzLines {
  public:
+  /// The longest line read: a scan of kMaxBeams ranges and as many remissions fits in it.
+  static constexpr std::size_t kMaxLineBytes = std::size_t(32) << 20;
+
   explicit GzLines(const std::string& path) : path_(path), file_(gzopen(path.c_str(), "rb")) {
     if (file_ == nullptr) {
       const int err = errno;
@@ -51,6 +54,11 @@ class GzLines {
       line->append(buffer_, begin_, std::string::npos);
       buffer_.clear();
       begin_ = 0;
+      if (line->size() > kMaxLineBytes) {
+        throw ParseError(path_ + ":" + std::to_string(line_ + 1) + ": the line is longer than " +
+                         std::to_string(kMaxLineBytes >> 20) + " MB (a million beams with remissions fit in " +
+                         "less); is this a text log?");
+      }
       if (!Fill()) {
         if (line->empty()) return false;
         break;

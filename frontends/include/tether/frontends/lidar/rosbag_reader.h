@@ -18,5 +18,11 @@ bool RosBagSupported();
 /// malformed or the scan topic is missing or of another type, InvalidArgument without bag support.
 LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options = {});
 
+/// Checks that every record of a ROS 1 bag (v2.0), and every record inside an uncompressed
+/// chunk, lies within the file or chunk holding it, and that no chunk claims more than 1 GB
+/// uncompressed; throws ParseError "path: byte N: ..." otherwise. ReadRosBag calls it before
+/// the bag library reads anything, so that a damaged length is never allocated. Needs no ROS.
+void CheckBagRecords(const std::string& path);
+
 }  // namespace lidar
 }  // namespace tether
