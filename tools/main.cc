@@ -33,7 +33,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   optimize->add_option("--covariance", opt.covariance,
                        "After the solve, marginal covariances of these ids (comma-separated) or of all");
-  optimize->add_option("--covariance-out", opt.covariance_output, "Covariance file (default: OUTPUT.cov)");
+  optimize->add_option("--covariance-out", opt.covariance_output, "Covariance file (default: OUTPUT.cov)")
+      ->needs("--covariance");
   optimize->add_option("--init", opt.init, "initial guess: file | spanning-tree | chordal")->capture_default_str();
   optimize->add_option("--max-iterations", opt.max_iterations, "Iteration limit")->capture_default_str();
   optimize->add_option("--time-limit", opt.time_limit, "Seconds (0: none)")->capture_default_str();
@@ -74,16 +75,18 @@ int main(int argc, char** argv) {
                    "Robust loss rule SELECTOR=KERNEL:SCALE: loop=huber:1.0 (edges between non-consecutive poses), "
                    "all=cauchy:2, or a g2o tag (EDGE_SE2=dcs:1); kernels huber, cauchy, tukey, gm, dcs; repeatable")
       ->allow_extra_args(false);
-  optimize->add_flag("--gnc", opt.gnc,
-                     "Graduated non-convexity on the loop closures (edges between non-consecutive poses); reports "
-                     "the closures it rejects");
+  CLI::Option* gnc = optimize->add_flag("--gnc", opt.gnc,
+                                        "Graduated non-convexity on the loop closures (edges between non-consecutive "
+                                        "poses); reports the closures it rejects");
   optimize
       ->add_option("--gnc-kernel", opt.gnc_kernel, "With --gnc: gm (Geman-McClure) or tls (truncated least squares)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(gnc);
   optimize
       ->add_option("--gnc-start", opt.gnc_start,
                    "With --gnc: chunked (DCS solved chunk by chunk in id order) or least-squares (the classic start)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(gnc);
   optimize->add_flag("--switchable", opt.switchable,
                      "Switchable constraints on the loop closures (a switch variable per closure with a prior); "
                      "reports the closures it switches off");

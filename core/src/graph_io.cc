@@ -372,9 +372,9 @@ class Reader {
     const Key pose = f.Id(1);
     const Key landmark = LandmarkKey(f, 2);
     const double bearing = f.Double(3), range = f.Double(4);
-    if (range < 0) {
+    if (!(range > 0)) {
       f.Fail("BR range (field 4) is " + FormatDouble(range) +
-             "; a range is a distance, not negative; fix or remove the line");
+             "; a range is a positive distance (at range 0 the landmark has no bearing); fix or remove the line");
     }
     const char* names[2] = {"sigma_bearing (field 5)", "sigma_range (field 6)"};
     double sigma[2];

@@ -593,7 +593,8 @@ OutputFile& OutputSet::Add(const std::string& path, const std::string& what) {
   for (const Input& in : inputs_) {
     if (in.identity == out->identity()) {
       throw InvalidArgument("the " + what + " '" + path + "' is the " + in.what + " '" + in.path +
-                            "'; tether does not write over what it reads: give the " + what + " another path");
+                            "'; tether does not write over what it reads: give the " + what +
+                            " another path (or, where the command names its outputs itself, another folder)");
     }
   }
   for (const auto& other : outputs_) {

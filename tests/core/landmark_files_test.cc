@@ -213,7 +213,11 @@ TEST(LandmarkFilesTest, EveryMalformedLineNamesFileLineAndField) {
             "e.graph:2: too few fields: BR needs 6 after the tag (pose landmark bearing range sigma_bearing "
             "sigma_range), found 5; fix or remove the line");
   EXPECT_EQ(ReadError(v + "BR 0 4 0.5 -2 0.1 0.1\n", "e.graph"),
-            "e.graph:2: BR range (field 4) is -2; a range is a distance, not negative; fix or remove the line");
+            "e.graph:2: BR range (field 4) is -2; a range is a positive distance (at range 0 the landmark has no "
+            "bearing); fix or remove the line");
+  EXPECT_EQ(ReadError(v + "BR 0 4 0.5 0 0.1 0.1\n", "e.graph"),
+            "e.graph:2: BR range (field 4) is 0; a range is a positive distance (at range 0 the landmark has no "
+            "bearing); fix or remove the line");
   EXPECT_EQ(ReadError(v + "BR 0 4 0.5 2 0 0.1\n", "e.graph"),
             "e.graph:2: BR sigma_bearing (field 5) is 0; a standard deviation must be positive; fix or remove the "
             "line");

@@ -247,6 +247,25 @@ TEST_F(CarmenTest, LinesLongerThanTheReadBufferAndCrLf) {
   }
 }
 
+TEST_F(CarmenTest, LinesEndAtLfCrLfOrALoneCr) {
+  const std::string lf = Odom(1, 0, 0, 0) + Flaser(2) + Odom(3, 1, 0, 0) + Flaser(4);
+  std::string cr = lf, crlf;
+  for (char& c : cr) c = c == '\n' ? '\r' : c;
+  for (char c : lf) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  const LidarLog a = ReadCarmenLog(Write("lf.clf", lf));
+  for (const std::string& text : {cr, crlf}) {
+    const LidarLog b = ReadCarmenLog(Write("other.clf", text));
+    ASSERT_EQ(b.scans.size(), 2u);
+    EXPECT_EQ(b.scans[1].source_index, a.scans[1].source_index);  // line 4 either way
+    EXPECT_EQ(b.scans[1].ranges, a.scans[1].ranges);
+  }
+  // A message on a CR-only log's third line names line 3.
+  std::string bad = Odom(1, 0, 0, 0) + Flaser(2) + "FLASER 2 x\n";
+  for (char& c : bad) c = c == '\n' ? '\r' : c;
+  const std::string m = ErrorOf<ParseError>([&] { ReadCarmenLog(Write("bad_cr.clf", bad)); });
+  EXPECT_NE(m.find("bad_cr.clf:3: FLASER"), std::string::npos) << m;
+}
+
 // The message reading `text` (as file bad.clf, after a good first line) gives.
 class CarmenErrorTest : public testing::LidarFilesTest {
  protected:

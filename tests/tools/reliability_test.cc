@@ -116,6 +116,12 @@ const Case kCases[] = {
      "$T simulate manhattan --poses 30 -o g.g2o > /dev/null; echo old > out.g2o",
      "$T optimize g.g2o -q -o out.g2o --plot /dev/full", 4, "every replaced file was put back as it was",
      "test \"$(cat out.g2o)\" = old && ! ls -a | grep -q tether-"},
+    {"--gnc-kernel without --gnc", "", "$T optimize base2d.g2o -q --gnc-kernel tls", 2, "--gnc-kernel requires --gnc",
+     ""},
+    {"--covariance-out without --covariance", "", "$T optimize base2d.g2o -q -o o.g2o --covariance-out c.cov", 2,
+     "--covariance-out requires --covariance", "test ! -e o.g2o"},
+    {"a TORO landmark at range 0", "printf 'VERTEX2 0 0 0 0\\nBR 0 1 0.5 0 0.1 0.1\\n' > r0.graph",
+     "$T optimize r0.graph -q", 1, "r0.graph:2: BR range (field 4) is 0", ""},
     {"an edge quaternion far from unit length",
      "printf 'VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 2 1 0 "
      "0 0 0 "

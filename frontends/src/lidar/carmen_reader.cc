@@ -45,10 +45,16 @@ class GzLines {
   bool Next(std::string* line) {
     line->clear();
     for (;;) {
-      const std::size_t eol = buffer_.find('\n', begin_);
+      // A line ends at LF, CR LF or a lone CR (old Mac files).
+      if (skip_lf_ && begin_ < buffer_.size()) {
+        if (buffer_[begin_] == '\n') ++begin_;
+        skip_lf_ = false;
+      }
+      const std::size_t eol = buffer_.find_first_of("\r\n", begin_);
       if (eol != std::string::npos) {
         line->append(buffer_, begin_, eol - begin_);
         begin_ = eol + 1;
+        skip_lf_ = buffer_[eol] == '\r';
         break;
       }
       line->append(buffer_, begin_, std::string::npos);
@@ -99,6 +105,7 @@ class GzLines {
   std::string buffer_;
   std::size_t begin_ = 0;
   bool eof_ = false;
+  bool skip_lf_ = false;  // the last line ended at a CR: an LF right after it belongs to it
   long line_ = 0;
 };
 
