@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Fuzzes every graph reader, and the CARMEN laser-log reader (with the log writer and degrader
-# behind it), with libFuzzer under AddressSanitizer and UndefinedBehaviorSanitizer.
+# Fuzzes every graph reader, the CARMEN laser-log reader (with the log writer and degrader
+# behind it), the TUM and relations readers and the bag record check, with libFuzzer under
+# AddressSanitizer and UndefinedBehaviorSanitizer.
 #
 #   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
 #
@@ -31,12 +32,12 @@ bash scripts/install_deps.sh > /dev/null
 
 CC=clang CXX=clang++ cmake -S . -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETHER_BUILD_FUZZERS=ON \
   -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_TOOLS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DBUILD_SHARED_LIBS=OFF > /dev/null
-cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam fuzz_carmen > /dev/null
+cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam fuzz_carmen fuzz_lidar_text > /dev/null
 
 # Seed corpora.
 datasets="$root/../shared/datasets"
 stamp=$(date +%Y%m%d-%H%M%S)
-for t in g2o toro isam carmen; do
+for t in g2o toro isam carmen lidar_text; do
   mkdir -p "$work/corpus/$t" "$work/findings/$t"
   if [ -n "$(ls -A "$work/findings/$t")" ]; then
     mkdir -p "$work/findings/$t.$stamp"
@@ -71,6 +72,18 @@ printf '\100ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\nLANDMARK 1 5 2 3 0.4 0.
 printf '\000PARAMS_SE3OFFSET 1 0.1 0 0.2 0 0 0.3 0.95\nVERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 7 1 1 2 3 1 0 0 1 0 1\nEDGE_SE3_PRIOR 0 1 0 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nEDGE_RANGE_BEARING_SE2_XY 3 4 2 0.5 1 0 1\n' > "$work/corpus/g2o/seed_landmarks"
 printf '\000ODOM 0 0 0 0 0 0 9.5 h 0\nRAWLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 2 7 8 10 h 1\nODOM 1 0 0.5 0 0 0 10.5 h 1\n' > "$work/corpus/carmen/seed_raw"
 printf '\003FLASER 3 1 2 81.9 0.1 0 0 0 0 0 10 h 1\nROBOTLASER1 0 -1.5 1.5 0.75 40 0.01 0 3 1 2 3 0 1 0 0 1 0 0 0 0 0 0 0 11 h 2\n' > "$work/corpus/carmen/seed_none"
+# TUM (first byte 0), relations (1), bag records (2): the public trajectories' and relations'
+# first lines, a tiny bag and the head of a real one.
+printf '\000# timestamp x y z qx qy qz qw\n1.5 1 2 0 0 0 0.1 0.995\n2.5 1.2 2 0 0 0 0.2 0.98\n' > "$work/corpus/lidar_text/seed_tum"
+printf '\x011.5 2.5 0.2 0 0 0 0 0.1\n' > "$work/corpus/lidar_text/seed_relations"
+if [ -d "$datasets/lidar" ]; then
+  while IFS= read -r f; do
+    { printf '\001'; head -n 30 "$f"; } > "$work/corpus/lidar_text/seed_$(basename "$f")"
+  done < <(find "$datasets/lidar" -type f -name '*.relations' 2> /dev/null)
+  while IFS= read -r f; do
+    { printf '\002'; head -c 3000 "$f"; } > "$work/corpus/lidar_text/seed_$(basename "$f")"
+  done < <(find "$datasets/lidar" -type f -name '*.bag' 2> /dev/null)
+fi
 for f in "$root"/tests/fuzz/regressions/carmen/*; do
   case "$f" in *.md) continue ;; esac
   [ -f "$f" ] && cp "$f" "$work/corpus/carmen/"
@@ -141,7 +154,7 @@ DICT
 status=0
 echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
-for t in g2o toro isam carmen; do
+for t in g2o toro isam carmen lidar_text; do
   log="$work/fuzz_$t.log"
   dict="$work/tags.dict"
   [ "$t" = carmen ] && dict="$work/carmen.dict"

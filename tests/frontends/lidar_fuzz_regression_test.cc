@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "fuzz/read_carmen_fuzz.h"
+#include "fuzz/read_lidar_text_fuzz.h"
 
 namespace tether {
 namespace {
@@ -58,6 +59,32 @@ TEST(CarmenFuzzRegressionTest, HostileLogsAreReadOrRefusedCleanly) {
     for (int b = 0; b < 32; ++b) Replay(std::string(1, static_cast<char>(b)) + log);
   }
   std::remove(fuzz::CarmenScratchPath().c_str());
+}
+
+// The TUM, relations and bag-record fuzz target on hostile inputs: each reads or is refused
+// with a tether::Error, and what reads round-trips (the target aborts otherwise).
+TEST(LidarTextFuzzRegressionTest, HostileTextAndBagInputsAreReadOrRefusedCleanly) {
+  const std::vector<std::string> inputs = {
+      std::string("\0", 1),
+      std::string("\0", 1) + "1e308 1e308 -1e308 0 0 0 0 1\n",
+      std::string("\0", 1) + "1e245 1 2 0 0 0 0.3 0.9\n2e245 1 2 0 0 0 0.3 0.9\n",
+      std::string("\0", 1) + "1 \x1b[2J 2 0 0 0 0 1\n",
+      std::string("\0", 1) + "1 nan 2 0 0 0 0 1\n",
+      "\x01"
+      "1 2 1e308 0 0 0 0 1e308\n",
+      "\x01"
+      "2 1 0 0 0 0 0 0\n1 1 0 0 0 0 0 0\n",
+      "\x02",
+      "\x02"
+      "#ROSBAG V2.0\n\xff\xff\xff\x7f",
+      "\x02"
+      "#ROSBAG V2.0\n\x08\0\0\0\x04\0\0\0op=\x05\xff\xff\xff\xff",
+  };
+  for (const std::string& in : inputs) {
+    SCOPED_TRACE(in.substr(1, 60));
+    EXPECT_EQ(fuzz::ReadLidarTextOnce(reinterpret_cast<const std::uint8_t*>(in.data()), in.size()), 0);
+  }
+  std::remove(fuzz::BagScratchPath().c_str());
 }
 
 }  // namespace

@@ -1,0 +1,79 @@
+#pragma once
+// The body of the fuzz target for the LiDAR text readers (read_lidar_text_fuzzer.cc): TUM
+// trajectories and relation files, and the bag record check (CheckBagRecords, tether's own
+// parser of a bag's record lengths). The first byte picks the reader (0: TUM, 1: relations,
+// 2: bag records); the rest is the file.
+//   TUM: a trajectory that reads must write (WriteTum) and read back to the same stamps and
+//        poses (to rounding).
+//   relations: a file that reads must score against a trajectory of its own stamps.
+//   bag: the check either passes or throws ParseError; nothing else.
+// Anything but a tether::Error escaping, or a round trip that differs, is a finding (abort).
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tether/core/error.h"
+#include "tether/frontends/lidar/relations_metric.h"
+#include "tether/frontends/lidar/rosbag_reader.h"
+#include "tether/frontends/lidar/tum_trajectory.h"
+
+namespace tether {
+namespace fuzz {
+
+inline const std::string& BagScratchPath() {
+  static const std::string path = [] {
+    const char* dir = std::getenv("TMPDIR");
+    return std::string(dir != nullptr && *dir != '\0' ? dir : "/tmp") + "/tether_fuzz_bag_" +
+           std::to_string(::getpid()) + ".bag";
+  }();
+  return path;
+}
+
+inline int ReadLidarTextOnce(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const int reader = data[0] % 3;
+  const std::string text(reinterpret_cast<const char*>(data) + 1, size - 1);
+  try {
+    if (reader == 0) {
+      std::istringstream in(text);
+      const std::vector<lidar::StampedPose2> poses = lidar::ReadTum(in, "fuzz.tum");
+      std::ostringstream out;
+      lidar::WriteTum(out, poses);
+      std::istringstream back_in(out.str());
+      const std::vector<lidar::StampedPose2> back = lidar::ReadTum(back_in, "back.tum");
+      if (back.size() != poses.size()) std::abort();
+      for (std::size_t i = 0; i < poses.size(); ++i) {
+        const double scale = 1 + std::abs(poses[i].stamp);
+        if (std::abs(back[i].stamp - poses[i].stamp) > 1e-9 * scale) std::abort();
+        if ((back[i].pose.translation() - poses[i].pose.translation()).norm() >
+            1e-9 * (1 + poses[i].pose.translation().norm()))
+          std::abort();
+      }
+    } else if (reader == 1) {
+      std::istringstream in(text);
+      const std::vector<lidar::Relation> relations = lidar::ReadRelations(in, "fuzz.relations");
+      std::vector<lidar::StampedPose2> poses;
+      for (const lidar::Relation& r : relations) {
+        poses.push_back({r.t1, SE2d()});
+        poses.push_back({r.t2, SE2d()});
+      }
+      std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+      lidar::EvaluateRelations(poses, relations, {});
+    } else {
+      { std::ofstream(BagScratchPath(), std::ios::binary) << text; }
+      lidar::CheckBagRecords(BagScratchPath());
+    }
+  } catch (const Error&) {
+  }
+  return 0;
+}
+
+}  // namespace fuzz
+}  // namespace tether
