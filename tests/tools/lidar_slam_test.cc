@@ -15,6 +15,7 @@
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
+#include "tether/frontends/lidar/rosbag_reader.h"
 #include "tether/frontends/lidar/tum_trajectory.h"
 
 namespace tether {
@@ -165,6 +166,19 @@ TEST_F(LidarSlamTest, ScanOnlySimulatedOfficeAgainstItsTruth) {
   const auto missing = Tether("lidar " + P("office.log") + " -o " + P("office2") + " --ground-truth " + P("none.tum"));
   EXPECT_EQ(missing.code, 1) << missing.output;
   EXPECT_NE(missing.output.find("none.tum"), std::string::npos) << missing.output;
+}
+
+// A bag whose odometry topic is mistyped (or absent) maps scan-only, and says so.
+TEST_F(LidarSlamTest, ABagWithoutMessagesOnTheOdometryTopicWarns) {
+  const std::string bag = testing::LidarDataset("bags/aces.bag");
+  if (bag.empty()) GTEST_SKIP() << "dataset lidar/bags/aces.bag absent (../shared/datasets not beside the repository)";
+  if (!lidar::RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
+  const auto r = Tether("lidar " + bag + " -o " + P("bag_out") + " -q --max-scans 30 --odom-topic /odomx");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("has no message on the odometry topic /odomx: mapping scan-only"), std::string::npos)
+      << r.output;
+  const auto quiet = Tether("lidar " + bag + " -o " + P("bag_out2") + " -q --max-scans 30 --odometry none");
+  EXPECT_EQ(quiet.output.find("warning"), std::string::npos) << quiet.output;
 }
 
 TEST_F(LidarSlamTest, UsageAndInputErrors) {

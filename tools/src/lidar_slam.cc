@@ -133,6 +133,11 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
     err << "error: " << e.what() << "\n";
     return fail(kExitBadInput);
   }
+  if (log.format == lidar::LogFormat::kRosBag && log.odometry.empty() &&
+      cmd.read.odometry != lidar::OdometrySource::kNone) {
+    err << "warning: " << cmd.log << " has no message on the odometry topic " << cmd.read.odom_topic
+        << ": mapping scan-only (check --odom-topic; --odometry none asks for scan-only and silences this)\n";
+  }
   if (log.scans.empty()) {
     err << "error: " << cmd.log << " has no scans\n";
     return fail(kExitBadInput);
