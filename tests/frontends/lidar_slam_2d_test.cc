@@ -187,6 +187,44 @@ TEST(LidarSlam2DTest, OutputsAndErrors) {
   EXPECT_THROW(LidarSlam2D{bad}, InvalidArgument);
 }
 
+// A scan that cannot be used is refused before anything changes; one that maps far outside any
+// grid fails part-way, names its line through Run, and the run cannot go on.
+TEST(LidarSlam2DTest, ScansThatCannotBeMappedAreRefusedByName) {
+  const Trip trip = Drive(true);
+  LidarSlam2D slam(TestOptions(0));
+  slam.AddScan(trip.scans[0]);
+  LaserScan bad = trip.scans[1];
+  bad.angle_increment = 1e-300;
+  std::string m;
+  try {
+    slam.AddScan(bad);
+  } catch (const InvalidArgument& e) {
+    m = e.what();
+  }
+  EXPECT_NE(m.find("scan 1: the angle step 1e-300 rad"), std::string::npos) << m;
+  EXPECT_EQ(slam.scan_count(), 1);
+  slam.AddScan(trip.scans[1]);  // nothing changed: the run goes on
+
+  LidarLog log;
+  log.path = "far.clf";
+  log.format = LogFormat::kCarmen;
+  for (int i = 0; i < 3; ++i) {
+    LaserScan s = trip.scans[static_cast<std::size_t>(i)];
+    s.source_index = 10 + i;
+    if (i == 2) s.odometry = SE2d(1e6, 0, 0);  // within the reader's bounds, far outside any map
+    log.scans.push_back(s);
+  }
+  LidarSlam2D far(TestOptions(0));
+  m.clear();
+  try {
+    far.Run(log);
+  } catch (const ParseError& e) {
+    m = e.what();
+  }
+  EXPECT_NE(m.find("far.clf:12: scan 2: ProbabilityGrid: writing cell"), std::string::npos) << m;
+  EXPECT_THROW(far.AddScan(trip.scans[3]), InvalidArgument);  // failed part-way: no more scans
+}
+
 // The self-check on the true poses: everything fits; with the last 40 scans moved 1 m aside and
 // turned 1.7 degrees (a stretch a wrong closure would pull away), the stretch is found, and
 // nothing else.
