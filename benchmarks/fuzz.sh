@@ -51,8 +51,9 @@ if [ -d "$datasets" ]; then
   done < <(find "$datasets" -type f \( -name '*.g2o' -o -name '*.graph' -o -path '*/landmarks/*.txt' \))
   # CARMEN logs (plain or gzip): their first lines, and a stretch after the header.
   while IFS= read -r f; do
-    { printf '\000'; zcat -f "$f" | head -n 40; } > "$work/corpus/carmen/seed_$(basename "$f")"
-    { printf '\010'; zcat -f "$f" | grep -m 12 -E '^(ODOM|FLASER|ROBOTLASER1)'; } > "$work/corpus/carmen/seed_gz_$(basename "$f")"
+    # (the reader stops early: zcat's SIGPIPE is expected, not a failure)
+    { printf '\000'; zcat -f "$f" | head -n 40 || true; } > "$work/corpus/carmen/seed_$(basename "$f")"
+    { printf '\010'; zcat -f "$f" | grep -m 12 -E '^(ODOM|FLASER|ROBOTLASER1)' || true; } > "$work/corpus/carmen/seed_gz_$(basename "$f")"
   done < <(find "$datasets/lidar" -type f \( -name '*.clf*' -o -name '*.log*' \) 2> /dev/null)
   # BR lines start after the poses in example.graph: seed them from the middle too.
   if [ -f "$datasets/landmarks/example.graph" ]; then
