@@ -24,6 +24,7 @@
 #include <sstream>
 #include <string>
 
+#include "scratch_path.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/carmen_reader.h"
 #include "tether/frontends/lidar/degrade_log.h"
@@ -33,11 +34,7 @@ namespace fuzz {
 
 /// A file of this process for the log (the reader takes a path).
 inline const std::string& CarmenScratchPath() {
-  static const std::string path = [] {
-    const char* dir = std::getenv("TMPDIR");
-    return std::string(dir != nullptr && *dir != '\0' ? dir : "/tmp") + "/tether_fuzz_carmen_" +
-           std::to_string(::getpid()) + ".log";
-  }();
+  static const std::string path = ScratchPath("carmen", "log");
   return path;
 }
 

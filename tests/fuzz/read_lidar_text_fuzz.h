@@ -8,7 +8,6 @@
 //   relations: a file that reads must score against a trajectory of its own stamps.
 //   bag: the check either passes or throws ParseError; nothing else.
 // Anything but a tether::Error escaping, or a round trip that differs, is a finding (abort).
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "scratch_path.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/relations_metric.h"
 #include "tether/frontends/lidar/rosbag_reader.h"
@@ -28,11 +28,7 @@ namespace tether {
 namespace fuzz {
 
 inline const std::string& BagScratchPath() {
-  static const std::string path = [] {
-    const char* dir = std::getenv("TMPDIR");
-    return std::string(dir != nullptr && *dir != '\0' ? dir : "/tmp") + "/tether_fuzz_bag_" +
-           std::to_string(::getpid()) + ".bag";
-  }();
+  static const std::string path = ScratchPath("bag", "bag");
   return path;
 }
 

@@ -78,6 +78,17 @@ def test_a_python_factor_that_changes_its_graph_during_the_solve_gets_an_error()
     assert len(g) == 31
 
 
+def anchored_smoother():
+    """A smoother holding pose 0 at the origin under a prior."""
+    smoother = tether.IncrementalSmoother()
+    g0 = tether.FactorGraph()
+    g0.add(tether.PriorSE2(0, tether.SE2(0, 0, 0), tether.SqrtInformation.identity(3)))
+    v0 = tether.Values()
+    v0.insert(0, tether.SE2(0, 0, 0))
+    smoother.update(g0, v0)
+    return smoother
+
+
 def run_threads(targets):
     errors = []
 
@@ -166,12 +177,7 @@ def test_two_solves_may_share_a_graph_but_not_values():
 
 
 def test_two_threads_updating_one_smoother_never_crash():
-    smoother = tether.IncrementalSmoother()
-    g0 = tether.FactorGraph()
-    g0.add(tether.PriorSE2(0, tether.SE2(0, 0, 0), tether.SqrtInformation.identity(3)))
-    v0 = tether.Values()
-    v0.insert(0, tether.SE2(0, 0, 0))
-    smoother.update(g0, v0)
+    smoother = anchored_smoother()
     lock = threading.Lock()
     next_key = [1]
     refused = [0]
@@ -204,12 +210,7 @@ def test_two_threads_updating_one_smoother_never_crash():
 
 
 def test_a_python_factor_raising_in_a_smoother_update_changes_nothing():
-    smoother = tether.IncrementalSmoother()
-    g0 = tether.FactorGraph()
-    g0.add(tether.PriorSE2(0, tether.SE2(0, 0, 0), tether.SqrtInformation.identity(3)))
-    v0 = tether.Values()
-    v0.insert(0, tether.SE2(0, 0, 0))
-    smoother.update(g0, v0)
+    smoother = anchored_smoother()
 
     def boom(x):
         raise ZeroDivisionError("from the factor")
