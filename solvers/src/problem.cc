@@ -137,8 +137,7 @@ std::string Problem::DescribeNonFinite() const {
   return "";
 }
 
-Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads)
-    : values_(values) {
+Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads) {
   // Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR
   // permute for fill-in themselves).
   // Variables no factor uses stay as they are (they would only make H singular).

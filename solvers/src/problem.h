@@ -149,7 +149,6 @@ class Problem : public TrialPoint {
   std::vector<double> jac_, res_;
   std::vector<double> saved_;
   std::vector<int> qr_colptr_;
-  Values* values_;
   int n_ = 0, m_ = 0;
   bool jacobian_finite_ = false;
   bool has_saved_ = false;
