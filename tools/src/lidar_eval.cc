@@ -1,7 +1,6 @@
 #include "tether/tools/lidar_eval.h"
 
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <ostream>
 #include <sstream>
@@ -33,8 +32,9 @@ std::string TrajectoryKind(const LidarEvalCommand& cmd) {
   return "tum";
 }
 
-// "x,y,theta" into *offset; false where it is not three finite numbers.
-bool ParseOffset(const std::string& text, SE2<double>* offset) {
+// "x,y,theta" into *offset; false where it is not three finite numbers, or (`why` set) where
+// PoseProblem refuses them as a pose.
+bool ParseOffset(const std::string& text, SE2<double>* offset, std::string* why) {
   double v[3];
   std::size_t at = 0;
   for (int k = 0; k < 3; ++k) {
@@ -46,6 +46,8 @@ bool ParseOffset(const std::string& text, SE2<double>* offset) {
     if (field.empty() || *end != '\0' || !std::isfinite(v[k])) return false;
     at = comma + 1;
   }
+  *why = lidar::PoseProblem(v[0], v[1], v[2]);
+  if (!why->empty()) return false;
   *offset = SE2<double>(v[0], v[1], v[2]);
   return true;
 }
@@ -69,18 +71,14 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
     return kExitUsage;
   }
   SE2<double> offset;
-  if (!cmd.pose_offset.empty() && !ParseOffset(cmd.pose_offset, &offset)) {
-    err << usage << "--pose-offset takes x,y,theta (metres, radians), got '" << cmd.pose_offset << "'\n";
-    return kExitUsage;
-  }
-  if (!cmd.pose_offset.empty()) {
-    double v[3] = {0, 0, 0};
-    std::sscanf(cmd.pose_offset.c_str(), "%lf,%lf,%lf", &v[0], &v[1], &v[2]);
-    const std::string why = lidar::PoseProblem(v[0], v[1], v[2]);
-    if (!why.empty()) {
-      err << usage << "--pose-offset '" << cmd.pose_offset << "': " << why << "\n";
-      return kExitUsage;
+  std::string offset_problem;
+  if (!cmd.pose_offset.empty() && !ParseOffset(cmd.pose_offset, &offset, &offset_problem)) {
+    if (!offset_problem.empty()) {
+      err << usage << "--pose-offset '" << cmd.pose_offset << "': " << offset_problem << "\n";
+    } else {
+      err << usage << "--pose-offset takes x,y,theta (metres, radians), got '" << cmd.pose_offset << "'\n";
     }
+    return kExitUsage;
   }
   read.scan_topic = cmd.scan_topic;
   read.odom_topic = cmd.odom_topic;
