@@ -233,16 +233,6 @@ void SqrtInformation::WhitenRowMajor(double* m, int cols) const {
   KernelFor(dim_, cols)(data(), dim_, m, cols);
 }
 
-namespace {
-constexpr EnumName<InformationRepair> kRepairNames[] = {{InformationRepair::kNone, "none"},
-                                                        {InformationRepair::kNearestPD, "nearest-pd"},
-                                                        {InformationRepair::kIsotropic, "isotropic"}};
-}  // namespace
-
-const char* ToString(InformationRepair r) { return NameOf(kRepairNames, r, "none"); }
-
-bool FromString(const std::string& s, InformationRepair* r) { return ValueOf(kRepairNames, s, r); }
-
 bool RepairInformation(InformationRepair mode, Eigen::MatrixXd* omega) {
   SqrtInformation tmp;
   if (SqrtInformation::TryFromInformation(*omega, &tmp, nullptr)) return false;

@@ -206,19 +206,13 @@ void BindEkf(py::module_& ek) {
       .def_readwrite("control_cov", &ekf::FilterOptions::control_cov)
       .def_readwrite("measurement_cov", &ekf::FilterOptions::measurement_cov)
       .def_property(
-          "association",
-          [](const ekf::FilterOptions& o) {
-            return std::string(o.association == ekf::DataAssociation::kKnown ? "known" : "nearest");
-          },
+          "association", [](const ekf::FilterOptions& o) { return std::string(ToString(o.association)); },
           [](ekf::FilterOptions& o, const std::string& s) {
-            if (s == "known") {
-              o.association = ekf::DataAssociation::kKnown;
-            } else if (s == "nearest") {
-              o.association = ekf::DataAssociation::kNearestNeighbour;
-            } else {
-              throw InvalidArgument("unknown association '" + s + "'; use known or nearest");
+            if (!FromString(s, &o.association)) {
+              throw InvalidArgument("unknown association '" + s + "'; use " + EnumNameList<ekf::DataAssociation>());
             }
-          })
+          },
+          "known, or nearest (nearest neighbour with a Mahalanobis gate; also nn)")
       .def_readwrite("gate", &ekf::FilterOptions::gate)
       .def_readwrite("new_landmark", &ekf::FilterOptions::new_landmark)
       .def_readwrite("update_iterations", &ekf::FilterOptions::update_iterations,
@@ -277,7 +271,7 @@ void BindFrontends(py::module_& m) {
          double loop_closure_probability, int landmarks, double landmark_range) {
         SimulateOptions o;
         if (!FromString(world, &o.world)) {
-          throw InvalidArgument("unknown world '" + world + "'; use manhattan, sphere or landmarks");
+          throw InvalidArgument("unknown world '" + world + "'; use " + EnumNameList<SimWorld>());
         }
         o.poses = poses;
         o.seed = seed;

@@ -22,15 +22,6 @@
 namespace tether {
 
 namespace {
-constexpr EnumName<InitMethod> kInitNames[] = {
-    {InitMethod::kFile, "file"}, {InitMethod::kSpanningTree, "spanning-tree"}, {InitMethod::kChordal, "chordal"}};
-}  // namespace
-
-const char* ToString(InitMethod m) { return NameOf(kInitNames, m, "?"); }
-
-bool FromString(const std::string& s, InitMethod* m) { return ValueOf(kInitNames, s, m); }
-
-namespace {
 
 using Params = std::array<double, 7>;
 

@@ -13,18 +13,6 @@ namespace tether {
 const char* ToString(const Algorithm& a) { return a.name().c_str(); }
 const char* ToString(const LinearSolverType& t) { return t.name().c_str(); }
 
-namespace {
-constexpr EnumName<SolverStatus> kStatusNames[] = {{SolverStatus::kConverged, "converged"},
-                                                   {SolverStatus::kMaxIterations, "max-iterations"},
-                                                   {SolverStatus::kTimeLimit, "time-limit"},
-                                                   {SolverStatus::kDiverged, "diverged"},
-                                                   {SolverStatus::kRankDeficient, "rank-deficient"},
-                                                   {SolverStatus::kInvalidInput, "invalid-input"},
-                                                   {SolverStatus::kStopped, "stopped"}};
-}  // namespace
-
-const char* ToString(SolverStatus s) { return NameOf(kStatusNames, s, "invalid-input"); }
-
 std::string AlgorithmNames() {
   std::string names;
   for (const std::string& n : internal::StepStrategyNames()) names += n + ", ";
@@ -47,8 +35,6 @@ bool FromString(const std::string& s, LinearSolverType* t) {
   *t = LinearSolverType(s);
   return true;
 }
-bool FromString(const std::string& s, SolverStatus* st) { return ValueOf(kStatusNames, s, st); }
-
 namespace {
 
 bool Fail(std::string* why, const std::string& m) {

@@ -525,7 +525,7 @@ TEST(OdometrySourceNames, RoundTrip) {
   OdometrySource s = OdometrySource::kScanLine;
   EXPECT_FALSE(FromString("line", &s));
   EXPECT_EQ(s, OdometrySource::kScanLine);
-  EXPECT_EQ(OdometrySourceNames(), "auto, scan-line, interpolated or none");
+  EXPECT_EQ(EnumNameList<OdometrySource>(), "auto, scan-line, interpolated or none");
   LogFormat f = LogFormat::kAuto;
   EXPECT_TRUE(FromString("rosbag", &f));
   EXPECT_EQ(f, LogFormat::kRosBag);

@@ -48,7 +48,7 @@ def test_filters_track_the_simulated_world(filter_class):
     assert f.landmark_count > 0 and f.landmarks().shape == (f.landmark_count, 2)
     assert f.cov.shape == (3 + 2 * f.landmark_count,) * 2
     assert err < max(dead_err, 1.0)
-    with pytest.raises(tether.InvalidArgument, match="use known or nearest"):
+    with pytest.raises(tether.InvalidArgument, match="use known, nearest or nn"):
         ekf.FilterOptions().association = "best"
 
 

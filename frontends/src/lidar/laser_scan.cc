@@ -10,17 +10,6 @@
 namespace tether {
 namespace lidar {
 
-namespace {
-
-constexpr EnumName<OdometryOrigin> kOriginNames[] = {{OdometryOrigin::kNone, "none"},
-                                                     {OdometryOrigin::kScanLine, "scan-line"},
-                                                     {OdometryOrigin::kInterpolated, "interpolated"},
-                                                     {OdometryOrigin::kClamped, "clamped"}};
-
-}  // namespace
-
-const char* ToString(OdometryOrigin o) { return NameOf(kOriginNames, o); }
-
 bool LaserScan::Valid(std::size_t i) const {
   if (i >= ranges.size()) return false;
   const double r = ranges[i];

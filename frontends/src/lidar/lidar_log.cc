@@ -16,17 +16,6 @@
 namespace tether {
 namespace lidar {
 
-namespace {
-
-constexpr EnumName<OdometrySource> kOdometrySourceNames[] = {{OdometrySource::kAuto, "auto"},
-                                                             {OdometrySource::kScanLine, "scan-line"},
-                                                             {OdometrySource::kInterpolated, "interpolated"},
-                                                             {OdometrySource::kNone, "none"}};
-constexpr EnumName<LogFormat> kLogFormatNames[] = {
-    {LogFormat::kAuto, "auto"}, {LogFormat::kCarmen, "carmen"}, {LogFormat::kRosBag, "rosbag"}};
-
-}  // namespace
-
 bool LidarReadOptions::IsValid(std::string* why) const {
   const auto fail = [why](const char* what) {
     if (why != nullptr) *why = what;
@@ -51,12 +40,6 @@ void CheckReadOptions(const LidarReadOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) throw InvalidArgument("lidar reader: " + why);
 }
-
-const char* ToString(OdometrySource s) { return NameOf(kOdometrySourceNames, s); }
-bool FromString(const std::string& name, OdometrySource* s) { return ValueOf(kOdometrySourceNames, name, s); }
-std::string OdometrySourceNames() { return NameList(kOdometrySourceNames); }
-const char* ToString(LogFormat f) { return NameOf(kLogFormatNames, f); }
-bool FromString(const std::string& name, LogFormat* f) { return ValueOf(kLogFormatNames, name, f); }
 
 LogFormat DetectLogFormat(const std::string& path) {
   // A pipe (`<(zcat log.gz)`, /dev/stdin) cannot be read twice: peeking would eat its first

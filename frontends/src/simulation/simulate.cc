@@ -20,15 +20,6 @@
 namespace tether {
 
 namespace {
-constexpr EnumName<SimWorld> kWorldNames[] = {
-    {SimWorld::kManhattan, "manhattan"}, {SimWorld::kSphere, "sphere"}, {SimWorld::kLandmarks, "landmarks"}};
-}  // namespace
-
-const char* ToString(SimWorld w) { return NameOf(kWorldNames, w); }
-
-bool FromString(const std::string& s, SimWorld* w) { return ValueOf(kWorldNames, s, w); }
-
-namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxPoses = 100000000;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/registry.h"
 #include "tether/core/sqrt_information.h"
@@ -21,6 +22,9 @@ namespace tether {
 
 /// How EDGE2 (and the other TORO and iSAM tags) are read; see docs/file-formats.md.
 enum class FileFormat { kAuto, kG2o, kToro, kIsam };
+inline constexpr EnumName<FileFormat> kFileFormatNames[] = {
+    {FileFormat::kAuto, "auto"}, {FileFormat::kG2o, "g2o"}, {FileFormat::kToro, "toro"}, {FileFormat::kIsam, "isam"}};
+constexpr const auto& EnumNames(FileFormat) { return kFileFormatNames; }
 
 /// Which edges of a file are marked as loop closures (Factor::loop_closure).
 enum class LoopClosureRule {
@@ -34,6 +38,9 @@ enum class IsamNoise {
   kSquareRootInformation,  ///< iSAM's own reading: the upper-triangular square root R; information R^T R
   kCovariance,             ///< the covariance (GTSAM reads victoria_park.txt so); information its inverse
 };
+inline constexpr EnumName<IsamNoise> kIsamNoiseNames[] = {{IsamNoise::kSquareRootInformation, "sqrt-information"},
+                                                          {IsamNoise::kCovariance, "covariance"}};
+constexpr const auto& EnumNames(IsamNoise) { return kIsamNoiseNames; }
 
 struct ReadOptions {
   /// kAuto: a ".graph" name is TORO; otherwise an ODOMETRY or LANDMARK line in the first 64 KiB

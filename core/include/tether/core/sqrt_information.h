@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
+
 namespace tether {
 
 /// Residual dimensions up to this are stored inline (no allocation per factor).
@@ -74,8 +76,10 @@ enum class InformationRepair {
   kNearestPD,  ///< eigenvalues clamped up to a small positive floor (nearest PD in Frobenius norm)
   kIsotropic,  ///< replaced by (trace / n) * I, or I where the trace is not positive
 };
-const char* ToString(InformationRepair r);
-bool FromString(const std::string& s, InformationRepair* r);
+inline constexpr EnumName<InformationRepair> kInformationRepairNames[] = {{InformationRepair::kNone, "none"},
+                                                                          {InformationRepair::kNearestPD, "nearest-pd"},
+                                                                          {InformationRepair::kIsotropic, "isotropic"}};
+constexpr const auto& EnumNames(InformationRepair) { return kInformationRepairNames; }
 
 /// Repairs omega in place according to mode; returns true if it was changed.
 bool RepairInformation(InformationRepair mode, Eigen::MatrixXd* omega);

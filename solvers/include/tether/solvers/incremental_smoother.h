@@ -50,6 +50,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
 #include "tether/solvers/covariance.h"
@@ -63,6 +64,11 @@ enum class SmootherFactorization {
   kLeftLooking,   ///< column by column, subtracting every earlier column that reaches one
   kMultifrontal,  ///< supernodes as dense fronts; unchanged subtrees keep their update matrices
 };
+inline constexpr EnumName<SmootherFactorization> kSmootherFactorizationNames[] = {
+    {SmootherFactorization::kAuto, "auto"},
+    {SmootherFactorization::kLeftLooking, "left-looking"},
+    {SmootherFactorization::kMultifrontal, "multifrontal"}};
+constexpr const auto& EnumNames(SmootherFactorization) { return kSmootherFactorizationNames; }
 
 /// How an update solves (docs/smoother.md, "Local mode").
 enum class SmootherMode {
@@ -77,6 +83,9 @@ enum class SmootherMode {
   /// is long (a 100k-pose Manhattan world).
   kLocal,
 };
+inline constexpr EnumName<SmootherMode> kSmootherModeNames[] = {{SmootherMode::kFactor, "factor"},
+                                                                {SmootherMode::kLocal, "local"}};
+constexpr const auto& EnumNames(SmootherMode) { return kSmootherModeNames; }
 
 struct SmootherOptions {
   SmootherOptions();

@@ -17,16 +17,16 @@
 // only enter in the nonlinear solve.
 #include <string>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
 
 namespace tether {
 
 enum class InitMethod { kFile, kSpanningTree, kChordal };
-
-/// "file", "spanning-tree", "chordal".
-const char* ToString(InitMethod m);
-bool FromString(const std::string& s, InitMethod* m);
+inline constexpr EnumName<InitMethod> kInitMethodNames[] = {
+    {InitMethod::kFile, "file"}, {InitMethod::kSpanningTree, "spanning-tree"}, {InitMethod::kChordal, "chordal"}};
+constexpr const auto& EnumNames(InitMethod) { return kInitMethodNames; }
 
 struct InitSummary {
   InitMethod method = InitMethod::kFile;

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/key.h"
 #include "tether/core/linear_solver.h"
 
@@ -66,6 +67,14 @@ enum class SolverStatus {
   kInvalidInput,   ///< options or graph invalid (message says why); values untouched
   kStopped,        ///< SolverOptions::keep_going returned false; the values of the last iteration it saw
 };
+inline constexpr EnumName<SolverStatus> kSolverStatusNames[] = {{SolverStatus::kConverged, "converged"},
+                                                                {SolverStatus::kMaxIterations, "max-iterations"},
+                                                                {SolverStatus::kTimeLimit, "time-limit"},
+                                                                {SolverStatus::kDiverged, "diverged"},
+                                                                {SolverStatus::kRankDeficient, "rank-deficient"},
+                                                                {SolverStatus::kInvalidInput, "invalid-input"},
+                                                                {SolverStatus::kStopped, "stopped"}};
+constexpr const auto& EnumNames(SolverStatus) { return kSolverStatusNames; }
 
 // Names used by the CLI and reports: "gn", "lm", "dogleg", "ceres"; "cholmod", "ldlt", "qr";
 // "converged", ... FromString accepts the names registered at the time of the call (a
@@ -73,10 +82,8 @@ enum class SolverStatus {
 // LinearSolverType is its name(), valid while that object lives.
 const char* ToString(const Algorithm& a);
 const char* ToString(const LinearSolverType& t);
-const char* ToString(SolverStatus s);
 bool FromString(const std::string& s, Algorithm* a);
 bool FromString(const std::string& s, LinearSolverType* t);
-bool FromString(const std::string& s, SolverStatus* st);
 /// The registered names, comma-separated ("dogleg, gn, lm, ceres"), for messages.
 std::string AlgorithmNames();
 std::string LinearSolverNames();

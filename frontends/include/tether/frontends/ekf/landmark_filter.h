@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/frontends/ekf/range_bearing_model.h"
 #include "tether/frontends/ekf/unscented_transform.h"
 #include "tether/frontends/odometry/diff_drive.h"
@@ -26,6 +27,14 @@ namespace tether {
 namespace ekf {
 
 enum class DataAssociation { kKnown, kNearestNeighbour };
+/// "nn" is another name for "nearest" (the ekf-demo command's).
+inline constexpr EnumName<DataAssociation> kDataAssociationNames[] = {{DataAssociation::kKnown, "known"},
+                                                                      {DataAssociation::kNearestNeighbour, "nearest"},
+                                                                      {DataAssociation::kNearestNeighbour, "nn"}};
+constexpr const auto& EnumNames(DataAssociation) { return kDataAssociationNames; }
+using ::tether::FromString;
+using ::tether::ToString;
+using ::tether::operator<<;
 
 struct FilterOptions {
   /// Covariance of the controls (v, w). Default: std 0.1 m/s, pi/18 rad/s.

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/se2.h"
 
 namespace tether {
@@ -18,7 +19,14 @@ enum class OdometryOrigin {
   kInterpolated,  ///< interpolated in time between the two odometry messages around the scan
   kClamped,       ///< the scan lies before the first or after the last odometry message: that one
 };
-const char* ToString(OdometryOrigin o);
+inline constexpr EnumName<OdometryOrigin> kOdometryOriginNames[] = {{OdometryOrigin::kNone, "none"},
+                                                                    {OdometryOrigin::kScanLine, "scan-line"},
+                                                                    {OdometryOrigin::kInterpolated, "interpolated"},
+                                                                    {OdometryOrigin::kClamped, "clamped"}};
+constexpr const auto& EnumNames(OdometryOrigin) { return kOdometryOriginNames; }
+using ::tether::FromString;
+using ::tether::ToString;
+using ::tether::operator<<;
 
 struct LaserScan {
   double stamp = 0;  ///< seconds (CARMEN ipc_timestamp, ROS header.stamp)

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/frontends/lidar/laser_scan.h"
 #include "tether/frontends/lidar/odometry_track.h"
 
@@ -27,13 +28,16 @@ enum class OdometrySource {
   kInterpolated,  ///< interpolated from the odometry messages (ODOM lines, the odometry topic)
   kNone,          ///< none: every scan's odometry dropped (identity, OdometryOrigin::kNone), to run scan-only
 };
-const char* ToString(OdometrySource s);
-bool FromString(const std::string& name, OdometrySource* s);
-std::string OdometrySourceNames();
+inline constexpr EnumName<OdometrySource> kOdometrySourceNames[] = {{OdometrySource::kAuto, "auto"},
+                                                                    {OdometrySource::kScanLine, "scan-line"},
+                                                                    {OdometrySource::kInterpolated, "interpolated"},
+                                                                    {OdometrySource::kNone, "none"}};
+constexpr const auto& EnumNames(OdometrySource) { return kOdometrySourceNames; }
 
 enum class LogFormat { kAuto, kCarmen, kRosBag };
-const char* ToString(LogFormat f);
-bool FromString(const std::string& name, LogFormat* f);
+inline constexpr EnumName<LogFormat> kLogFormatNames[] = {
+    {LogFormat::kAuto, "auto"}, {LogFormat::kCarmen, "carmen"}, {LogFormat::kRosBag, "rosbag"}};
+constexpr const auto& EnumNames(LogFormat) { return kLogFormatNames; }
 
 struct LidarReadOptions {
   /// kAuto: a ROS bag by its first bytes ("#ROSBAG V2.0"), else a CARMEN log.

@@ -48,6 +48,7 @@
 #include <cstdint>
 #include <string>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
 
@@ -55,10 +56,9 @@ namespace tether {
 
 enum class SimWorld { kManhattan, kSphere, kLandmarks };
 
-/// "manhattan", "sphere", "landmarks".
-const char* ToString(SimWorld w);
-/// Inverse of ToString; returns false (leaving *w unchanged) for an unknown name.
-bool FromString(const std::string& s, SimWorld* w);
+inline constexpr EnumName<SimWorld> kSimWorldNames[] = {
+    {SimWorld::kManhattan, "manhattan"}, {SimWorld::kSphere, "sphere"}, {SimWorld::kLandmarks, "landmarks"}};
+constexpr const auto& EnumNames(SimWorld) { return kSimWorldNames; }
 
 struct SimulateOptions {
   SimWorld world = SimWorld::kManhattan;
