@@ -24,8 +24,11 @@ RobustRule ParseRobustRule(const std::string& text) {
   return rule;
 }
 
-int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& registry, FactorGraph* graph) {
-  // The type name each tag selects, checked before anything changes.
+namespace {
+
+// The type name each rule's tag selects (empty for "loop" and "all"); throws for a tag no type
+// has.
+std::vector<std::string> SelectedTypes(const std::vector<RobustRule>& rules, const Registry& registry) {
   std::vector<std::string> names(rules.size());
   for (std::size_t r = 0; r < rules.size(); ++r) {
     const std::string& s = rules[r].selector;
@@ -37,6 +40,17 @@ int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& regis
     }
     names[r] = type->name;
   }
+  return names;
+}
+
+}  // namespace
+
+void CheckRobustRules(const std::vector<RobustRule>& rules, const Registry& registry) {
+  SelectedTypes(rules, registry);
+}
+
+int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& registry, FactorGraph* graph) {
+  const std::vector<std::string> names = SelectedTypes(rules, registry);  // checked before anything changes
   std::set<std::size_t> given;
   for (std::size_t r = 0; r < rules.size(); ++r) {
     const std::string& s = rules[r].selector;

@@ -1,4 +1,4 @@
-#include "tether/tools/svg_plot.h"
+#include "tether/core/svg_plot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +6,10 @@
 #include <utility>
 #include <vector>
 
-#include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
-#include "tether/tools/trajectory_error.h"
+#include "tether/core/svg_writer.h"
+#include "tether/core/trajectory_error.h"
 
 namespace tether {
 namespace {

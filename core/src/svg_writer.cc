@@ -1,4 +1,4 @@
-#include "svg_writer.h"
+#include "tether/core/svg_writer.h"
 
 #include <cerrno>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "tether/tools/trajectory_error.h"
+#include "tether/core/trajectory_error.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

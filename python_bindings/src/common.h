@@ -141,6 +141,7 @@ void BindPythonFactor(py::module_& m);
 void BindSolve(py::module_& m);
 void BindFrontends(py::module_& m);
 void BindLidar(py::module_& m);
+void BindEvaluation(py::module_& m);
 
 }  // namespace python
 }  // namespace tether

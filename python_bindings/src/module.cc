@@ -237,4 +237,5 @@ PYBIND11_MODULE(tether, m) {
   tp::BindSolve(m);
   tp::BindFrontends(m);
   tp::BindLidar(m);
+  tp::BindEvaluation(m);
 }

@@ -26,30 +26,10 @@ E EnumFrom(const std::string& s, const char* what, const std::string& names) {
   return e;
 }
 
-FileFormat FormatFrom(const std::string& s) {
-  if (s == "auto") return FileFormat::kAuto;
-  if (s == "g2o") return FileFormat::kG2o;
-  if (s == "toro") return FileFormat::kToro;
-  if (s == "isam") return FileFormat::kIsam;
-  throw InvalidArgument("unknown file format '" + s + "'; use auto, g2o, toro or isam");
-}
-
-const char* FactorizationName(SmootherFactorization f) {
-  switch (f) {
-    case SmootherFactorization::kLeftLooking:
-      return "left-looking";
-    case SmootherFactorization::kMultifrontal:
-      return "multifrontal";
-    default:
-      return "auto";
-  }
-}
-
-SmootherFactorization FactorizationFrom(const std::string& s) {
-  if (s == "auto") return SmootherFactorization::kAuto;
-  if (s == "left-looking") return SmootherFactorization::kLeftLooking;
-  if (s == "multifrontal") return SmootherFactorization::kMultifrontal;
-  throw InvalidArgument("unknown factorization '" + s + "'; use auto, left-looking or multifrontal");
+// An enum with a name table (tether/core/enum_names.h) from its name; the error lists the names.
+template <class E, class = IfNamedEnum<E>>
+E NamedFrom(const std::string& s, const char* what) {
+  return EnumFrom<E>(s, what, EnumNameList<E>());
 }
 
 // The Python iteration callback as SolverOptions::keep_going: called with the GIL held;
@@ -243,9 +223,25 @@ void BindMarginalsAndSmoother(py::module_& m) {
       .def_readwrite("iterate_fraction", &SmootherOptions::iterate_fraction)
       .def_readwrite("rounds_per_update", &SmootherOptions::rounds_per_update)
       .def_readwrite("wildfire_threshold", &SmootherOptions::wildfire_threshold)
+      .def_readwrite("iterate_share", &SmootherOptions::iterate_share)
+      .def_readwrite("refine_new_values", &SmootherOptions::refine_new_values)
       .def_property(
-          "factorization", [](const SmootherOptions& o) { return std::string(FactorizationName(o.factorization)); },
-          [](SmootherOptions& o, const std::string& s) { o.factorization = FactorizationFrom(s); })
+          "factorization", [](const SmootherOptions& o) { return std::string(ToString(o.factorization)); },
+          [](SmootherOptions& o, const std::string& s) {
+            o.factorization = NamedFrom<SmootherFactorization>(s, "factorization");
+          },
+          "auto, left-looking or multifrontal")
+      .def_property(
+          "mode", [](const SmootherOptions& o) { return std::string(ToString(o.mode)); },
+          [](SmootherOptions& o, const std::string& s) { o.mode = NamedFrom<SmootherMode>(s, "smoother mode"); },
+          "factor (a Cholesky factor of the whole system) or local (each update over a region around it)")
+      .def_readwrite("local_tolerance", &SmootherOptions::local_tolerance)
+      .def_readwrite("local_hops", &SmootherOptions::local_hops)
+      .def_readwrite("local_max_region", &SmootherOptions::local_max_region)
+      .def_readwrite("local_batch_gap", &SmootherOptions::local_batch_gap)
+      .def_readwrite("local_batch_share", &SmootherOptions::local_batch_share)
+      .def_readwrite("local_batch_correction", &SmootherOptions::local_batch_correction)
+      .def_readwrite("local_batch", &SmootherOptions::local_batch)
       .def_readwrite("compute_chi2", &SmootherOptions::compute_chi2)
       .def_readwrite("update", &SmootherOptions::update)
       .def_readwrite("finish", &SmootherOptions::finish)
@@ -315,7 +311,7 @@ void BindPipeline(py::module_& m) {
       "read_graph",
       [](const std::string& path, const std::string& format) {
         ReadOptions o;
-        o.format = FormatFrom(format);
+        o.format = NamedFrom<FileFormat>(format, "file format");
         GraphFile f = Guarded([&] {
           py::gil_scoped_release release;
           return ReadGraphFile(path, DefaultRegistry(), o);
@@ -346,7 +342,7 @@ void BindPipeline(py::module_& m) {
   m.def(
       "initialize",
       [](const FactorGraph& g, Values& v, const std::string& method) {
-        const InitMethod im = EnumFrom<InitMethod>(method, "initialisation", "file, spanning-tree or chordal");
+        const InitMethod im = NamedFrom<InitMethod>(method, "initialisation");
         const InUse::Scope graph_read(&g, "FactorGraph", "initialize", InUse::Access::kRead);
         const InUse::Scope values_write(&v, "Values", "initialize", InUse::Access::kWrite);
         return Guarded([&] {
@@ -369,8 +365,7 @@ void BindPipeline(py::module_& m) {
       .def_readonly("optimized", &PipelineResult::optimized)
       .def_readonly("summary", &PipelineResult::summary)
       .def_readonly("values", &PipelineResult::values)
-      .def_readonly("written", &PipelineResult::written)
-      .def("exit_code", &PipelineResult::ExitCode);
+      .def_readonly("written", &PipelineResult::written);
   m.def(
       "run_pipeline",
       [](const std::string& input, const std::string& output, const std::string& init, const SolverOptions& solver,
@@ -378,9 +373,9 @@ void BindPipeline(py::module_& m) {
         PipelineOptions po;
         po.input = input;
         po.output = output;
-        po.init = EnumFrom<InitMethod>(init, "initialisation", "file, spanning-tree or chordal");
+        po.init = NamedFrom<InitMethod>(init, "initialisation");
         po.solver = solver;
-        po.read.format = FormatFrom(format);
+        po.read.format = NamedFrom<FileFormat>(format, "file format");
         po.keep_intermediate_values = keep_initial;
         for (const std::string& r : robust) po.robust.push_back(ParseRobustRule(r));
         return Guarded([&] {

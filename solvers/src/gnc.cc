@@ -117,7 +117,12 @@ double DcsPhi(double k, double c2) {
 
 }  // namespace
 
-GncOptions::GncOptions() { inner.max_iterations = 30; }
+GncOptions::GncOptions() { inner.max_iterations = kStageIterations; }
+
+void GncOptions::SetSolver(const SolverOptions& solver) {
+  inner = solver;
+  inner.max_iterations = std::min(solver.max_iterations, kStageIterations);
+}
 
 bool GncOptions::IsValid(std::string* why) const {
   auto fail = [why](const std::string& w) {

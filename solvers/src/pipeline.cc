@@ -9,18 +9,6 @@
 
 namespace tether {
 
-namespace {
-constexpr EnumName<PipelineStatus> kStatusNames[] = {{PipelineStatus::kOk, "ok"},
-                                                     {PipelineStatus::kInvalidOptions, "invalid-options"},
-                                                     {PipelineStatus::kBadInput, "bad-input"},
-                                                     {PipelineStatus::kSolveFailed, "solve-failed"},
-                                                     {PipelineStatus::kWriteFailed, "write-failed"}};
-}  // namespace
-
-const char* ToString(PipelineStatus s) { return NameOf(kStatusNames, s); }
-
-bool FromString(const std::string& s, PipelineStatus* status) { return ValueOf(kStatusNames, s, status); }
-
 bool PipelineOptions::IsValid(std::string* why) const {
   std::string reason;
   if (input.empty()) {
@@ -30,7 +18,7 @@ bool PipelineOptions::IsValid(std::string* why) const {
   } else if (solver.algorithm == Algorithm::kCeres && solver.linear_solver != LinearSolverType::kCholmod) {
     reason =
         "PipelineOptions.solver: the ceres algorithm solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; "
-        "use linear_solver cholmod (ldlt and qr are for gn and lm)";
+        "use the cholmod linear solver (ldlt and qr are for gn and lm)";
   } else if (gnc && !gnc_options.IsValid(&reason)) {
     reason = "PipelineOptions.gnc_options: " + reason;
   } else if (gnc && switchable) {
@@ -40,22 +28,6 @@ bool PipelineOptions::IsValid(std::string* why) const {
   }
   if (why != nullptr) *why = reason;
   return reason.empty();
-}
-
-int PipelineResult::ExitCode() const {
-  switch (status) {
-    case PipelineStatus::kOk:
-      return 0;
-    case PipelineStatus::kInvalidOptions:
-      return 2;
-    case PipelineStatus::kSolveFailed:
-      return 3;
-    case PipelineStatus::kBadInput:
-      return 1;
-    case PipelineStatus::kWriteFailed:
-      return 4;
-  }
-  return 1;
 }
 
 GraphFile ReadProblem(const PipelineOptions& options, const Registry& registry) {
@@ -89,8 +61,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   if (!options.IsValid(&why)) return stop(PipelineStatus::kInvalidOptions, why);
 
   try {
-    FactorGraph none;
-    ApplyRobustRules(options.robust, registry, &none);  // a tag no type has: refused before reading
+    CheckRobustRules(options.robust, registry);  // a tag no type has: refused before reading
   } catch (const InvalidArgument& e) {
     return stop(PipelineStatus::kInvalidOptions, e.what());
   }

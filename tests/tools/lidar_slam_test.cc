@@ -198,20 +198,21 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   const struct {
     const char* option;
     const char* field;
-  } local[] = {{"--min-match-probability 1.5", "--min-match-probability: '1.5' is outside its range"},
-               {"--correlative-rotation-weight -1", "--correlative-rotation-weight: '-1' is outside"},
-               {"--correlative-angle -5", "--correlative-angle: '-5' is outside"},
-               {"--match-rotation-weight 0", "rotation"},
-               {"--still-angle -1", "--still-angle: '-1' is outside"},
-               {"--search-window -1", "--search-window: '-1' is outside"},
-               {"--search-angle 200", "--search-angle: '200' is outside its range [0, 180]"},
-               {"--search-voxel -1", "--search-voxel: '-1' is outside"},
-               {"--search-window-growth -0.1", "--search-window-growth: '-0.1' is outside"},
-               {"--max-search-window nan", "--max-search-window: 'nan' is not a finite number"},
-               {"--max-search-angle 4", "--max-search-angle: '4' is outside"},
-               {"--search-angle-growth -1", "--search-angle-growth: '-1' is outside"},
-               {"--consecutive-sigma-r 0", "--consecutive-sigma-t and --consecutive-sigma-r must both be positive"},
-               {"--local-huber -1", "--local-huber: '-1' is outside"}};
+  } local[] = {
+      {"--min-match-probability 1.5", "--min-match-probability: '1.5' is outside its range"},
+      {"--correlative-rotation-weight -1", "--correlative-rotation-weight: '-1' is outside"},
+      {"--correlative-angle -5", "--correlative-angle: '-5' is outside"},
+      {"--match-rotation-weight 0", "rotation"},
+      {"--still-angle -1", "--still-angle: '-1' is outside"},
+      {"--search-window -1", "--search-window: '-1' is outside"},
+      {"--search-angle 200", "--search-angle: '200' is outside its range [0, 180]"},
+      {"--search-voxel -1", "--search-voxel: '-1' is outside"},
+      {"--search-window-growth -0.1", "--search-window-growth: '-0.1' is outside"},
+      {"--max-search-window nan", "--max-search-window: 'nan' is not a finite number"},
+      {"--max-search-angle 4", "--max-search-angle: '4' is outside"},
+      {"--search-angle-growth -1", "--search-angle-growth: '-1' is outside"},
+      {"--consecutive-sigma-r 0", "consecutive_rotation_sigma (--consecutive-sigma-r) must both be positive"},
+      {"--local-huber -1", "--local-huber: '-1' is outside"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

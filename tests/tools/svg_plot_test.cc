@@ -1,4 +1,4 @@
-#include "tether/tools/svg_plot.h"
+#include "tether/core/svg_plot.h"
 
 #include <gtest/gtest.h>
 

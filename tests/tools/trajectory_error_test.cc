@@ -1,6 +1,6 @@
 // Absolute trajectory error on cases whose answer is known, and the ground truth in the plot
 // and in `tether optimize --ground-truth`.
-#include "tether/tools/trajectory_error.h"
+#include "tether/core/trajectory_error.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -14,9 +14,9 @@
 #include <string>
 
 #include "tether/core/graph_io.h"
+#include "tether/core/svg_plot.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/simulation/simulate.h"
-#include "tether/tools/svg_plot.h"
 
 namespace tether {
 namespace {

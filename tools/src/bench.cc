@@ -22,6 +22,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 #include "tether/tools/outlier_bench.h"
 #include "tether/tools/replay_bench.h"
@@ -447,41 +448,35 @@ int RunOutliers(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
 
 }  // namespace
 
-int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
-  if (cmd.replay) return RunReplayBench(cmd, out, err);
-  if (!cmd.outliers.empty()) return RunOutliers(cmd, out, err);
-  const auto usage = [&err](const std::string& what) {
-    err << "tether bench: " << what << "\n";
-    return 2;
-  };
-  if (cmd.files.empty()) return usage("no FILES given; name one or more graph files (.g2o, .graph)");
+namespace {
+
+// The configurations --solvers x --linear x --init x --threads name; "" or why not.
+std::string ParseConfigs(const BenchCommand& cmd, std::vector<BenchConfig>* configs, std::ostream& err) {
   std::vector<std::string> items;
   std::vector<Algorithm> algorithms;
-  if (!SplitList(cmd.solvers, &items)) return usage("--solvers '" + cmd.solvers + "' is not a comma-separated list");
+  if (!SplitList(cmd.solvers, &items)) return "--solvers '" + cmd.solvers + "' is not a comma-separated list";
   for (const std::string& s : items) {
     Algorithm a;
-    if (!FromString(s, &a)) return usage("unknown solver '" + s + "' in --solvers; use " + AlgorithmNames());
+    if (!FromString(s, &a)) return "unknown solver '" + s + "' in --solvers; use " + AlgorithmNames();
     algorithms.push_back(a);
   }
   std::vector<LinearSolverType> linears;
-  if (!SplitList(cmd.linear, &items)) return usage("--linear '" + cmd.linear + "' is not a comma-separated list");
+  if (!SplitList(cmd.linear, &items)) return "--linear '" + cmd.linear + "' is not a comma-separated list";
   for (const std::string& s : items) {
     LinearSolverType t;
-    if (!FromString(s, &t)) return usage("unknown linear solver '" + s + "' in --linear; use " + LinearSolverNames());
+    if (!FromString(s, &t)) return "unknown linear solver '" + s + "' in --linear; use " + LinearSolverNames();
     linears.push_back(t);
   }
   std::vector<InitMethod> inits;
-  if (!SplitList(cmd.init, &items)) return usage("--init '" + cmd.init + "' is not a comma-separated list");
+  if (!SplitList(cmd.init, &items)) return "--init '" + cmd.init + "' is not a comma-separated list";
   for (const std::string& s : items) {
     InitMethod m;
-    if (!FromString(s, &m)) {
-      return usage("unknown initialisation '" + s + "' in --init; use file, spanning-tree or chordal");
-    }
+    if (!FromString(s, &m)) return "unknown initialisation '" + s + "' in --init; use " + EnumNameList<InitMethod>();
     inits.push_back(m);
   }
   std::vector<int> threads = {0};
   if (!cmd.threads.empty()) {
-    if (!SplitList(cmd.threads, &items)) return usage("--threads '" + cmd.threads + "' is not a comma-separated list");
+    if (!SplitList(cmd.threads, &items)) return "--threads '" + cmd.threads + "' is not a comma-separated list";
     threads.clear();
     for (const std::string& s : items) {
       char* end = nullptr;
@@ -491,29 +486,12 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
       check.num_threads = k < 1 || k > 1 << 20 ? 0 : static_cast<int>(k);
       std::string why;
       if (end == s.c_str() || *end != '\0' || errno != 0 || !check.IsValid(&why)) {
-        return usage("bad thread count '" + s +
-                     "' in --threads: " + (why.empty() ? std::string("num_threads must be a whole number") : why));
+        return "bad thread count '" + s +
+               "' in --threads: " + (why.empty() ? std::string("num_threads must be a whole number") : why);
       }
       threads.push_back(check.num_threads);
     }
   }
-  if (cmd.repeat < 1) return usage("--repeat must be at least 1; got " + std::to_string(cmd.repeat));
-  if (cmd.format != "md" && cmd.format != "csv") return usage("unknown --format '" + cmd.format + "'; use md or csv");
-  if (const std::string why = bench::CheckFilesAndOutput(cmd.files, cmd.output); !why.empty()) return usage(why);
-
-  // Plugins first, into the registry the runs read with (the forked children inherit them).
-  PluginLoader loader(DefaultRegistry());
-  for (const std::string& p : cmd.plugins) {
-    try {
-      const LoadedPlugin l = loader.Load(p);
-      err << l.Summary() << "\n";
-    } catch (const Error& e) {
-      err << "error: " << e.what() << "\n";
-      return kExitPluginFailed;
-    }
-  }
-
-  std::vector<BenchConfig> configs;
   for (Algorithm a : algorithms) {
     for (LinearSolverType l : linears) {
       if (a == Algorithm::kCeres && l != LinearSolverType::kCholmod) {
@@ -528,14 +506,18 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
           c.linear = l;
           c.init = m;
           c.threads = k;
-          configs.push_back(c);
+          configs->push_back(c);
         }
       }
     }
   }
-  if (configs.empty()) return usage("no configuration left to run (ceres runs with --linear cholmod only)");
+  if (configs->empty()) return "no configuration left to run (ceres runs with --linear cholmod only)";
+  return "";
+}
 
-  const std::string blas = ActiveBlasLibrary();
+// Every file under every configuration, --repeat times each, in child processes.
+std::vector<BenchRow> RunConfigs(const BenchCommand& cmd, const std::vector<BenchConfig>& configs,
+                                 const std::string& blas, std::ostream& err) {
   const std::size_t total_rows = cmd.files.size() * configs.size();
   err << "tether bench: " << cmd.files.size() << (cmd.files.size() == 1 ? " file" : " files") << " x " << configs.size()
       << (configs.size() == 1 ? " configuration" : " configurations") << " x " << cmd.repeat
@@ -560,7 +542,31 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
       rows.push_back(std::move(row));
     }
   }
+  return rows;
+}
 
+}  // namespace
+
+int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
+  if (cmd.replay) return RunReplayBench(cmd, out, err);
+  if (!cmd.outliers.empty()) return RunOutliers(cmd, out, err);
+  const auto usage = [&err](const std::string& what) {
+    err << "tether bench: " << what << "\n";
+    return kExitUsage;
+  };
+  if (cmd.files.empty()) return usage("no FILES given; name one or more graph files (.g2o, .graph)");
+  if (cmd.repeat < 1) return usage("--repeat must be at least 1; got " + std::to_string(cmd.repeat));
+  if (cmd.format != "md" && cmd.format != "csv") return usage("unknown --format '" + cmd.format + "'; use md or csv");
+  if (const std::string why = bench::CheckFilesAndOutput(cmd.files, cmd.output); !why.empty()) return usage(why);
+  // Plugins first, into the registry the runs read with (the forked children inherit them);
+  // a plugin's step strategy or linear solver is known once it is loaded.
+  PluginLoader loader(DefaultRegistry());
+  if (!LoadPlugins(cmd.plugins, &loader, err, err)) return kExitPluginFailed;
+  std::vector<BenchConfig> configs;
+  if (const std::string why = ParseConfigs(cmd, &configs, err); !why.empty()) return usage(why);
+
+  const std::string blas = ActiveBlasLibrary();
+  const std::vector<BenchRow> rows = RunConfigs(cmd, configs, blas, err);
   const std::string table =
       cmd.format == "csv" ? FormatBenchCsv(rows, blas) : FormatBenchMarkdown(rows, cmd.repeat, blas);
   if (const int rc = bench::WriteTable(table, cmd.output, out, err); rc != 0) return rc;
@@ -569,5 +575,46 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   for (const BenchRow& row : rows) outcomes.push_back(row.outcome);
   return bench::ExitCode(outcomes);
 }
+
+namespace {
+
+class BenchCli : public Command {
+ public:
+  void Add(CLI::App& app) override;
+  int Run(std::ostream& out, std::ostream& err) override { return RunBench(cmd_, out, err); }
+
+ private:
+  BenchCommand cmd_;
+};
+
+void BenchCli::Add(CLI::App& app) {
+  CLI::App* sub = app_ = app.add_subcommand(
+      "bench", "Time solver configurations on graph files, or replays (--replay) (docs/benchmarking.md)");
+  sub->add_option("files", cmd_.files, "Graph files (.g2o, TORO .graph, or iSAM landmark text)");
+  sub->add_option("--solvers", cmd_.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
+  sub->add_option("--linear", cmd_.linear, "Comma-separated: cholmod, ldlt, qr")->capture_default_str();
+  sub->add_option("--init", cmd_.init, "Comma-separated: file, spanning-tree, chordal")->capture_default_str();
+  sub->add_option("--threads", cmd_.threads, "Comma-separated thread counts (default: the solver's)");
+  sub->add_option("--repeat", cmd_.repeat, "Runs per configuration")->capture_default_str();
+  sub->add_option("--format", cmd_.format, "md | csv")->capture_default_str();
+  AddPath(sub, "-o,--output", &cmd_.output, "Write the table here instead of stdout");
+  sub->add_flag("--replay", cmd_.replay,
+                "Replay each file through the incremental smoother (as tether replay) and tabulate update "
+                "latencies, chi2 and peak memory");
+  sub->add_option("--outliers", cmd_.outliers,
+                  "Outlier benchmark: comma-separated rates of false loop closures (0.1,0.3,0.5)");
+  sub->add_option("--seeds", cmd_.seeds, "With --outliers: comma-separated seeds")->capture_default_str();
+  sub->add_option("--methods", cmd_.methods,
+                  "With --outliers: none, huber, dcs, cdcs (DCS in chunks), gnc, gnc-ls (GNC from least squares), sc "
+                  "(switchable constraints), sc:SIGMA (switch prior sigma)")
+      ->capture_default_str();
+  sub->add_flag("--grouped", cmd_.grouped, "With --outliers: false closures in consistent clusters of 5");
+  sub->add_option("--plugin", cmd_.plugins, "Load a factor plugin (.so path or name) first; repeatable")
+      ->allow_extra_args(false);
+}
+
+}  // namespace
+
+std::unique_ptr<Command> MakeBenchCommand() { return std::make_unique<BenchCli>(); }
 
 }  // namespace tether

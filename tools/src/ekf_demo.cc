@@ -9,14 +9,15 @@
 #include <ostream>
 #include <sstream>
 
-#include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/core/svg_writer.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
+#include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
@@ -60,16 +61,15 @@ struct SeedRun {
   std::vector<double> seconds;
 };
 
-SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup& setup, std::vector<EkfDemoRow>* rows) {
-  const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
-  SeedRun run;
-  run.world = ekf::SimulateLandmarkWorld(wo);
-  ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
-  fo.min_range = setup.min_range;  // the EKF's and UKF's (the invariant EKF has its own)
-  ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
-  go.record_online = setup.consistency;
-  std::vector<double> online_nees;  // a graph's, filled by `smoothed`
-  const auto record = [&](const std::string& name, const std::function<Track()>& make) {
+// Runs one method on a seed's world and adds its figures to its row (made on first use).
+struct Recorder {
+  std::vector<EkfDemoRow>* rows;
+  SeedRun* run;
+  const EkfDemoSetup* setup;
+  std::uint64_t seed;
+  std::vector<double> online_nees;  // a graph's online NEES, filled while it is smoothed
+
+  void operator()(const std::string& name, const std::function<Track()>& make) {
     EkfDemoRow* row = nullptr;
     for (EkfDemoRow& r : *rows) {
       if (r.method == name) row = &r;
@@ -83,16 +83,16 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     try {
       Track t = make();
       row->seconds.push_back(SecondsSince(t0));
-      row->trajectory_rmse.push_back(ekf::TrajectoryRmse(t.poses, run.world.truth));
-      const double landmark_rmse = ekf::LandmarkRmse(t, run.world.landmarks);
+      row->trajectory_rmse.push_back(ekf::TrajectoryRmse(t.poses, run->world.truth));
+      const double landmark_rmse = ekf::LandmarkRmse(t, run->world.landmarks);
       if (std::isfinite(landmark_rmse)) row->landmark_rmse.push_back(landmark_rmse);  // none seen: no figure
       row->wrong_associations.push_back(t.wrong_associations);
-      if (setup.consistency) {
+      if (setup->consistency) {
         std::vector<double> nees = std::move(online_nees);
         online_nees.clear();
         if (nees.empty() && t.pose_cov.size() == t.poses.size()) {  // a filter's
           for (std::size_t k = 0; k < t.poses.size(); ++k)
-            nees.push_back(ekf::Nees(t.poses[k], t.pose_cov[k], run.world.truth[k]));
+            nees.push_back(ekf::Nees(t.poses[k], t.pose_cov[k], run->world.truth[k]));
         }
         if (!nees.empty()) {
           row->step_nees.resize(nees.size(), 0.0);
@@ -100,11 +100,22 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
           ++row->nees_runs;
         }
       }
-      run.tracks.emplace_back(name, std::move(t));
+      run->tracks.emplace_back(name, std::move(t));
     } catch (const Error& e) {
       if (row->failures++ == 0) row->failure_note = "seed " + std::to_string(seed) + ": " + e.what();
     }
-  };
+  }
+};
+
+SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup& setup, std::vector<EkfDemoRow>* rows) {
+  const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
+  SeedRun run;
+  run.world = ekf::SimulateLandmarkWorld(wo);
+  ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
+  fo.min_range = setup.min_range;  // the EKF's and UKF's (the invariant EKF has its own)
+  ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
+  go.record_online = setup.consistency;
+  Recorder record{rows, &run, &setup, seed, {}};
   const auto track_of = [&](const std::string& name) -> const Track* {
     for (const auto& [n, t] : run.tracks) {
       if (n == name) return &t;
@@ -115,7 +126,7 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     ekf::SmoothedTrack s = ekf::SmoothLandmarkRun(run.world, seed_track, go);
     s.track.wrong_associations = seed_track.wrong_associations;
     for (std::size_t k = 0; k < s.online_poses.size(); ++k)
-      online_nees.push_back(ekf::TangentNees(s.online_poses[k], s.online_pose_cov[k], run.world.truth[k]));
+      record.online_nees.push_back(ekf::TangentNees(s.online_poses[k], s.online_pose_cov[k], run.world.truth[k]));
     return s.track;
   };
   // Dead reckoning places its landmarks by the known association, whichever the filters use.
@@ -189,6 +200,19 @@ std::string Ellipse(const Frame& f, const Eigen::Vector2d& c, const Eigen::Matri
   return "<path d=\"" + d.str() + "\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"1\"/>\n";
 }
 
+// The poses as one path, in order.
+std::string PosePath(const Frame& f, const std::vector<SE2d>& poses) {
+  svg::PathData d;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (i == 0) {
+      d.MoveTo(f(poses[i].translation()));
+    } else {
+      d.LineTo(f(poses[i].translation()));
+    }
+  }
+  return d.str();
+}
+
 std::string DemoSvg(const SeedRun& run, const std::string& title) {
   const std::vector<std::pair<std::string, const char*>> colours = {
       {"truth", "#2ca02c"}, {"dead reckoning", "#999999"}, {"EKF", "#d62728"},
@@ -232,18 +256,9 @@ std::string DemoSvg(const SeedRun& run, const std::string& title) {
     for (const auto& c : colours) {
       if (c.first == name) colour = c.second;
     }
-    svg::PathData d;
-    for (std::size_t i = 0; i < t->poses.size(); ++i) {
-      const Eigen::Vector2d p = t->poses[i].translation();
-      if (i == 0) {
-        d.MoveTo(f(p));
-      } else {
-        d.LineTo(f(p));
-      }
-    }
     const bool wide = name == "truth";
-    s += "<path d=\"" + d.str() + "\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"" + (wide ? "4" : "1.3") +
-         "\" stroke-opacity=\"" + (wide ? "0.5" : "0.9") + "\"/>\n";
+    s += "<path d=\"" + PosePath(f, t->poses) + "\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"" +
+         (wide ? "4" : "1.3") + "\" stroke-opacity=\"" + (wide ? "0.5" : "0.9") + "\"/>\n";
     // Landmarks and their 2-sigma ellipses (filters), estimates (graph).
     for (std::size_t j = 0; j < t->landmarks.size(); ++j) {
       if (!t->landmarks[j].allFinite()) continue;
@@ -351,31 +366,39 @@ std::string EkfDemoConsistencyTable(const std::vector<EkfDemoConfig>& configs) {
   return s.str();
 }
 
-int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) {
-  std::vector<std::string> experiments, associations;
-  if (!ParseList(cmd.experiments, {"1", "2"}, &experiments)) {
+// The experiments and associations to run, and the command's own rules; false after saying
+// why.
+bool ResolveDemoOptions(const EkfDemoCommand& cmd, std::vector<std::string>* experiments,
+                        std::vector<std::string>* associations, std::ostream& err) {
+  if (!ParseList(cmd.experiments, {"1", "2"}, experiments)) {
     err << "tether ekf-demo: --experiments takes 1, 2 or 1,2 (got '" << cmd.experiments << "')\n";
-    return 2;
+    return false;
   }
-  if (!ParseList(cmd.association, {"known", "nn"}, &associations)) {
+  if (!ParseList(cmd.association, {"known", "nn"}, associations)) {
     err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
-    return 2;
+    return false;
   }
   if (!std::isfinite(cmd.setup.invariant_min_range) ||
       !(std::isfinite(cmd.setup.min_range) && cmd.setup.min_range >= 0)) {
     err << "tether ekf-demo: --invariant-min-range must be finite (negative: 1.5 range sigmas) and --min-range "
            "finite and not negative\n";
-    return 2;
+    return false;
   }
   if (cmd.seeds < 1 || cmd.setup.steps < 1 || cmd.setup.invariant_iterations < 1) {
     err << "tether ekf-demo: --seeds, --steps and --invariant-iterations must be at least 1\n";
-    return 2;
+    return false;
   }
   if (!(cmd.setup.range_sigma > 0 && cmd.setup.bearing_sigma > 0 && std::isfinite(cmd.setup.range_sigma) &&
         std::isfinite(cmd.setup.bearing_sigma))) {
     err << "tether ekf-demo: --range-sigma and --bearing-sigma must be positive and finite\n";
-    return 2;
+    return false;
   }
+  return true;
+}
+
+int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> experiments, associations;
+  if (!ResolveDemoOptions(cmd, &experiments, &associations, err)) return kExitUsage;
   OutputSet outputs;
   OutputFile* table_file = nullptr;
   OutputFile* plot_file = nullptr;
@@ -434,5 +457,52 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
   if (plot_file != nullptr) out << "wrote " << cmd.plot << "\n";
   return 0;
 }
+
+namespace {
+
+class EkfDemoCli : public Command {
+ public:
+  void Add(CLI::App& app) override;
+  int Run(std::ostream& out, std::ostream& err) override { return RunEkfDemo(cmd_, out, err); }
+
+ private:
+  EkfDemoCommand cmd_;
+};
+
+void EkfDemoCli::Add(CLI::App& app) {
+  CLI::App* sub = app_ = app.add_subcommand(
+      "ekf-demo", "Dead reckoning, EKF-SLAM, UKF-SLAM and the pose graph they seed, on simulated landmark worlds");
+  sub->add_option("--seeds", cmd_.seeds, "Number of seeds (worlds) per experiment")->capture_default_str();
+  sub->add_option("--first-seed", cmd_.first_seed, "The first seed")->capture_default_str();
+  sub->add_option("--experiments", cmd_.experiments, "1 (control noise std 0.1 m/s, pi/18 rad/s), 2 (doubled), or 1,2")
+      ->capture_default_str();
+  sub->add_option("--association", cmd_.association, "known, nn (nearest neighbour with a Mahalanobis gate), or both")
+      ->capture_default_str();
+  sub->add_option("--steps", cmd_.setup.steps, "Time steps per run (dt = 1 s)")->capture_default_str();
+  sub->add_option("--range-sigma", cmd_.setup.range_sigma, "Range noise std [m]")->capture_default_str();
+  sub->add_option("--bearing-sigma", cmd_.setup.bearing_sigma, "Bearing noise std [rad]")->capture_default_str();
+  sub->add_option("--invariant-min-range", cmd_.setup.invariant_min_range,
+                  "The invariant EKF uses no observation nearer than this [m] (negative: 1.5 range sigmas)")
+      ->capture_default_str();
+  sub->add_option("--min-range", cmd_.setup.min_range, "The EKF and UKF use no landmark nearer than this [m]")
+      ->capture_default_str();
+  sub->add_option("--invariant-iterations", cmd_.setup.invariant_iterations,
+                  "Gauss-Newton iterations of each invariant EKF correction (1: the plain update)")
+      ->capture_default_str();
+  sub->add_flag_function(
+      "--no-graph", [this](std::int64_t) { cmd_.setup.graphs = false; },
+      "The filters alone: no graph seeded by them (much faster)");
+  sub->add_flag("--nees", cmd_.setup.consistency,
+                "Also the consistency of every pose estimate: the NEES per step averaged over the seeds, "
+                "against its 95% interval (the graphs: the smoother's online estimate and marginal)");
+  AddPath(sub, "-o,--output", &cmd_.output, "Also write the table (markdown) here");
+  AddPath(sub, "--plot", &cmd_.plot,
+          "Draw truth, dead reckoning, EKF, UKF and the optimised graph of the first seed (SVG)");
+  sub->add_flag("-q,--quiet", cmd_.quiet, "Only the table");
+}
+
+}  // namespace
+
+std::unique_ptr<Command> MakeEkfDemoCommand() { return std::make_unique<EkfDemoCli>(); }
 
 }  // namespace tether

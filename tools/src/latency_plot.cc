@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "svg_writer.h"
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/core/svg_writer.h"
 
 namespace tether {
 namespace {

@@ -8,6 +8,7 @@
 #include "tether/core/output_file.h"
 #include "tether/frontends/lidar/degrade_log.h"
 #include "tether/frontends/lidar/lidar_log.h"
+#include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
@@ -64,7 +65,7 @@ int RunLidarDegrade(const LidarDegradeCommand& cmd, std::ostream& out, std::ostr
   if (!Options(cmd, &options, err)) return kExitUsage;
   lidar::LidarReadOptions read;
   if (!lidar::FromString(cmd.odometry, &read.odometry)) {
-    err << usage << "--odometry takes " << lidar::OdometrySourceNames() << " (got '" << cmd.odometry << "')\n";
+    err << usage << "--odometry takes " << EnumNameList<lidar::OdometrySource>() << " (got '" << cmd.odometry << "')\n";
     return kExitUsage;
   }
   read.scan_topic = cmd.scan_topic;
@@ -124,5 +125,41 @@ int RunLidarDegrade(const LidarDegradeCommand& cmd, std::ostream& out, std::ostr
   }
   return 0;
 }
+
+namespace {
+
+class LidarDegradeCli : public Command {
+ public:
+  void Add(CLI::App& app) override;
+  int Run(std::ostream& out, std::ostream& err) override { return RunLidarDegrade(cmd_, out, err); }
+
+ private:
+  LidarDegradeCommand cmd_;
+};
+
+void LidarDegradeCli::Add(CLI::App& app) {
+  CLI::App* sub = app_ = app.add_subcommand(
+      "lidar-degrade", "Write a laser log degraded as a cheaper scanner would record it (CARMEN; docs/lidar.md)");
+  sub->add_option("log", cmd_.input, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
+  AddPath(sub, "-o,--output", &cmd_.output, "The degraded log (CARMEN text)")->required();
+  sub->add_option("--preset", cmd_.preset, "lds: 360 beams, 6 m, 0.02 m noise, 5% drops, every other scan");
+  sub->add_option("--beams", cmd_.beams, "Resample each scan to N beams over its field of view");
+  sub->add_option("--max-range", cmd_.max_range, "Maximum range [m]: beams beyond become no return");
+  sub->add_option("--noise", cmd_.noise, "Gaussian range noise sigma [m]");
+  sub->add_option("--drop", cmd_.drop, "Share of valid beams dropped, in [0, 1]");
+  sub->add_option("--error-share", cmd_.error_share, "Share of the dropped beams made errors (NaN in memory)");
+  sub->add_option("--keep-every", cmd_.keep_every, "Keep every K-th scan (2: every other one)");
+  sub->add_option("--first-scan", cmd_.first_scan, "The first scan kept (index, from 0)");
+  sub->add_option("--max-scans", cmd_.max_scans, "At most N scans (0: all)");
+  sub->add_option("--seed", cmd_.seed, "Random seed of the noise and the drops (default 1)");
+  sub->add_flag("--no-odometry", cmd_.no_odometry, "Drop the odometry (RAWLASER1 lines, no ODOM lines)");
+  sub->add_option("--odometry", cmd_.odometry, "Reading: auto, scan-line, interpolated or none")->capture_default_str();
+  sub->add_option("--scan-topic", cmd_.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
+  sub->add_option("--odom-topic", cmd_.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();
+}
+
+}  // namespace
+
+std::unique_ptr<Command> MakeLidarDegradeCommand() { return std::make_unique<LidarDegradeCli>(); }
 
 }  // namespace tether

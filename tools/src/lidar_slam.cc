@@ -1,5 +1,6 @@
 #include "tether/tools/lidar_slam.h"
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -9,10 +10,11 @@
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
 #include "tether/core/registry.h"
+#include "tether/core/trajectory_error.h"
 #include "tether/frontends/lidar/laser_offset.h"
 #include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/tools/command.h"
 #include "tether/tools/commands.h"
-#include "tether/tools/trajectory_error.h"
 
 namespace tether {
 
@@ -68,139 +70,199 @@ std::string Describe(const lidar::LidarLog& log, long n) {
 
 }  // namespace
 
-int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
-  cmd.options.pose_graph.search.angular_search_window = cmd.search_angle_deg * M_PI / 180;
-  cmd.options.local.correlative.angular_search_window = cmd.correlative_angle_deg * M_PI / 180;
-  cmd.options.local.limits = cmd.read.limits;
-  if (!lidar::FromString(cmd.odometry, &cmd.read.odometry)) {
-    err << "tether lidar: --odometry " << cmd.odometry << " is not one of " << lidar::OdometrySourceNames() << "\n";
-    return kExitUsage;
+namespace {
+
+namespace fs = std::filesystem;
+
+// The flags of the option fields the options' IsValid names in its messages.
+constexpr std::pair<const char*, const char*> kFieldFlags[] = {
+    {"consecutive_translation_sigma", "--consecutive-sigma-t"},
+    {"consecutive_rotation_sigma", "--consecutive-sigma-r"},
+    {"local_translation_sigma", "--local-sigma-t"},
+    {"local_rotation_sigma", "--local-sigma-r"},
+    {"loop_translation_sigma", "--loop-sigma-t"},
+    {"loop_rotation_sigma", "--loop-sigma-r"},
+    {"local_huber_delta", "--local-huber"},
+    {"huber_delta", "--huber"},
+    {"min_score", "--min-score"},
+    {"max_search_distance", "--max-search-distance"},
+    {"search_voxel_size", "--search-voxel"},
+    {"search_window_growth", "--search-window-growth"},
+    {"max_search_window", "--max-search-window"},
+    {"search_angle_growth", "--search-angle-growth"},
+    {"max_search_angle", "--max-search-angle"},
+    {"rival_ratio", "--rival-ratio"},
+    {"confirm_translation", "--confirm-t"},
+    {"confirm_rotation", "--confirm-r"},
+    {"min_match_probability", "--min-match-probability"},
+    {"still_distance", "--still-distance"},
+    {"still_angle", "--still-angle"},
+    {"scans_per_submap", "--scans-per-submap"},
+};
+
+// `why` with the flag after each field name it mentions: "huber_delta (--huber) must ...".
+std::string WithFlags(std::string why) {
+  for (const auto& [field, flag] : kFieldFlags) {
+    const std::string name = field;
+    for (std::size_t at = why.find(name); at != std::string::npos; at = why.find(name, at + 1)) {
+      const std::size_t end = at + name.size();
+      const auto word = [&why](std::size_t i) {
+        return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_';
+      };
+      if ((at > 0 && word(at - 1)) || (end < why.size() && word(end))) continue;
+      const std::string shown = " (" + std::string(flag) + ")";
+      why.insert(end, shown);
+      at = end + shown.size() - 1;
+    }
   }
-  if (cmd.max_scans < 0) {
-    err << "tether lidar: --max-scans must not be negative\n";
-    return kExitUsage;
+  return why;
+}
+
+// The command's own rules (the options' rules are checked once, by their IsValid); false after
+// saying why.
+bool ResolveLidarOptions(LidarCommand* cmd, std::ostream& err) {
+  cmd->options.pose_graph.search.angular_search_window = cmd->search_angle_deg * M_PI / 180;
+  cmd->options.local.correlative.angular_search_window = cmd->correlative_angle_deg * M_PI / 180;
+  cmd->options.local.limits = cmd->read.limits;
+  if (!FromString(cmd->odometry, &cmd->read.odometry)) {
+    err << "tether lidar: --odometry " << cmd->odometry << " is not one of " << EnumNameList<lidar::OdometrySource>()
+        << "\n";
+    return false;
   }
-  if (!cmd.laser_offset.empty() && (cmd.laser_offset.size() != 3 || !std::isfinite(cmd.laser_offset[0]) ||
-                                    !std::isfinite(cmd.laser_offset[1]) || !std::isfinite(cmd.laser_offset[2]))) {
+  const std::vector<double>& o = cmd->laser_offset;
+  if (!o.empty() && (o.size() != 3 || !std::isfinite(o[0]) || !std::isfinite(o[1]) || !std::isfinite(o[2]))) {
     err << "tether lidar: --laser-offset takes three finite numbers x,y,theta (m, m, rad)\n";
-    return kExitUsage;
+    return false;
   }
   std::string why;
-  const lidar::PoseGraphOptions& pg = cmd.options.pose_graph;
-  if ((pg.consecutive_translation_sigma > 0) != (pg.consecutive_rotation_sigma > 0)) {
-    err << "tether lidar: --consecutive-sigma-t and --consecutive-sigma-r must both be positive, or both 0 (no "
-           "consecutive constraints)\n";
-    return kExitUsage;
+  if (!cmd->options.IsValid(&why) || !cmd->read.IsValid(&why)) {
+    err << "tether lidar: " << WithFlags(why) << "\n";
+    return false;
   }
-  if (!cmd.options.IsValid(&why) || !cmd.read.IsValid(&why)) {
-    err << "tether lidar: " << why << "\n";
-    return kExitUsage;
+  return true;
+}
+
+// The output folder (made where missing) and its files, checked before anything is read. A
+// failed run removes a folder it made (still empty then: the files are committed at the end).
+struct LidarOutputs {
+  explicit LidarOutputs(std::string folder) : dir(std::move(folder)) {}
+  int Fail(int code) const {
+    std::error_code ignored;
+    if (made && fs::is_empty(dir, ignored)) fs::remove(dir, ignored);
+    return code;
   }
-  namespace fs = std::filesystem;
+  std::string dir;
+  bool made = false;
+  OutputSet set;
+  std::vector<OutputFile*> files;  // in LidarSlam2D::OutputNames() order
+};
+
+int PrepareLidarOutputs(const LidarCommand& cmd, LidarOutputs* o, std::ostream& err) {
   std::error_code ec;
-  const bool folder_existed = fs::exists(cmd.output_dir, ec);
-  fs::create_directories(cmd.output_dir, ec);
-  if (ec || !fs::is_directory(cmd.output_dir)) {
-    err << "tether lidar: cannot make the output folder '" << cmd.output_dir << "' (" << ec.message()
+  o->made = !fs::exists(o->dir, ec);
+  fs::create_directories(o->dir, ec);
+  if (ec || !fs::is_directory(o->dir)) {
+    err << "tether lidar: cannot make the output folder '" << o->dir << "' (" << ec.message()
         << "); give a folder that can be written\n";
     return kExitWriteFailed;
   }
-  // A failed run leaves no folder it made behind (it is still empty then: outputs are
-  // written only at the end, all or nothing).
-  const auto fail = [&](int code) {
-    std::error_code ignored;
-    if (!folder_existed && fs::is_empty(cmd.output_dir, ignored)) fs::remove(cmd.output_dir, ignored);
-    return code;
-  };
-  OutputSet outputs;
-  std::vector<OutputFile*> files;
   const int rc = CheckOutputs(
-      "lidar", outputs,
+      "lidar", o->set,
       [&] {
-        outputs.AddInput(cmd.log);
-        if (!cmd.ground_truth.empty()) outputs.AddInput(cmd.ground_truth, "ground truth");
-        for (const lidar::LidarOutput& o : lidar::LidarSlam2D::OutputNames()) {
-          files.push_back(&outputs.Add((fs::path(cmd.output_dir) / o.name).string(), o.what));
+        o->set.AddInput(cmd.log);
+        if (!cmd.ground_truth.empty()) o->set.AddInput(cmd.ground_truth, "ground truth");
+        for (const lidar::LidarOutput& f : lidar::LidarSlam2D::OutputNames()) {
+          o->files.push_back(&o->set.Add((fs::path(o->dir) / f.name).string(), f.what));
         }
       },
       err);
-  if (rc != 0) return fail(rc);
+  return rc == kExitOk ? rc : o->Fail(rc);
+}
 
-  lidar::LidarLog log;
+// The log (with --laser-offset applied) and the truth; kExitOk, or the exit code after saying
+// why.
+int ReadLidarInputs(const LidarCommand& cmd, lidar::LidarLog* log, std::vector<lidar::StampedPose2>* truth,
+                    std::ostream& err) {
   try {
-    log = lidar::ReadLidarLog(cmd.log, cmd.read);
+    *log = lidar::ReadLidarLog(cmd.log, cmd.read);
+    if (!cmd.ground_truth.empty()) *truth = lidar::ReadTumFile(cmd.ground_truth);
   } catch (const Error& e) {  // IoError, ParseError; InvalidArgument where bags are not supported
     err << "error: " << e.what() << "\n";
-    return fail(kExitBadInput);
+    return kExitBadInput;
   }
-  if (log.format == lidar::LogFormat::kRosBag && log.odometry.empty() &&
+  if (log->format == lidar::LogFormat::kRosBag && log->odometry.empty() &&
       cmd.read.odometry != lidar::OdometrySource::kNone) {
     err << "warning: " << cmd.log << " has no message on the odometry topic " << cmd.read.odom_topic
         << ": mapping scan-only (check --odom-topic; --odometry none asks for scan-only and silences this)\n";
   }
-  if (log.scans.empty()) {
+  if (log->scans.empty()) {
     err << "error: " << cmd.log << " has no scans\n";
-    return fail(kExitBadInput);
-  }
-  std::vector<lidar::StampedPose2> truth;
-  if (!cmd.ground_truth.empty()) {
-    try {
-      truth = lidar::ReadTumFile(cmd.ground_truth);
-    } catch (const Error& e) {
-      err << "error: " << e.what() << "\n";
-      return fail(kExitBadInput);
-    }
+    return kExitBadInput;
   }
   if (cmd.laser_offset.size() == 3) {
     const SE2d offset(cmd.laser_offset[0], cmd.laser_offset[1], cmd.laser_offset[2]);
-    for (lidar::LaserScan& s : log.scans) s.laser_in_robot = offset;
+    for (lidar::LaserScan& s : log->scans) s.laser_in_robot = offset;
   }
-  const long n = cmd.max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), cmd.max_scans)
-                                   : static_cast<long>(log.scans.size());
-  if (!cmd.quiet) out << Describe(log, n) << std::flush;
+  return kExitOk;
+}
 
-  lidar::LidarSlam2D slam(cmd.options);
+// Maps the first n scans, with progress lines; kExitOk or kExitBadInput after saying why.
+int Map(const LidarCommand& cmd, const lidar::LidarLog& log, long n, lidar::LidarSlam2D* slam, std::ostream& out,
+        std::ostream& err) {
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    slam.Run(log, n, cmd.quiet ? 0 : cmd.progress_every, [&](long done) {
+    slam->Run(log, n, cmd.quiet ? 0 : cmd.progress_every, [&](long done) {
       const double logged = log.scans[static_cast<std::size_t>(done - 1)].stamp - log.scans[0].stamp;
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      out << "scans " << done << " of " << n << ", submaps " << slam.pose_graph().submap_count() << ", loop closures "
-          << slam.pose_graph().loop_closures().size() << " (searches " << slam.pose_graph().stats().searches
+      out << "scans " << done << " of " << n << ", submaps " << slam->pose_graph().submap_count() << ", loop closures "
+          << slam->pose_graph().loop_closures().size() << " (searches " << slam->pose_graph().stats().searches
           << "), real-time factor " << Fixed(logged / std::max(seconds, 1e-9), 1) << "\n"
           << std::flush;
     });
   } catch (const Error& e) {  // a scan the mapping cannot take (a reader lets none through)
     err << "error: " << e.what() << "; nothing was written\n";  // names the log and line
-    return fail(kExitBadInput);
+    return kExitBadInput;
   }
+  return kExitOk;
+}
+
+// Stages the run's files and commits them all or none; kExitOk or kExitWriteFailed.
+int WriteLidarOutputs(const lidar::LidarSlam2D& slam, LidarOutputs* o, std::ostream& err) {
   try {
     const std::vector<lidar::LidarOutput> written = slam.Outputs();
-    for (std::size_t i = 0; i < written.size(); ++i) files[i]->Stage(written[i].bytes);
+    for (std::size_t i = 0; i < written.size(); ++i) o->files[i]->Stage(written[i].bytes);
   } catch (const Error& e) {
     err << "error: " << e.what() << "; nothing was written\n";
-    return fail(kExitWriteFailed);
+    return kExitWriteFailed;
   }
   try {
-    outputs.CommitAll();  // all or nothing; its message says what became of the files
+    o->set.CommitAll();  // all or nothing; its message says what became of the files
   } catch (const Error& e) {
     err << "error: " << e.what() << "\n";
-    return fail(kExitWriteFailed);
+    return kExitWriteFailed;
   }
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
+  if (!ResolveLidarOptions(&cmd, err)) return kExitUsage;
+  LidarOutputs outputs(cmd.output_dir);
+  if (const int rc = PrepareLidarOutputs(cmd, &outputs, err); rc != kExitOk) return rc;
+  lidar::LidarLog log;
+  std::vector<lidar::StampedPose2> truth;
+  if (const int rc = ReadLidarInputs(cmd, &log, &truth, err); rc != kExitOk) return outputs.Fail(rc);
+  const long n = cmd.max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), cmd.max_scans)
+                                   : static_cast<long>(log.scans.size());
+  if (!cmd.quiet) out << Describe(log, n) << std::flush;
+
+  lidar::LidarSlam2D slam(cmd.options);
+  if (const int rc = Map(cmd, log, n, &slam, out, err); rc != kExitOk) return outputs.Fail(rc);
+  if (const int rc = WriteLidarOutputs(slam, &outputs, err); rc != kExitOk) return outputs.Fail(rc);
   out << slam.report().Summary(cmd.options.pose_graph.threads);
   if (!cmd.ground_truth.empty()) {
-    // The poses whose stamps the truth has (within 1 microsecond), by index as Values keys.
-    Values estimate, reference;
-    const std::vector<lidar::StampedPose2> t = slam.Trajectory();
-    std::size_t k = 0;
-    for (std::size_t i = 0; i < t.size(); ++i) {
-      while (k < truth.size() && truth[k].stamp < t[i].stamp - 1e-6) ++k;
-      if (k < truth.size() && std::abs(truth[k].stamp - t[i].stamp) <= 1e-6) {
-        estimate.Insert(static_cast<Key>(i), t[i].pose);
-        reference.Insert(static_cast<Key>(i), truth[k].pose);
-      }
-    }
-    const TrajectoryError ate = AbsoluteTrajectoryError(estimate, reference);
+    const TrajectoryError ate = lidar::StampedTrajectoryError(slam.Trajectory(), truth);
     out << "against " << cmd.ground_truth << ": absolute trajectory error (rigid alignment) " << FormatMetres(ate.rmse)
         << " RMSE, max " << FormatMetres(ate.max) << " over " << ate.poses << " poses\n";
   }
@@ -208,7 +270,129 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   const std::vector<lidar::LidarOutput> names = lidar::LidarSlam2D::OutputNames();
   for (std::size_t i = 0; i < names.size(); ++i) out << (i > 0 ? ", " : "") << names[i].name;
   out << "}\n";
-  return 0;
+  return kExitOk;
 }
+
+namespace {
+
+class LidarCli : public Command {
+ public:
+  void Add(CLI::App& app) override;
+  int Run(std::ostream& out, std::ostream& err) override { return RunLidar(cmd_, out, err); }
+
+ private:
+  // An option with its default shown in --help.
+  template <class T>
+  void Option(const char* name, T& value, const char* help) {
+    app_->add_option(name, value, help)->capture_default_str();
+  }
+  void AddMatchingOptions(CLI::App* sub);
+  LidarCommand cmd_;
+};
+
+void LidarCli::Add(CLI::App& app) {
+  CLI::App* sub = app_ = app.add_subcommand(
+      "lidar", "2D LiDAR SLAM over a laser log (CARMEN or ROS 1 bag): trajectory, pose graph and occupancy map");
+  sub->add_option("log", cmd_.log, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
+  AddPath(sub, "-o,--output", &cmd_.output_dir, "Output folder (made if missing)")->required();
+  lidar::LocalSlamOptions& lo = cmd_.options.local;
+  lidar::PoseGraphOptions& po = cmd_.options.pose_graph;
+  sub->add_flag_function(
+      "--no-loop-closure", [&po](std::int64_t) { po.loop_closure = false; },
+      "Local SLAM and the pose graph without loop closures");
+  Option("--threads", po.threads,
+         "Background loop-closure search threads (default: the machine's cores; 0: "
+         "inline; the result does not depend on it)");
+  Option("--max-scans", cmd_.max_scans, "Only the first N scans (0: all)");
+  Option("--scans-per-submap", lo.submaps.scans_per_submap, "Scans in a finished submap");
+  Option("--resolution", lo.submaps.resolution, "Grid resolution [m]");
+  Option("--search-every", po.search_every_n_scans, "Loop-closure search for every N-th scan");
+  Option("--update-every", po.update_every_n_scans,
+         "Scans per smoother update (in between, new scans follow local SLAM from the last estimate)");
+  Option("--min-score", po.min_score, "Branch and bound's score threshold");
+  Option("--local-sigma-t", po.local_translation_sigma, "Local constraints' translation sigma [m]");
+  Option("--local-sigma-r", po.local_rotation_sigma, "Local constraints' rotation sigma [rad]");
+  Option("--consecutive-sigma-t", po.consecutive_translation_sigma,
+         "Consecutive scans' constraints (local SLAM's relative pose): translation sigma [m] (0: none)");
+  Option("--consecutive-sigma-r", po.consecutive_rotation_sigma,
+         "Consecutive scans' constraints: rotation sigma [rad] (0: none)");
+  Option("--local-huber", po.local_huber_delta,
+         "Huber loss on the local and consecutive constraints: delta on the whitened error (0: none)");
+  Option("--loop-sigma-t", po.loop_translation_sigma, "Loop closures' translation sigma [m]");
+  Option("--loop-sigma-r", po.loop_rotation_sigma, "Loop closures' rotation sigma [rad]");
+  Option("--rival-ratio", po.rival_ratio,
+         "Drop a loop closure where a candidate 0.3 m or 2 degrees away scores above this share of its "
+         "score (0: keep them)");
+  Option("--confirm-t", po.confirm_translation,
+         "A match becomes a loop closure once a match of another scan to the same submap agrees with it "
+         "through local SLAM's relative pose within this [m] and --confirm-r (0: every match is added)");
+  Option("--confirm-r", po.confirm_rotation, "See --confirm-t [rad]");
+  Option("--max-search-distance", po.max_search_distance,
+         "Search a scan against the finished submaps whose origin lies this near it [m]");
+  AddMatchingOptions(sub);
+}
+
+// Loop-closure search, local matching, reading and the checks.
+void LidarCli::AddMatchingOptions(CLI::App* sub) {
+  lidar::LocalSlamOptions& lo = cmd_.options.local;
+  lidar::PoseGraphOptions& po = cmd_.options.pose_graph;
+  Option("--search-voxel", po.search_voxel_size,
+         "Loop closures: branch and bound scores the scan's points thinned by a voxel filter of this edge "
+         "[m] (0: the matching points)");
+  Option("--search-window", po.search.linear_search_window,
+         "Loop closures: branch and bound searches +- this far in x and y around the estimate [m]");
+  Option("--search-window-growth", po.search_window_growth,
+         "Loop closures: the window's half side grows by this many metres per metre between the scan and "
+         "the submap in the graph (0: fixed)");
+  Option("--max-search-window", po.max_search_window, "Loop closures: the window's half side grows up to this [m]");
+  Option("--search-angle-growth", po.search_angle_growth,
+         "Loop closures: the window's rotations grow by this many radians per metre between the scan and "
+         "the submap in the graph (0: fixed)");
+  Option("--max-search-angle", po.max_search_angle, "Loop closures: the window's rotations grow up to this [rad]");
+  Option("--search-angle", cmd_.search_angle_deg,
+         "Loop closures: branch and bound searches +- this many degrees around the estimate");
+  Option("--huber", po.huber_delta, "Loop closures' Huber delta (on the whitened error)");
+  Option("--match-translation-weight", lo.refiner.weights.translation,
+         "Local matching: the scan-match factor's weight on the distance to the odometry's prediction "
+         "[1/m]");
+  Option("--match-rotation-weight", lo.refiner.weights.rotation,
+         "Local matching: the scan-match factor's weight on the turn from the odometry's prediction [1/rad]");
+  Option("--correlative-translation-weight", lo.correlative.translation_delta_cost_weight,
+         "Local matching: the correlative search's preference for the prediction's translation [1/m]");
+  Option("--correlative-rotation-weight", lo.correlative.rotation_delta_cost_weight,
+         "Local matching: the correlative search's preference for the prediction's heading [1/rad]");
+  Option("--correlative-angle", cmd_.correlative_angle_deg,
+         "Local matching: the correlative search's rotations, +- this many degrees around the prediction");
+  Option("--min-match-probability", lo.min_match_probability,
+         "Local matching: a scan whose matched points read a lower mean probability in the submap takes "
+         "the prediction (0: always trust the match)");
+  Option("--still-distance", lo.still_distance,
+         "Local matching: where the odometry moved less than this [m] and turned less than --still-angle "
+         "since the scan before, the scan keeps the pose before, unmatched (0: always match)");
+  Option("--still-angle", lo.still_angle, "Local matching: see --still-distance [rad]");
+  Option("--weak-window", lo.weak_prediction_linear_window,
+         "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
+  Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
+  Option("--odometry", cmd_.odometry,
+         "Where the odometry comes from: auto, scan-line, interpolated, or none (scan-only: every scan "
+         "predicted from the scans before)");
+  Option("--scan-topic", cmd_.read.scan_topic, "Bags: the sensor_msgs/LaserScan topic");
+  Option("--odom-topic", cmd_.read.odom_topic, "Bags: the nav_msgs/Odometry topic");
+  sub->add_option("--laser-offset", cmd_.laser_offset,
+                  "The laser's pose on the robot, x,y,theta [m, m, rad], for every scan instead of the log's")
+      ->delimiter(',')
+      ->expected(3);
+  sub->add_option("--ground-truth", cmd_.ground_truth,
+                  "A true trajectory (TUM text, e.g. from tether simulate lidar --truth): print the absolute "
+                  "trajectory error against it");
+  Option("--self-check-every", cmd_.options.self_check.sample_every,
+         "Self-check every N-th scan against the map made at other times (0: no check)");
+  Option("--progress-every", cmd_.progress_every, "Scans between progress lines (0: none)");
+  sub->add_flag("-q,--quiet", cmd_.quiet, "No progress lines");
+}
+
+}  // namespace
+
+std::unique_ptr<Command> MakeLidarCommand() { return std::make_unique<LidarCli>(); }
 
 }  // namespace tether

@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 #include <limits>
 
 #include "tether/core/registry.h"
@@ -15,101 +16,104 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kBig = 1e12;  // counts: scans, iterations, seeds
 
+// Every numeric option's range, one row each.
+const OptionRange kRanges[] = {
+    // optimize
+    {"optimize", "--max-iterations", 0, 1e9},
+    {"optimize", "--time-limit", 0, 1e9},
+    {"optimize", "--threads", 1, 256},
+    {"optimize", "--max-reuse-iterations", 0, 1e6},
+    {"optimize", "--switch-prior-sigma", 0, 1e6},
+    // simulate
+    {"simulate", "--poses", 1, 1e8},
+    {"simulate", "--scans", 1, 1e7},
+    {"simulate", "--beams", 2, 1 << 20},
+    // bench
+    {"bench", "--repeat", 1, 1e6},
+    // replay
+    {"replay", "--every", 1, kBig},
+    {"replay", "--check", 0, kBig},
+    {"replay", "--relinearize-threshold", 0, 1e6},
+    {"replay", "--relinearize-sigmas", 0, 1e6},
+    {"replay", "--iterate-ratio", 1, 1e6},
+    {"replay", "--iterate-fraction", 0, 1},
+    {"replay", "--iterate-share", 0, 1},
+    {"replay", "--rounds", 1, 1000},
+    {"replay", "--wildfire", 0, 1e6},
+    // A local solve's tolerance of 0 never stops short of the exact optimum: seconds per update.
+    {"replay", "--local-tolerance", 1e-6, 1},
+    {"replay", "--local-hops", 0, 1000},
+    {"replay", "--local-max-region", 1, 1e9},
+    {"replay", "--local-batch-gap", 0, 1},
+    {"replay", "--local-batch-correction", 0, 1},
+    {"replay", "--local-batch-share", 0, 1},
+    // ekf-demo
+    {"ekf-demo", "--seeds", 1, 1e6},
+    {"ekf-demo", "--first-seed", 0, 4294967295.0},
+    {"ekf-demo", "--steps", 1, 1e7},
+    {"ekf-demo", "--range-sigma", 1e-6, 1e3},
+    {"ekf-demo", "--bearing-sigma", 1e-6, kPi},
+    {"ekf-demo", "--invariant-min-range", -1, 1e6},
+    {"ekf-demo", "--min-range", 0, 1e6},
+    {"ekf-demo", "--invariant-iterations", 1, 1000},
+    // lidar
+    {"lidar", "--threads", 0, 256},
+    {"lidar", "--max-scans", 0, kBig},
+    {"lidar", "--scans-per-submap", 1, 1e6},
+    {"lidar", "--resolution", 0.001, 10},
+    {"lidar", "--search-every", 1, kBig},
+    {"lidar", "--update-every", 1, kBig},
+    {"lidar", "--min-score", 0, 1},
+    {"lidar", "--local-sigma-t", 1e-9, 1e6},
+    {"lidar", "--local-sigma-r", 1e-9, 1e6},
+    {"lidar", "--consecutive-sigma-t", 0, 1e6},
+    {"lidar", "--consecutive-sigma-r", 0, 1e6},
+    {"lidar", "--local-huber", 0, 1e6},
+    {"lidar", "--loop-sigma-t", 1e-9, 1e6},
+    {"lidar", "--loop-sigma-r", 1e-9, 1e6},
+    {"lidar", "--rival-ratio", 0, 1},
+    {"lidar", "--confirm-t", 0, 1000},
+    {"lidar", "--confirm-r", 1e-9, kPi},
+    {"lidar", "--max-search-distance", 0, 1e6},
+    {"lidar", "--search-voxel", 0, 100},
+    {"lidar", "--search-window", 0, 1000},
+    {"lidar", "--search-window-growth", 0, 10},
+    {"lidar", "--max-search-window", 0, 1000},
+    {"lidar", "--search-angle-growth", 0, 10},
+    {"lidar", "--max-search-angle", 0, kPi},
+    {"lidar", "--search-angle", 0, 180},
+    {"lidar", "--huber", 1e-9, 1e6},
+    {"lidar", "--match-translation-weight", 1e-9, 1e9},
+    {"lidar", "--match-rotation-weight", 1e-9, 1e9},
+    {"lidar", "--correlative-translation-weight", 0, 1e9},
+    {"lidar", "--correlative-rotation-weight", 0, 1e9},
+    {"lidar", "--correlative-angle", 0, 180},
+    {"lidar", "--min-match-probability", 0, 1},
+    {"lidar", "--still-distance", 0, 100},
+    {"lidar", "--still-angle", 0, kPi},
+    {"lidar", "--weak-window", 0, 100},
+    {"lidar", "--max-range", 0, 1000},
+    {"lidar", "--laser-offset", -1000, 1000},
+    {"lidar", "--self-check-every", 0, kBig},
+    {"lidar", "--progress-every", 0, kBig},
+    // lidar-eval
+    {"lidar-eval", "--tolerance", 0, 1e6},
+    {"lidar-eval", "--time-reference-tolerance", 0, 1e6},
+    // lidar-degrade
+    {"lidar-degrade", "--beams", 2, 1 << 20},
+    {"lidar-degrade", "--max-range", 0.001, 1000},
+    {"lidar-degrade", "--noise", 0, 100},
+    {"lidar-degrade", "--drop", 0, 1},
+    {"lidar-degrade", "--error-share", 0, 1},
+    {"lidar-degrade", "--keep-every", 1, kBig},
+    {"lidar-degrade", "--first-scan", 0, kBig},
+    {"lidar-degrade", "--max-scans", 0, kBig},
+};
+
 }  // namespace
 
 const std::vector<OptionRange>& OptionRanges() {
-  static const std::vector<OptionRange> ranges = {
-      // optimize
-      {"optimize", "--max-iterations", 0, 1e9},
-      {"optimize", "--time-limit", 0, 1e9},
-      {"optimize", "--threads", 1, 256},
-      {"optimize", "--max-reuse-iterations", 0, 1e6},
-      {"optimize", "--switch-prior-sigma", 0, 1e6},
-      // simulate
-      {"simulate", "--poses", 1, 1e8},
-      {"simulate", "--scans", 1, 1e7},
-      {"simulate", "--beams", 2, 1 << 20},
-      // bench
-      {"bench", "--repeat", 1, 1e6},
-      // replay
-      {"replay", "--every", 1, kBig},
-      {"replay", "--check", 0, kBig},
-      {"replay", "--relinearize-threshold", 0, 1e6},
-      {"replay", "--relinearize-sigmas", 0, 1e6},
-      {"replay", "--iterate-ratio", 1, 1e6},
-      {"replay", "--iterate-fraction", 0, 1},
-      {"replay", "--iterate-share", 0, 1},
-      {"replay", "--rounds", 1, 1000},
-      {"replay", "--wildfire", 0, 1e6},
-      // A local solve's tolerance of 0 never stops short of the exact optimum: seconds per update.
-      {"replay", "--local-tolerance", 1e-6, 1},
-      {"replay", "--local-hops", 0, 1000},
-      {"replay", "--local-max-region", 1, 1e9},
-      {"replay", "--local-batch-gap", 0, 1},
-      {"replay", "--local-batch-correction", 0, 1},
-      {"replay", "--local-batch-share", 0, 1},
-      // ekf-demo
-      {"ekf-demo", "--seeds", 1, 1e6},
-      {"ekf-demo", "--first-seed", 0, 4294967295.0},
-      {"ekf-demo", "--steps", 1, 1e7},
-      {"ekf-demo", "--range-sigma", 1e-6, 1e3},
-      {"ekf-demo", "--bearing-sigma", 1e-6, kPi},
-      {"ekf-demo", "--invariant-min-range", -1, 1e6},
-      {"ekf-demo", "--min-range", 0, 1e6},
-      {"ekf-demo", "--invariant-iterations", 1, 1000},
-      // lidar
-      {"lidar", "--threads", 0, 256},
-      {"lidar", "--max-scans", 0, kBig},
-      {"lidar", "--scans-per-submap", 1, 1e6},
-      {"lidar", "--resolution", 0.001, 10},
-      {"lidar", "--search-every", 1, kBig},
-      {"lidar", "--update-every", 1, kBig},
-      {"lidar", "--min-score", 0, 1},
-      {"lidar", "--local-sigma-t", 1e-9, 1e6},
-      {"lidar", "--local-sigma-r", 1e-9, 1e6},
-      {"lidar", "--consecutive-sigma-t", 0, 1e6},
-      {"lidar", "--consecutive-sigma-r", 0, 1e6},
-      {"lidar", "--local-huber", 0, 1e6},
-      {"lidar", "--loop-sigma-t", 1e-9, 1e6},
-      {"lidar", "--loop-sigma-r", 1e-9, 1e6},
-      {"lidar", "--rival-ratio", 0, 1},
-      {"lidar", "--confirm-t", 0, 1000},
-      {"lidar", "--confirm-r", 1e-9, kPi},
-      {"lidar", "--max-search-distance", 0, 1e6},
-      {"lidar", "--search-voxel", 0, 100},
-      {"lidar", "--search-window", 0, 1000},
-      {"lidar", "--search-window-growth", 0, 10},
-      {"lidar", "--max-search-window", 0, 1000},
-      {"lidar", "--search-angle-growth", 0, 10},
-      {"lidar", "--max-search-angle", 0, kPi},
-      {"lidar", "--search-angle", 0, 180},
-      {"lidar", "--huber", 1e-9, 1e6},
-      {"lidar", "--match-translation-weight", 1e-9, 1e9},
-      {"lidar", "--match-rotation-weight", 1e-9, 1e9},
-      {"lidar", "--correlative-translation-weight", 0, 1e9},
-      {"lidar", "--correlative-rotation-weight", 0, 1e9},
-      {"lidar", "--correlative-angle", 0, 180},
-      {"lidar", "--min-match-probability", 0, 1},
-      {"lidar", "--still-distance", 0, 100},
-      {"lidar", "--still-angle", 0, kPi},
-      {"lidar", "--weak-window", 0, 100},
-      {"lidar", "--max-range", 0, 1000},
-      {"lidar", "--laser-offset", -1000, 1000},
-      {"lidar", "--self-check-every", 0, kBig},
-      {"lidar", "--progress-every", 0, kBig},
-      // lidar-eval
-      {"lidar-eval", "--tolerance", 0, 1e6},
-      {"lidar-eval", "--time-reference-tolerance", 0, 1e6},
-      // lidar-degrade
-      {"lidar-degrade", "--beams", 2, 1 << 20},
-      {"lidar-degrade", "--max-range", 0.001, 1000},
-      {"lidar-degrade", "--noise", 0, 100},
-      {"lidar-degrade", "--drop", 0, 1},
-      {"lidar-degrade", "--error-share", 0, 1},
-      {"lidar-degrade", "--keep-every", 1, kBig},
-      {"lidar-degrade", "--first-scan", 0, kBig},
-      {"lidar-degrade", "--max-scans", 0, kBig},
-  };
+  static const std::vector<OptionRange> ranges(std::begin(kRanges), std::end(kRanges));
   return ranges;
 }
 

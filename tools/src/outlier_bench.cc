@@ -11,6 +11,7 @@
 #include "tether/core/graph_io.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/core/robust_rules.h"
+#include "tether/core/trajectory_error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
 #include "tether/factors/builtin.h"
@@ -19,7 +20,6 @@
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/solvers/switchable.h"
-#include "tether/tools/trajectory_error.h"
 
 namespace tether {
 namespace {
@@ -125,6 +125,74 @@ double SwitchPriorSigma(const std::string& method) {
   return (end != method.c_str() + 3 && *end == '\0' && std::isfinite(sigma) && sigma > 0) ? sigma : 0;
 }
 
+// Solves `graph` from `v` with one method; the closures it rejects. False where the solve
+// failed; throws what the solvers throw.
+bool SolveWithMethod(const std::string& method, FactorGraph* graph, Values* v, std::vector<std::size_t>* rejected,
+                     OutlierBenchRow* row) {
+  // From the file's start (odometry): the chordal relaxation solves every closure at once, the
+  // false ones included, and starts every method ruined.
+  if (method == "gnc" || method == "gnc-ls") {
+    GncOptions go;
+    if (method == "gnc-ls") go.start = GncStart::kLeastSquares;
+    const GncSummary gs = OptimizeGnc(*graph, v, go);
+    *rejected = gs.rejected;
+    row->gnc_stages_max = std::max(row->gnc_stages_max, gs.stages);
+    row->gnc_start_seconds += gs.start_seconds;
+    row->gnc_stages_seconds += gs.stages_seconds;
+    row->gnc_final_seconds += gs.final_seconds;
+    return gs.usable;
+  }
+  if (method == "cdcs") {
+    for (std::size_t i = 0; i < graph->size(); ++i) {
+      Factor& f = graph->at(i);
+      if (f.loop_closure()) f.set_loss(std::make_shared<DcsLoss>(Chi2Quantile(f.dim(), 0.99)));
+    }
+    const ChunkedSolveSummary cs = SolveInChunks(*graph, v);
+    *rejected = RejectedByWeight(*graph, *v);
+    return cs.usable;
+  }
+  if (method.compare(0, 2, "sc") == 0) {
+    SwitchableOptions so;
+    so.prior_sigma = method == "sc" ? 0.0 : SwitchPriorSigma(method);
+    SwitchableSummary ss = OptimizeSwitchable(*graph, v, so);
+    *rejected = std::move(ss.rejected);
+    return ss.usable;
+  }
+  if (method != "none") {
+    ApplyRobustRules({ParseRobustRule(method == "huber" ? "loop=huber:1" : "loop=dcs:1")}, DefaultRegistry(), graph);
+  }
+  const bool ok = Optimize(*graph, v).IsSolutionUsable();
+  *rejected = RejectedByWeight(*graph, *v);
+  return ok;
+}
+
+// The file's graph, its start, its loop closures and its optimum (the truth the methods are
+// scored against).
+Truth LoadTruth(const std::string& file, std::ostream& progress) {
+  Truth t;
+  GraphFile g = ReadGraphFile(file, DefaultRegistry());
+  t.graph = std::move(g.graph);
+  t.initial = std::move(g.values);
+  for (Key k : t.initial.keys()) {
+    if (IsPose(t.initial.TypeOf(k))) t.poses.push_back(k);
+  }
+  for (std::size_t i = 0; i < t.graph.size(); ++i) {
+    if (t.graph.at(i).loop_closure()) t.closures.push_back(&t.graph.at(i));
+  }
+  if (t.closures.empty() || t.poses.size() < 20) {
+    throw InvalidArgument(file + ": no loop closures (edges between non-consecutive poses) to corrupt");
+  }
+  t.optimum = t.initial;
+  const auto t0 = std::chrono::steady_clock::now();
+  Initialize(t.graph, &t.optimum, InitMethod::kChordal);
+  const SolverSummary clean = Optimize(t.graph, &t.optimum);
+  t.seconds = Seconds(t0);
+  t.chi2 = clean.final_chi2;
+  progress << file << ": " << t.closures.size() << " loop closures, optimum chi2 " << t.chi2 << " in " << t.seconds
+           << " s\n";
+  return t;
+}
+
 }  // namespace
 
 std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options, std::ostream& progress) {
@@ -138,27 +206,7 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
   }
   std::vector<OutlierBenchRow> rows;
   for (const std::string& file : options.files) {
-    Truth t;
-    GraphFile g = ReadGraphFile(file, DefaultRegistry());
-    t.graph = std::move(g.graph);
-    t.initial = std::move(g.values);
-    for (Key k : t.initial.keys()) {
-      if (IsPose(t.initial.TypeOf(k))) t.poses.push_back(k);
-    }
-    for (std::size_t i = 0; i < t.graph.size(); ++i) {
-      if (t.graph.at(i).loop_closure()) t.closures.push_back(&t.graph.at(i));
-    }
-    if (t.closures.empty() || t.poses.size() < 20) {
-      throw InvalidArgument(file + ": no loop closures (edges between non-consecutive poses) to corrupt");
-    }
-    t.optimum = t.initial;
-    const auto t0 = std::chrono::steady_clock::now();
-    Initialize(t.graph, &t.optimum, InitMethod::kChordal);
-    const SolverSummary clean = Optimize(t.graph, &t.optimum);
-    t.seconds = Seconds(t0);
-    t.chi2 = clean.final_chi2;
-    progress << file << ": " << t.closures.size() << " loop closures, optimum chi2 " << t.chi2 << " in " << t.seconds
-             << " s\n";
+    const Truth t = LoadTruth(file, progress);
     for (double rate : options.rates) {
       const int count = static_cast<int>(std::lround(rate * static_cast<double>(t.closures.size())));
       for (const std::string& method : options.methods) {
@@ -180,40 +228,7 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
           std::vector<std::size_t> rejected;
           bool ok = true;
           try {
-            // From the file's start (odometry): the chordal relaxation solves every
-            // closure at once, the false ones included, and starts every method ruined.
-            if (method == "gnc" || method == "gnc-ls") {
-              GncOptions go;
-              if (method == "gnc-ls") go.start = GncStart::kLeastSquares;
-              const GncSummary gs = OptimizeGnc(graph, &v, go);
-              ok = gs.usable;
-              rejected = gs.rejected;
-              row.gnc_stages_max = std::max(row.gnc_stages_max, gs.stages);
-              row.gnc_start_seconds += gs.start_seconds;
-              row.gnc_stages_seconds += gs.stages_seconds;
-              row.gnc_final_seconds += gs.final_seconds;
-            } else if (method == "cdcs") {
-              for (std::size_t i = 0; i < graph.size(); ++i) {
-                Factor& f = graph.at(i);
-                if (f.loop_closure()) f.set_loss(std::make_shared<DcsLoss>(Chi2Quantile(f.dim(), 0.99)));
-              }
-              const ChunkedSolveSummary cs = SolveInChunks(graph, &v);
-              ok = cs.usable;
-              rejected = RejectedByWeight(graph, v);
-            } else if (method.compare(0, 2, "sc") == 0) {
-              SwitchableOptions so;
-              so.prior_sigma = method == "sc" ? 0.0 : SwitchPriorSigma(method);
-              SwitchableSummary ss = OptimizeSwitchable(graph, &v, so);
-              ok = ss.usable;
-              rejected = std::move(ss.rejected);
-            } else {
-              if (method != "none") {
-                ApplyRobustRules({ParseRobustRule(method == "huber" ? "loop=huber:1" : "loop=dcs:1")},
-                                 DefaultRegistry(), &graph);
-              }
-              ok = Optimize(graph, &v).IsSolutionUsable();
-              rejected = RejectedByWeight(graph, v);
-            }
+            ok = SolveWithMethod(method, &graph, &v, &rejected, &row);
           } catch (const Error& e) {
             ok = false;
             row.status = e.what();

@@ -18,6 +18,7 @@
 #include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
+#include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 #include "tether/tools/latency_plot.h"
 
@@ -272,13 +273,11 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   return r;
 }
 
-int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
+namespace {
+
+// The settings the replay runs with, said before it starts.
+void PrintSettings(const ReplayCommand& cmd, std::ostream& out) {
   const ReplayOptions& o = cmd.options;
-  std::string why;
-  if (!o.IsValid(&why)) {
-    err << "error: " << why << "\n";
-    return 2;
-  }
   if (o.smoother.mode == SmootherMode::kLocal) {
     out << "replay " << cmd.input << ": an update every " << o.every << " step(s), local mode: tolerance "
         << o.smoother.local_tolerance << ", " << o.smoother.local_hops << " hop(s), regions of at most "
@@ -293,11 +292,50 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
         << o.smoother.iterate_share << " of the variables too large, new variables "
         << (o.smoother.refine_new_values ? "refined" : "as given") << ", at most " << o.smoother.rounds_per_update
         << " round(s) per update, wildfire " << o.smoother.wildfire_threshold << ", factorization "
-        << (o.smoother.factorization == SmootherFactorization::kLeftLooking    ? "left-looking"
-            : o.smoother.factorization == SmootherFactorization::kMultifrontal ? "multifrontal"
-                                                                               : "auto")
-        << "\n";
+        << o.smoother.factorization << "\n";
   }
+}
+
+// What the replay measured.
+void PrintReplayReport(const ReplayResult& r, const ReplayOptions& o, std::ostream& out) {
+  out << "graph: " << r.variables << " variables (" << r.poses << " poses), " << r.factors << " factors\n";
+  out << "updates: " << r.latencies.size() << " (" << r.solves << " solved, " << r.rebuilt << " rebuilt the factor, "
+      << r.fell_back << " fell back to batch, " << r.iterations << " rounds)\n";
+  if (o.smoother.mode == SmootherMode::kLocal) {
+    const int local = static_cast<int>(r.latencies.size()) - r.batches;
+    out << "local mode: " << r.batches << " batch solve(s), " << local << " local solve(s) over "
+        << Format("%.1f", local > 0 ? static_cast<double>(r.region_variables) / local : 0.0)
+        << " variables on average\n";
+  }
+  out << "columns refactored: " << r.affected_columns << ", back-substituted: " << r.back_substituted
+      << ", variables re-linearised: " << r.relinearized << "\n";
+  out << "total [s]: " << Format("%.3f", r.total_seconds()) << " (updates " << Format("%.3f", r.updates_seconds)
+      << ", finish " << Format("%.3f", r.finish_seconds) << ")\n";
+  out << "per step [ms]: mean " << Format("%.3f", 1e3 * r.mean_seconds) << ", p99 "
+      << Format("%.3f", 1e3 * r.p99_seconds) << ", max " << Format("%.3f", 1e3 * r.max_seconds) << "\n";
+  out << "update split [s]: linearise " << Format("%.3f", r.linearize_seconds) << ", factorise "
+      << Format("%.3f", r.factorize_seconds) << ", solve " << Format("%.3f", r.solve_seconds) << ", other "
+      << Format("%.3f", r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds) << "\n";
+  out << "final chi2: " << Format("%.9g", r.final_chi2) << "\n";
+  out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
+  out << "relative gap to batch: " << Format("%.3e", r.relative_gap) << "\n";
+  if (o.check > 0) {
+    out << "check: " << r.checks.size()
+        << " batch solves, largest relative chi2 gap: " << Format("%.3e", r.max_check_gap) << "\n";
+  }
+  out << "peak memory [MiB]: " << Format("%.1f", r.peak_rss_mib) << "\n";
+}
+
+}  // namespace
+
+int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
+  const ReplayOptions& o = cmd.options;
+  std::string why;
+  if (!o.IsValid(&why)) {
+    err << "error: " << why << "\n";
+    return kExitUsage;
+  }
+  PrintSettings(cmd, out);
   out << std::flush;
   const auto print_check = [&](const ReplayCheck& c) {
     if (cmd.quiet) return;
@@ -325,44 +363,19 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
       break;
     case ReplayStatus::kBadUsage:
       err << "error: " << r.message << "\n";
-      return 2;
+      return kExitUsage;
     case ReplayStatus::kBadInput:
       err << "error: " << r.message << "\n";
-      return 1;
+      return kExitBadInput;
     case ReplayStatus::kSolveFailed:
       err << "error: " << r.message << "\n";
-      return 3;
+      return kExitSolveFailed;
     case ReplayStatus::kWriteFailed:
       err << "error: " << r.message << "\n";
       return kExitWriteFailed;
   }
 
-  out << "graph: " << r.variables << " variables (" << r.poses << " poses), " << r.factors << " factors\n";
-  out << "updates: " << r.latencies.size() << " (" << r.solves << " solved, " << r.rebuilt << " rebuilt the factor, "
-      << r.fell_back << " fell back to batch, " << r.iterations << " rounds)\n";
-  if (o.smoother.mode == SmootherMode::kLocal) {
-    const int local = static_cast<int>(r.latencies.size()) - r.batches;
-    out << "local mode: " << r.batches << " batch solve(s), " << local << " local solve(s) over "
-        << Format("%.1f", local > 0 ? static_cast<double>(r.region_variables) / local : 0.0)
-        << " variables on average\n";
-  }
-  out << "columns refactored: " << r.affected_columns << ", back-substituted: " << r.back_substituted
-      << ", variables re-linearised: " << r.relinearized << "\n";
-  out << "total [s]: " << Format("%.3f", r.total_seconds()) << " (updates " << Format("%.3f", r.updates_seconds)
-      << ", finish " << Format("%.3f", r.finish_seconds) << ")\n";
-  out << "per step [ms]: mean " << Format("%.3f", 1e3 * r.mean_seconds) << ", p99 "
-      << Format("%.3f", 1e3 * r.p99_seconds) << ", max " << Format("%.3f", 1e3 * r.max_seconds) << "\n";
-  out << "update split [s]: linearise " << Format("%.3f", r.linearize_seconds) << ", factorise "
-      << Format("%.3f", r.factorize_seconds) << ", solve " << Format("%.3f", r.solve_seconds) << ", other "
-      << Format("%.3f", r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds) << "\n";
-  out << "final chi2: " << Format("%.9g", r.final_chi2) << "\n";
-  out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
-  out << "relative gap to batch: " << Format("%.3e", r.relative_gap) << "\n";
-  if (o.check > 0) {
-    out << "check: " << r.checks.size()
-        << " batch solves, largest relative chi2 gap: " << Format("%.3e", r.max_check_gap) << "\n";
-  }
-  out << "peak memory [MiB]: " << Format("%.1f", r.peak_rss_mib) << "\n";
+  PrintReplayReport(r, o, out);
   if (plot_file != nullptr) {
     LatencyPlotOptions po;
     po.title = "tether replay " + std::filesystem::path(cmd.input).filename().string() + ": update latency";
@@ -383,5 +396,94 @@ int RunReplay(const ReplayCommand& cmd, std::ostream& out, std::ostream& err) {
   if (plot_file != nullptr) out << "wrote " << cmd.plot << "\n";
   return 0;
 }
+
+namespace {
+
+class ReplayCli : public Command {
+ public:
+  void Add(CLI::App& app) override;
+  int Run(std::ostream& out, std::ostream& err) override { return RunReplay(cmd_, out, err); }
+
+ private:
+  ReplayCommand cmd_;
+};
+
+void ReplayCli::Add(CLI::App& app) {
+  CLI::App* sub = app_ =
+      app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
+  sub->add_option("input", cmd_.input, "Graph file (.g2o, TORO .graph, or iSAM landmark text)")->required();
+  sub->add_option("--every", cmd_.options.every, "Update the estimate every N-th pose")->capture_default_str();
+  sub->add_option("--check", cmd_.options.check,
+                  "Every K-th update, solve the graph so far in batch (untimed) and compare")
+      ->capture_default_str();
+  AddPath(sub, "-o,--output", &cmd_.options.output, "Write the final estimate (g2o)");
+  AddPath(sub, "--plot", &cmd_.plot, "Write an SVG of every update's latency (mean, p99 and max marked)");
+  sub->add_flag("-q,--quiet", cmd_.quiet, "Only the summary lines");
+  sub->add_option("--relinearize-threshold", cmd_.options.smoother.relinearize_threshold,
+                  "Re-linearise a variable whose step exceeds this (SmootherOptions::relinearize_threshold)")
+      ->capture_default_str();
+  sub->add_option("--relinearize-sigmas", cmd_.options.smoother.relinearize_sigmas,
+                  "Re-linearise a variable whose step exceeds this many standard deviations "
+                  "(SmootherOptions::relinearize_sigmas)")
+      ->capture_default_str();
+  sub->add_option(
+         "--iterate-ratio", cmd_.options.smoother.iterate_ratio,
+         "Solve again within an update while a step is this many times too large (SmootherOptions::iterate_ratio)")
+      ->capture_default_str();
+  sub->add_option("--iterate-fraction", cmd_.options.smoother.iterate_fraction,
+                  "When solving again, also re-linearise steps beyond this fraction of the thresholds "
+                  "(SmootherOptions::iterate_fraction)")
+      ->capture_default_str();
+  sub->add_option("--iterate-share", cmd_.options.smoother.iterate_share,
+                  "Solve again within an update while more than this share of the variables have steps too large "
+                  "(SmootherOptions::iterate_share)")
+      ->capture_default_str();
+  sub->add_flag_function(
+      "--no-refine-new", [this](std::int64_t) { cmd_.options.smoother.refine_new_values = false; },
+      "Start new variables at the given values, not at the optimum of their new factors "
+      "(SmootherOptions::refine_new_values)");
+  sub->add_option("--rounds", cmd_.options.smoother.rounds_per_update,
+                  "Factorise-solve rounds per update (SmootherOptions::rounds_per_update)")
+      ->capture_default_str();
+  AddEnumOption(sub, "--factorization", &cmd_.options.smoother.factorization,
+                "auto, left-looking or multifrontal (SmootherOptions::factorization)");
+  sub->add_option("--wildfire", cmd_.options.smoother.wildfire_threshold,
+                  "Back-substitute below a variable only where its step changed by more than this "
+                  "(SmootherOptions::wildfire_threshold)")
+      ->capture_default_str();
+  AddEnumOption(sub, "--mode", &cmd_.options.smoother.mode,
+                "factor (keep a Cholesky factor of the whole system) or local (solve each update over a region "
+                "around it, with batch solves now and then) (SmootherOptions::mode)");
+  sub->add_option("--local-tolerance", cmd_.options.smoother.local_tolerance,
+                  "local: grow the region while an edge variable alone could lower chi2 by more than this share of "
+                  "chi2 per variable "
+                  "(SmootherOptions::local_tolerance)")
+      ->capture_default_str();
+  sub->add_option("--local-hops", cmd_.options.smoother.local_hops,
+                  "local: the first region reaches this many factors from the update's variables "
+                  "(SmootherOptions::local_hops)")
+      ->capture_default_str();
+  sub->add_option("--local-max-region", cmd_.options.smoother.local_max_region,
+                  "local: solve in batch where a region would grow beyond this many variables "
+                  "(SmootherOptions::local_max_region)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-gap", cmd_.options.smoother.local_batch_gap,
+                  "local: a batch solve once the edge gains since the last reach this share of chi2 "
+                  "(SmootherOptions::local_batch_gap)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-correction", cmd_.options.smoother.local_batch_correction,
+                  "local: solve in batch an update whose local solve lowers chi2 by more than this share of it "
+                  "(SmootherOptions::local_batch_correction)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-share", cmd_.options.smoother.local_batch_share,
+                  "local: a batch solve at the latest once the updates since the last reach this share of the "
+                  "variables "
+                  "(SmootherOptions::local_batch_share)")
+      ->capture_default_str();
+}
+
+}  // namespace
+
+std::unique_ptr<Command> MakeReplayCommand() { return std::make_unique<ReplayCli>(); }
 
 }  // namespace tether

@@ -49,7 +49,9 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if ((consecutive_translation_sigma > 0) != (consecutive_rotation_sigma > 0) ||
       !(std::isfinite(consecutive_translation_sigma) && consecutive_translation_sigma >= 0) ||
       !(std::isfinite(consecutive_rotation_sigma) && consecutive_rotation_sigma >= 0)) {
-    return fail("the consecutive constraints' sigmas must both be positive and finite, or both 0 (none)");
+    return fail(
+        "consecutive_translation_sigma and consecutive_rotation_sigma must both be positive and finite, or both 0 "
+        "(no consecutive constraints)");
   }
   if (!PositiveFinite(huber_delta)) return fail("huber_delta must be positive and finite");
   if (!(std::isfinite(local_huber_delta) && local_huber_delta >= 0)) {

@@ -55,5 +55,20 @@ std::vector<StampedPose2> ReadTumFile(const std::string& path) {
   return ReadTum(in, path);
 }
 
+TrajectoryError StampedTrajectoryError(const std::vector<StampedPose2>& estimate,
+                                       const std::vector<StampedPose2>& truth, double tolerance) {
+  // The matched poses, by their index in the estimate as Values keys.
+  Values matched, reference;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    while (k < truth.size() && truth[k].stamp < estimate[i].stamp - tolerance) ++k;
+    if (k < truth.size() && std::abs(truth[k].stamp - estimate[i].stamp) <= tolerance) {
+      matched.Insert(static_cast<Key>(i), estimate[i].pose);
+      reference.Insert(static_cast<Key>(i), truth[k].pose);
+    }
+  }
+  return AbsoluteTrajectoryError(matched, reference);
+}
+
 }  // namespace lidar
 }  // namespace tether

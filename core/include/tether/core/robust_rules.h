@@ -26,6 +26,9 @@ struct RobustRule {
 /// Parses one rule; throws InvalidArgument naming the text and the accepted forms.
 RobustRule ParseRobustRule(const std::string& text);
 
+/// Throws InvalidArgument for a rule whose tag no type of `registry` has.
+void CheckRobustRules(const std::vector<RobustRule>& rules, const Registry& registry);
+
 /// Sets the loss of every factor each rule selects; returns how many factors carry a loss
 /// from the rules. Throws InvalidArgument for a tag no type of `registry` has (before
 /// changing anything).

@@ -1,6 +1,6 @@
 #pragma once
-// Pieces shared by the SVG pictures of tools/ (svg_plot.cc: trajectories; latency_plot.cc:
-// update latencies): numbers on a 0.01 pixel grid written without the locale, text escaped
+// Pieces shared by the SVG pictures (svg_plot.cc: trajectories; the tools' latency and filter
+// plots): numbers on a 0.01 pixel grid written without the locale, text escaped
 // for XML, compact path data, and writing a file through a temporary name.
 #include <string>
 

@@ -42,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
 #include "tether/solvers/chunked_solve.h"
@@ -50,7 +51,13 @@
 namespace tether {
 
 enum class GncKernel { kGemanMcClure, kTruncatedLeastSquares };
+inline constexpr EnumName<GncKernel> kGncKernelNames[] = {{GncKernel::kGemanMcClure, "gm"},
+                                                          {GncKernel::kTruncatedLeastSquares, "tls"}};
+constexpr const auto& EnumNames(GncKernel) { return kGncKernelNames; }
 enum class GncStart { kChunkedDcs, kLeastSquares };
+inline constexpr EnumName<GncStart> kGncStartNames[] = {{GncStart::kChunkedDcs, "chunked"},
+                                                        {GncStart::kLeastSquares, "least-squares"}};
+constexpr const auto& EnumNames(GncStart) { return kGncStartNames; }
 
 struct GncOptions {
   /// Default Geman-McClure: on simulated Manhattan worlds it kept every true closure where TLS
@@ -78,8 +85,13 @@ struct GncOptions {
   /// Each stage's solve (and the least-squares start): Levenberg-Marquardt, at most 30
   /// iterations by default.
   SolverOptions inner;
+  /// The stages' iteration limit by default (a stage follows mu; it need not converge).
+  static constexpr int kStageIterations = 30;
 
   GncOptions();
+  /// Each stage solves with `solver`'s settings (step strategy, linear solver, threads, time
+  /// limit, callback), at most kStageIterations iterations (fewer where `solver` says so).
+  void SetSolver(const SolverOptions& solver);
   bool IsValid(std::string* why) const;
 };
 

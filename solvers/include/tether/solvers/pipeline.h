@@ -73,9 +73,13 @@ enum class PipelineStatus {
   kWriteFailed,     ///< the output cannot be written (checked before reading) or writing it failed; nothing written
 };
 
-/// "ok", "invalid-options", "bad-input", "solve-failed", "write-failed".
-const char* ToString(PipelineStatus s);
-bool FromString(const std::string& s, PipelineStatus* status);
+inline constexpr EnumName<PipelineStatus> kPipelineStatusNames[] = {
+    {PipelineStatus::kOk, "ok"},
+    {PipelineStatus::kInvalidOptions, "invalid-options"},
+    {PipelineStatus::kBadInput, "bad-input"},
+    {PipelineStatus::kSolveFailed, "solve-failed"},
+    {PipelineStatus::kWriteFailed, "write-failed"}};
+constexpr const auto& EnumNames(PipelineStatus) { return kPipelineStatusNames; }
 
 /// What happened, stage by stage. Stages not reached keep their defaults.
 struct PipelineResult {
@@ -106,9 +110,6 @@ struct PipelineResult {
   bool written = false;
 
   bool ok() const { return status == PipelineStatus::kOk; }
-  /// The exit code `tether optimize` returns: 0 ok; 1 bad input; 2 invalid options; 3 the
-  /// solve failed; 4 an output that cannot be written.
-  int ExitCode() const;
 };
 
 /// Called between the stages of RunPipeline, for progress reports (the CLI prints its lines

@@ -34,8 +34,13 @@ struct SwitchableOptions {
   /// The solve over the augmented graph: Levenberg-Marquardt, at most 100 iterations by
   /// default (switches make the problem slower to converge than plain least squares).
   SolverOptions solver;
+  /// The solve's iteration floor by default.
+  static constexpr int kMinIterations = 100;
 
   SwitchableOptions();
+  /// The switched solve takes `solver`'s settings (step strategy, linear solver, threads, time
+  /// limit, callback), with at least kMinIterations iterations.
+  void SetSolver(const SolverOptions& solver);
   bool IsValid(std::string* why) const;
 };
 

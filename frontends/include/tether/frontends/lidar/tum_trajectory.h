@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/trajectory_error.h"
 #include "tether/frontends/lidar/odometry_track.h"
 
 namespace tether {
@@ -23,6 +24,12 @@ void WriteTumFile(const std::string& path, const std::vector<StampedPose2>& pose
 std::vector<StampedPose2> ReadTum(std::istream& in, const std::string& name);
 /// Throws IoError where the file cannot be opened.
 std::vector<StampedPose2> ReadTumFile(const std::string& path);
+
+/// The absolute trajectory error (rigid alignment; tether/core/trajectory_error.h) of the
+/// poses of `estimate` whose stamps `truth` has too, within `tolerance` seconds (both sorted by
+/// stamp, as a run and a TUM file are). poses == 0 where no stamp matches.
+TrajectoryError StampedTrajectoryError(const std::vector<StampedPose2>& estimate,
+                                       const std::vector<StampedPose2>& truth, double tolerance = 1e-6);
 
 }  // namespace lidar
 }  // namespace tether

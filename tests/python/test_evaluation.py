@@ -1,0 +1,84 @@
+"""Measuring and drawing results from Python: the absolute trajectory error and the SVG plot,
+the same code `tether optimize --ground-truth --plot` runs; the smoother's mode and the option
+names that come from the library's one table of enum names."""
+import math
+import re
+import subprocess
+
+import pytest
+
+import tether
+
+
+def _solved_world(seed=3):
+    graph, initial, truth = tether.simulate("manhattan", poses=200, seed=seed)
+    result = initial.copy()
+    tether.initialize(graph, result, "chordal")
+    summary = tether.optimize(graph, result)
+    assert summary.status == "converged"
+    return graph, initial, result, truth
+
+
+def test_the_solve_lowers_the_trajectory_error():
+    graph, initial, result, truth = _solved_world()
+    start = tether.absolute_trajectory_error(initial, truth)
+    end = tether.absolute_trajectory_error(result, truth)
+    assert start.poses == end.poses == 200
+    assert end.rmse < 0.5 * start.rmse
+    assert end.mean <= end.rmse <= end.max
+    # A trajectory against itself has no error; an unaligned shift is all error.
+    assert tether.absolute_trajectory_error(truth, truth).rmse == pytest.approx(0, abs=1e-9)
+    shifted = truth.copy()
+    for k in shifted.keys():
+        p = shifted.at(k)
+        shifted.update(k, tether.SE2(p.x + 1.0, p.y, p.theta))
+    assert tether.absolute_trajectory_error(shifted, truth).rmse == pytest.approx(0, abs=1e-9)
+    assert tether.absolute_trajectory_error(shifted, truth, alignment="none").rmse == pytest.approx(1.0)
+    with pytest.raises(tether.InvalidArgument, match="rigid or none"):
+        tether.absolute_trajectory_error(shifted, truth, alignment="scaled")
+    nothing = tether.absolute_trajectory_error(tether.Values(), truth)
+    assert nothing.poses == 0 and math.isnan(nothing.rmse)
+
+
+def test_the_plot_is_the_commands_plot(tmp_path, cli):
+    graph, initial, result, truth = _solved_world()
+    options = tether.PlotOptions()
+    options.title = "world"
+    options.before_label = "file's start"
+    options.after_label = "result"
+    svg = tether.plot_svg(graph, before=initial, after=result, truth=truth, options=options)
+    assert svg.startswith("<svg") and svg.endswith("</svg>\n")
+    assert "s start" in svg and "result" in svg and "ground truth" in svg
+    # The legend gives the trajectory error the function above gives.
+    ate = tether.absolute_trajectory_error(result, truth).rmse
+    assert re.search(r"result \(ATE [0-9.e-]+ m\)", svg)
+    path = tmp_path / "p.svg"
+    tether.write_svg(str(path), graph, before=initial, after=result, options=options)
+    assert path.read_text().startswith("<svg")
+    # The command draws the same picture from the same inputs (written and read back as g2o).
+    g2o = tmp_path / "w.g2o"
+    tether.write_g2o(str(g2o), graph, initial)
+    out_svg = tmp_path / "cli.svg"
+    subprocess.run([cli, "optimize", str(g2o), "-q", "--plot", str(out_svg)], check=True, capture_output=True)
+    text = out_svg.read_text()
+    assert "s start" in text and "result" in text
+    assert ate > 0
+    with pytest.raises(tether.InvalidArgument):
+        bad = tether.PlotOptions()
+        bad.width_px = 10
+        tether.plot_svg(graph, after=result, options=bad)
+
+
+def test_enum_options_take_the_tables_names():
+    o = tether.SmootherOptions()
+    assert o.mode == "factor" and o.factorization == "auto"
+    o.mode = "local"
+    o.factorization = "multifrontal"
+    o.local_hops = 3
+    assert (o.mode, o.factorization, o.local_hops) == ("local", "multifrontal", 3)
+    with pytest.raises(tether.InvalidArgument, match="use factor or local"):
+        o.mode = "global"
+    with pytest.raises(tether.InvalidArgument, match="use auto, left-looking or multifrontal"):
+        o.factorization = "supernodal"
+    with pytest.raises(tether.InvalidArgument, match="use manhattan, sphere or landmarks"):
+        tether.simulate("city")

@@ -1,0 +1,77 @@
+#pragma once
+// One subcommand of the `tether` program. A command binds its flags straight into the options
+// struct of the library call it makes, runs that call and prints its report; tools/main.cc is
+// only the table of commands. Adding a command: a file in tools/src/ with a class derived from
+// Command and a Make...Command function, and one line in tools/main.cc's table
+// (docs/architecture.md).
+#include <CLI/CLI.hpp>
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tether/core/enum_names.h"
+
+namespace tether {
+
+/// Exit codes of the `tether` program, the one place they are defined: 0 done; 1 bad input (the
+/// message names file:line); 2 bad usage (arguments); 3 the solve failed; 4 an output could not
+/// be written (nothing was written); 5 a plugin could not be loaded.
+constexpr int kExitOk = 0;
+constexpr int kExitBadInput = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitSolveFailed = 3;
+constexpr int kExitWriteFailed = 4;
+constexpr int kExitPluginFailed = 5;
+
+class Command {
+ public:
+  virtual ~Command() = default;
+  /// Adds the subcommand and its flags to `app`, bound to this object's fields.
+  virtual void Add(CLI::App& app) = 0;
+  /// Runs the command after a parse that selected it; the exit code.
+  virtual int Run(std::ostream& out, std::ostream& err) = 0;
+  /// True when the parse selected this command.
+  bool Selected() const { return app_ != nullptr && app_->parsed(); }
+  /// After the parse: an output flag given an empty path (`-o "$UNSET"`) is refused, naming the
+  /// flag; 0 or kExitUsage.
+  int CheckPaths(std::ostream& err) const;
+
+ protected:
+  /// Adds an option whose value is a file or folder to write: refused when given empty.
+  CLI::Option* AddPath(CLI::App* app, const std::string& flags, std::string* path, const std::string& help);
+  /// The subcommand whose parse runs this command (set by Add).
+  CLI::App* app_ = nullptr;
+
+ private:
+  std::vector<std::pair<const CLI::Option*, const std::string*>> paths_;
+};
+
+/// An option that takes one of an enum's names (tether/core/enum_names.h): the names and the
+/// default are shown in --help, any other word is refused while parsing (exit 2) with the list.
+template <class E, class = IfNamedEnum<E>>
+CLI::Option* AddEnumOption(CLI::App* app, const std::string& flags, E* value, const std::string& help) {
+  const std::string names = EnumNameList<E>();
+  CLI::Option* o = app->add_option_function<std::string>(
+      flags,
+      [value, names](const std::string& s) {
+        if (!FromString(s, value)) throw CLI::ValidationError("'" + s + "' is not one of " + names);
+      },
+      help);
+  o->type_name("NAME")->default_str(ToString(*value))->check(CLI::IsMember(EnumNameVector<E>()));
+  return o;
+}
+
+/// The commands, in the order --help lists them.
+std::unique_ptr<Command> MakeOptimizeCommand();
+std::unique_ptr<Command> MakeSimulateCommand();
+std::unique_ptr<Command> MakePluginsCommand();
+std::unique_ptr<Command> MakeBenchCommand();
+std::unique_ptr<Command> MakeReplayCommand();
+std::unique_ptr<Command> MakeEkfDemoCommand();
+std::unique_ptr<Command> MakeLidarCommand();
+std::unique_ptr<Command> MakeLidarEvalCommand();
+std::unique_ptr<Command> MakeLidarDegradeCommand();
+
+}  // namespace tether
