@@ -3,11 +3,10 @@
 #include <set>
 
 #include "tether/core/error.h"
-#include "tether/core/robust_kernels.h"
 
 namespace tether {
 
-RobustRule ParseRobustRule(const std::string& text) {
+RobustRule ParseRobustRule(const std::string& text, const LossRegistry& losses) {
   const std::size_t eq = text.find('=');
   RobustRule rule;
   rule.selector = text.substr(0, eq);
@@ -15,19 +14,30 @@ RobustRule ParseRobustRule(const std::string& text) {
     throw InvalidArgument("robust rule '" + text +
                           "': no selector before '=' (write loop=huber:1.0, all=cauchy:2 or TAG=KERNEL:SCALE)");
   }
-  const std::string loss = eq == std::string::npos ? "huber:1" : text.substr(eq + 1);
+  rule.loss_spec = eq == std::string::npos ? "huber:1" : text.substr(eq + 1);
   try {
-    rule.loss = MakeLoss(loss);
+    // The form is checked now; a name not registered yet may be a plugin's, loaded later.
+    if (losses.Get(ParseLossSpec(rule.loss_spec).name)) rule.loss = losses.Make(rule.loss_spec);
   } catch (const InvalidArgument& e) {
     throw InvalidArgument("robust rule '" + text + "': " + e.what());
   }
   return rule;
 }
 
-int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& registry, FactorGraph* graph) {
-  // The type name each tag selects, checked before anything changes.
+int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& registry, FactorGraph* graph,
+                     const LossRegistry& losses) {
+  // The type name each tag selects and each rule's loss, found before anything changes.
   std::vector<std::string> names(rules.size());
+  std::vector<std::shared_ptr<const LossFunction>> made(rules.size());
   for (std::size_t r = 0; r < rules.size(); ++r) {
+    made[r] = rules[r].loss;
+    if (made[r] == nullptr) {
+      try {
+        made[r] = losses.Make(rules[r].loss_spec);
+      } catch (const InvalidArgument& e) {
+        throw InvalidArgument("robust rule '" + rules[r].selector + "=" + rules[r].loss_spec + "': " + e.what());
+      }
+    }
     const std::string& s = rules[r].selector;
     if (s == "loop" || s == "all") continue;
     const FactorType* type = registry.FindByTag(s);
@@ -44,7 +54,7 @@ int ApplyRobustRules(const std::vector<RobustRule>& rules, const Registry& regis
       Factor& f = graph->at(i);
       const bool selected = s == "all" || (s == "loop" ? f.loop_closure() : f.type_name() == names[r]);
       if (!selected) continue;
-      f.set_loss(rules[r].loss);
+      f.set_loss(made[r]);
       given.insert(i);
     }
   }
