@@ -1,6 +1,6 @@
 #pragma once
-// What a plugin includes (variable types, factor types, linear solvers, robust losses). A plugin is a shared
-// library that exports one C function,
+// What a plugin includes (variable types, factor types, linear solvers, robust losses). A
+// plugin is a shared library that exports one C function,
 //
 //   extern "C" const tether::PluginDescription* tether_plugin_entry();
 //
