@@ -127,6 +127,11 @@ std::vector<std::string> LossRegistry::Names() const {
   return names;
 }
 
+std::vector<LossEntry> LossRegistry::Entries() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_;
+}
+
 std::string LossRegistry::NamesText() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::string text;

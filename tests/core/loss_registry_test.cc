@@ -150,6 +150,12 @@ TEST(LossRegistry, ALossWithAParameterTakesItOrItsDefault) {
   m = Refusal([&] { r.Make("rec:1:11"); });
   EXPECT_TRUE(Has(m, "robust loss 'rec:1:11': alpha must be at most 10")) << m;
   EXPECT_EQ(r.NamesText(), "rec (plugin mine; rec:SCALE:ALPHA, alpha 0.5 if omitted)");
+  const std::vector<LossEntry> entries = r.Entries();
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ(entries[0].name, "rec");
+  EXPECT_EQ(entries[0].owner, "mine");
+  EXPECT_EQ(entries[0].parameter, "alpha");
+  EXPECT_EQ(entries[0].default_parameter, 0.5);
 }
 
 TEST(LossRegistry, AFactoryThatFailsOtherwiseIsAnInvalidArgumentNamingIt) {

@@ -74,6 +74,9 @@ class LossRegistry {
   bool Get(const std::string& name, LossEntry* out = nullptr) const;
   /// The registered names, in the order they were registered.
   std::vector<std::string> Names() const;
+  /// Copies of the registered entries in that order (name, owner, parameter, description),
+  /// for listings such as `tether plugins list`.
+  std::vector<LossEntry> Entries() const;
   /// The registered losses for help texts and messages, in that order: a plugin's with its
   /// owner, one with a parameter with its form, e.g.
   /// "huber, cauchy, tukey, gm, dcs, barron (plugin barron_loss; barron:SCALE:ALPHA, alpha 1 if omitted)".
