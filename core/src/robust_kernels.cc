@@ -2,8 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
+#include <utility>
 
 #include "tether/core/error.h"
 
@@ -18,16 +17,10 @@ double CheckScale(const char* kernel, double scale) {
   return scale;
 }
 
-std::string Named(const char* kernel, double scale) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%s:%.17g", kernel, scale);
-  return buf;
-}
-
 }  // namespace
 
 HuberLoss::HuberLoss(double delta) : delta_(CheckScale("huber", delta)) {}
-std::string HuberLoss::name() const { return Named("huber", delta_); }
+std::string HuberLoss::name() const { return LossName("huber", delta_); }
 void HuberLoss::Evaluate(double s, double rho[3]) const {
   const double d2 = delta_ * delta_;
   if (s <= d2) {
@@ -43,7 +36,7 @@ void HuberLoss::Evaluate(double s, double rho[3]) const {
 }
 
 CauchyLoss::CauchyLoss(double c) : c_(CheckScale("cauchy", c)) {}
-std::string CauchyLoss::name() const { return Named("cauchy", c_); }
+std::string CauchyLoss::name() const { return LossName("cauchy", c_); }
 void CauchyLoss::Evaluate(double s, double rho[3]) const {
   const double c2 = c_ * c_;
   const double inv = 1 / (1 + s / c2);
@@ -53,7 +46,7 @@ void CauchyLoss::Evaluate(double s, double rho[3]) const {
 }
 
 TukeyLoss::TukeyLoss(double c) : c_(CheckScale("tukey", c)) {}
-std::string TukeyLoss::name() const { return Named("tukey", c_); }
+std::string TukeyLoss::name() const { return LossName("tukey", c_); }
 void TukeyLoss::Evaluate(double s, double rho[3]) const {
   const double c2 = c_ * c_;
   if (s <= c2) {
@@ -69,7 +62,7 @@ void TukeyLoss::Evaluate(double s, double rho[3]) const {
 }
 
 GemanMcClureLoss::GemanMcClureLoss(double c) : c_(CheckScale("gm", c)) {}
-std::string GemanMcClureLoss::name() const { return Named("gm", c_); }
+std::string GemanMcClureLoss::name() const { return LossName("gm", c_); }
 void GemanMcClureLoss::Evaluate(double s, double rho[3]) const {
   const double c2 = c_ * c_;
   const double inv = 1 / (c2 + s);
@@ -79,7 +72,7 @@ void GemanMcClureLoss::Evaluate(double s, double rho[3]) const {
 }
 
 DcsLoss::DcsLoss(double phi) : phi_(CheckScale("dcs", phi)) {}
-std::string DcsLoss::name() const { return Named("dcs", phi_); }
+std::string DcsLoss::name() const { return LossName("dcs", phi_); }
 void DcsLoss::Evaluate(double s, double rho[3]) const {
   if (s <= phi_) {
     rho[0] = s;
@@ -105,30 +98,25 @@ double RobustWeight(const LossFunction* loss, double s, double* cost) {
   return std::sqrt(std::max(rho[1], 0.0));
 }
 
-std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec) {
-  const std::size_t colon = spec.find(':');
-  const std::string kernel = spec.substr(0, colon);
-  double scale = 1;
-  if (colon != std::string::npos) {
-    const std::string text = spec.substr(colon + 1);
-    char* end = nullptr;
-    scale = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size()) {
-      throw InvalidArgument("robust loss '" + spec + "': the scale '" + text +
-                            "' is not a number (write NAME:SCALE, e.g. huber:1.0)");
-    }
-  }
-  try {
-    if (kernel == "huber") return std::make_shared<HuberLoss>(scale);
-    if (kernel == "cauchy") return std::make_shared<CauchyLoss>(scale);
-    if (kernel == "tukey") return std::make_shared<TukeyLoss>(scale);
-    if (kernel == "gm") return std::make_shared<GemanMcClureLoss>(scale);
-    if (kernel == "dcs") return std::make_shared<DcsLoss>(scale);
-  } catch (const InvalidArgument& e) {
-    throw InvalidArgument("robust loss '" + spec + "': " + e.what());
-  }
-  throw InvalidArgument("robust loss '" + spec + "': unknown kernel '" + kernel +
-                        "' (known: huber, cauchy, tukey, gm, dcs; write NAME:SCALE, e.g. huber:1.0)");
+void RegisterBuiltinLosses(LossRegistry& registry) {
+  // Each factory is given a scale checked already (finite, above 0) and no parameter.
+  const auto entry = [&](const char* name, const char* description, LossFactory make) {
+    LossEntry e;
+    e.name = name;
+    e.description = description;
+    e.make = std::move(make);
+    registry.Register(std::move(e));
+  };
+  entry("huber", "Huber: s up to SCALE^2, then linear in the error's norm",
+        [](double d, double) { return std::make_shared<HuberLoss>(d); });
+  entry("cauchy", "Cauchy: SCALE^2 log(1 + s / SCALE^2)",
+        [](double c, double) { return std::make_shared<CauchyLoss>(c); });
+  entry("tukey", "Tukey's biweight: constant beyond s = SCALE^2",
+        [](double c, double) { return std::make_shared<TukeyLoss>(c); });
+  entry("gm", "Geman-McClure: SCALE^2 s / (SCALE^2 + s)",
+        [](double c, double) { return std::make_shared<GemanMcClureLoss>(c); });
+  entry("dcs", "dynamic covariance scaling: s up to SCALE, then SCALE (3 s - SCALE) / (SCALE + s)",
+        [](double phi, double) { return std::make_shared<DcsLoss>(phi); });
 }
 
 double Chi2Quantile(int k, double p) {

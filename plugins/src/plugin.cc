@@ -45,4 +45,16 @@ void PluginRegistrar::AddLinearSolver(LinearSolverEntry entry) {
   linear_solvers_.push_back(std::move(entry));
 }
 
+void PluginRegistrar::AddLoss(LossEntry entry) {
+  entry.owner = plugin_;
+  losses_.push_back(std::move(entry));
+}
+
+void PluginRegistrar::AddLoss(const std::string& name, LossFactory make) {
+  LossEntry entry;
+  entry.name = name;
+  entry.make = std::move(make);
+  AddLoss(std::move(entry));
+}
+
 }  // namespace tether

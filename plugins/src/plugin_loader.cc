@@ -51,6 +51,28 @@ std::vector<LinearSolverEntry> TrialLinearSolvers(const PluginRegistrar& registr
   return added;
 }
 
+// The robust losses a plugin adds, the same way: tried on a copy of the loss registry, and one
+// this plugin registered already (through another loader) left as it is.
+std::vector<LossEntry> TrialLosses(const PluginRegistrar& registrar, const LossRegistry& target,
+                                   const std::string& path, LoadedPlugin* loaded) {
+  const std::string& name = registrar.plugin_name();
+  std::vector<LossEntry> added;
+  LossRegistry trial = target;
+  try {
+    for (const LossEntry& e : registrar.losses()) {
+      LossEntry there;
+      if (!target.Get(e.name, &there) || there.owner != name) {
+        trial.Register(e);
+        added.push_back(e);
+      }
+      loaded->loss_names.push_back(e.name);
+    }
+  } catch (const Error& e) {
+    throw PluginError("plugin " + path + " ('" + name + "'): " + e.what() + "; nothing of it was registered");
+  }
+  return added;
+}
+
 std::map<std::string, PluginExtensionKind>& ExtensionKinds() {
   static std::map<std::string, PluginExtensionKind> kinds;
   return kinds;
@@ -97,7 +119,8 @@ std::vector<std::pair<PluginExtensionKind, const PluginExtension*>> TrialExtensi
 }
 
 // Whether everything an earlier load of the plugin registered is still there, owned by it.
-bool StillRegistered(const LoadedPlugin& p, const Registry& registry, const LinearSolverRegistry& solvers) {
+bool StillRegistered(const LoadedPlugin& p, const Registry& registry, const LinearSolverRegistry& solvers,
+                     const LossRegistry& losses) {
   const auto owned_type = [&](const std::string& n) {
     const FactorType* t = registry.FindByName(n);
     return t != nullptr && t->owner == p.name;
@@ -107,9 +130,14 @@ bool StillRegistered(const LoadedPlugin& p, const Registry& registry, const Line
     LinearSolverEntry e;
     return solvers.Get(n, &e) && e.owner == p.name;
   };
+  const auto owned_loss = [&](const std::string& n) {
+    LossEntry e;
+    return losses.Get(n, &e) && e.owner == p.name;
+  };
   return std::all_of(p.type_names.begin(), p.type_names.end(), owned_type) &&
          std::all_of(p.variable_names.begin(), p.variable_names.end(), owned_variable) &&
-         std::all_of(p.linear_solver_names.begin(), p.linear_solver_names.end(), owned_solver);
+         std::all_of(p.linear_solver_names.begin(), p.linear_solver_names.end(), owned_solver) &&
+         std::all_of(p.loss_names.begin(), p.loss_names.end(), owned_loss);
 }
 
 // Opens the library and checks its description: entry symbol, interface version, name, build
@@ -204,6 +232,7 @@ std::string LoadedPlugin::Summary() const {
   if (!variable_names.empty()) s += Count(variable_names.size(), "variable type") + ", ";
   s += Count(type_names.size(), "factor type");
   if (!linear_solver_names.empty()) s += ", " + Count(linear_solver_names.size(), "linear solver");
+  if (!loss_names.empty()) s += ", " + Count(loss_names.size(), "robust loss");
   for (const std::string& e : extension_names) s += ", " + e;
   return s + ")";
 }
@@ -256,7 +285,7 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
     if (it->path != path) continue;
     // Loading the same file twice is harmless. But where its types were removed since
     // (Registry::RemoveOwner), it is registered afresh below, as a new loader would do.
-    if (StillRegistered(*it, registry_, linear_solvers_)) return *it;
+    if (StillRegistered(*it, registry_, linear_solvers_, losses_)) return *it;
     loaded_.erase(it);
     break;
   }
@@ -273,19 +302,21 @@ LoadedPlugin PluginLoader::Load(const std::string& path_or_name) {
   // exactly as it was. Then the same entries go into the registries themselves, added beside
   // the entries already there: a FactorType found before the load stays where it is
   // (replacing the registry by the copy would free every one of them).
-  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}, {}};
+  LoadedPlugin loaded{name, d->version ? d->version : "", path, {}, {}, {}, {}, {}};
   TrialTypes(registrar, registry_, path, &loaded);
   const std::vector<LinearSolverEntry> solvers = TrialLinearSolvers(registrar, linear_solvers_, path, &loaded);
+  const std::vector<LossEntry> losses = TrialLosses(registrar, losses_, path, &loaded);
   const auto kinds = TrialExtensions(registrar, path, &loaded);
   loaded_.reserve(loaded_.size() + 1);  // so that recording the plugin below cannot fail
-  Commit(registrar, solvers, kinds);
+  Commit(registrar, solvers, losses, kinds);
   loaded_.push_back(std::move(loaded));
   return loaded_.back();
 }
 
 void PluginLoader::Commit(const PluginRegistrar& registrar, const std::vector<LinearSolverEntry>& solvers,
+                          const std::vector<LossEntry>& losses,
                           const std::vector<std::pair<PluginExtensionKind, const PluginExtension*>>& kinds) {
-  std::size_t variables = 0, committed = 0, committed_solvers = 0, extensions = 0;
+  std::size_t variables = 0, committed = 0, committed_solvers = 0, committed_losses = 0, extensions = 0;
   try {
     for (const VariableType& t : registrar.variable_types()) {
       registry_.RegisterVariable(t);
@@ -299,6 +330,10 @@ void PluginLoader::Commit(const PluginRegistrar& registrar, const std::vector<Li
       linear_solvers_.Register(e);
       ++committed_solvers;
     }
+    for (const LossEntry& e : losses) {
+      losses_.Register(e);
+      ++committed_losses;
+    }
     for (const auto& [kind, extension] : kinds) {
       kind.commit(*extension, registrar.plugin_name());
       ++extensions;
@@ -309,6 +344,7 @@ void PluginLoader::Commit(const PluginRegistrar& registrar, const std::vector<Li
     for (std::size_t i = 0; i < committed; ++i) registry_.Remove(registrar.factor_types()[i].name);
     for (std::size_t i = 0; i < variables; ++i) registry_.RemoveVariable(registrar.variable_types()[i].name);
     for (std::size_t i = 0; i < committed_solvers; ++i) linear_solvers_.Remove(solvers[i].name);
+    for (std::size_t i = 0; i < committed_losses; ++i) losses_.Remove(losses[i].name);
     for (std::size_t i = 0; i < extensions; ++i) kinds[i].first.remove(kinds[i].second->name);
     throw;
   }

@@ -192,7 +192,13 @@ void BindNoiseAndLosses(py::module_& m) {
   py::class_<DcsLoss, LossFunction, std::shared_ptr<DcsLoss>>(m, "DcsLoss").def(py::init<double>(), py::arg("phi"));
   m.def(
       "make_loss", [](const std::string& spec) { return std::const_pointer_cast<LossFunction>(MakeLoss(spec)); },
-      py::arg("spec"), "A loss from its text form: huber:1, cauchy:2, tukey:4.685, gm:1, dcs:1.");
+      py::arg("spec"),
+      "A loss from its text form NAME:SCALE (NAME:SCALE:PARAM for a loss with a parameter), NAME looked up in "
+      "the loss registry (loss_names()): huber:1, cauchy:2, tukey:4.685, gm:1, dcs:1, or a loaded plugin's, "
+      "e.g. barron:1:0.5. Raises ValueError listing the registered names for an unknown one.");
+  m.def("loss_names", &RegisteredLossNames,
+        "The names make_loss, loss= arguments and robust= rules accept, in the order they were registered: the "
+        "built-in losses, then those of the plugins loaded (load_plugin).");
 }
 
 void BindValues(py::module_& m) {

@@ -377,7 +377,19 @@ void BindPipeline(py::module_& m) {
         po.solver = solver;
         po.read.format = NamedFrom<FileFormat>(format, "file format");
         po.keep_intermediate_values = keep_initial;
-        for (const std::string& r : robust) po.robust.push_back(ParseRobustRule(r));
+        for (const std::string& r : robust) {
+          RobustRule rule = ParseRobustRule(r);
+          // Python loads its plugins before it calls: a loss name unknown now stays unknown, and
+          // is refused here as every other malformed rule is.
+          if (rule.loss == nullptr) {
+            try {
+              rule.loss = MakeLoss(rule.loss_spec);
+            } catch (const InvalidArgument& e) {
+              throw InvalidArgument("robust rule '" + r + "': " + e.what());
+            }
+          }
+          po.robust.push_back(std::move(rule));
+        }
         return Guarded([&] {
           py::gil_scoped_release release;
           return RunPipeline(po, DefaultRegistry());
@@ -398,6 +410,7 @@ void BindPlugins(py::module_& m) {
       .def_readonly("variable_names", &LoadedPlugin::variable_names)
       .def_readonly("linear_solver_names", &LoadedPlugin::linear_solver_names)
       .def_readonly("extension_names", &LoadedPlugin::extension_names)
+      .def_readonly("loss_names", &LoadedPlugin::loss_names)
       .def("summary", &LoadedPlugin::Summary)
       .def("__repr__", [](const LoadedPlugin& p) { return "<LoadedPlugin " + p.Summary() + ">"; });
   m.def(
@@ -409,7 +422,8 @@ void BindPlugins(py::module_& m) {
       },
       py::arg("path"),
       "Loads a plugin (a path, or a name found on the plugin search path) into the default registry: its "
-      "factor and variable types are then read from files, made with make_factor and stored in Values. "
+      "factor and variable types are then read from files, made with make_factor and stored in Values; its "
+      "robust losses are known to make_loss, loss= arguments and robust= rules. "
       "Raises PluginError saying why where it cannot.");
   m.def("plugin_search_path", &PluginLoader::SearchPath);
 }

@@ -1,14 +1,17 @@
 // Robust loss rules (tether/core/robust_rules.h): their text form, which factors each rule
-// selects (loop closures, all, a g2o tag), later rules replacing earlier ones, and a tag no
-// type has refused before anything changes.
+// selects (loop closures, all, a g2o tag), later rules replacing earlier ones, a tag no type
+// has refused before anything changes, and a loss name looked up when the rules are applied
+// where it was not registered when they were parsed (a plugin's, loaded later).
 #include "tether/core/robust_rules.h"
 
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/robust_kernels.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
 #include "tether/factors/prior.h"
@@ -42,7 +45,7 @@ TEST(RobustRules, ParseTheTextForms) {
   r = ParseRobustRule("EDGE_SE3:QUAT=dcs:2");                  // a tag with a colon: split at '='
   EXPECT_EQ(r.selector, "EDGE_SE3:QUAT");
   EXPECT_EQ(r.loss->name(), "dcs:2");
-  for (const char* bad : {"=huber:1", "loop=", "loop=huber:-1", "all=welsch:2"}) {
+  for (const char* bad : {"=huber:1", "loop=", "loop=huber:-1", "loop=huber:1:2", "all=welsch:x"}) {
     try {
       ParseRobustRule(bad);
       ADD_FAILURE() << bad << " was accepted";
@@ -76,6 +79,47 @@ TEST(RobustRules, AnUnknownTagChangesNothing) {
     EXPECT_NE(std::string(e.what()).find("'EDGE_NOPE'"), std::string::npos) << e.what();
   }
   EXPECT_EQ(Losses(g), (std::vector<std::string>{"-", "-", "-", "-"}));
+}
+
+TEST(RobustRules, ANameNotRegisteredYetIsLookedUpWhenTheRulesAreApplied) {
+  LossRegistry losses = DefaultLossRegistry();
+  const RobustRule later = ParseRobustRule("loop=later:2", losses);  // the form is checked, not the name
+  EXPECT_EQ(later.loss, nullptr);
+  EXPECT_EQ(later.loss_spec, "later:2");
+  const RobustRule first = ParseRobustRule("all=cauchy:3", losses);
+  ASSERT_NE(first.loss, nullptr);
+  EXPECT_EQ(first.loss_spec, "cauchy:3");
+  // Still unknown: refused listing the registered names, and the graph unchanged.
+  FactorGraph g = Graph();
+  try {
+    ApplyRobustRules({first, later}, DefaultRegistry(), &g, losses);
+    ADD_FAILURE() << "an unknown loss was accepted";
+  } catch (const InvalidArgument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("robust rule 'loop=later:2'"), std::string::npos) << m;
+    EXPECT_NE(m.find("unknown kernel 'later'"), std::string::npos) << m;
+    EXPECT_NE(m.find("registered: huber, cauchy, tukey, gm, dcs"), std::string::npos) << m;
+  }
+  EXPECT_EQ(Losses(g), (std::vector<std::string>{"-", "-", "-", "-"}));
+  // Registered meanwhile (as a plugin's loss is by --plugin): the same rule now applies.
+  LossEntry e;
+  e.name = "later";
+  e.owner = "test";
+  e.make = [](double scale, double) { return std::make_shared<CauchyLoss>(scale); };
+  losses.Register(e);
+  EXPECT_EQ(ApplyRobustRules({first, later}, DefaultRegistry(), &g, losses), 4);
+  EXPECT_EQ(Losses(g), (std::vector<std::string>{"cauchy:3", "cauchy:3", "cauchy:2", "cauchy:3"}));
+  // A rule whose loss refuses its values is refused when applied, naming the rule.
+  e.name = "picky";
+  e.make = [](double, double) -> std::shared_ptr<const LossFunction> { throw InvalidArgument("never"); };
+  losses.Register(e);
+  try {
+    ApplyRobustRules({ParseRobustRule("loop=picky:1", DefaultLossRegistry())}, DefaultRegistry(), &g, losses);
+    ADD_FAILURE() << "a refused loss was applied";
+  } catch (const InvalidArgument& x) {
+    EXPECT_NE(std::string(x.what()).find("robust rule 'loop=picky:1': robust loss 'picky:1': never"), std::string::npos)
+        << x.what();
+  }
 }
 
 }  // namespace

@@ -21,10 +21,11 @@ cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
 tether="$work/prefix/bin/tether"
 test -x "$tether" || fail "the installed program $tether is missing"
 test -f "$work/prefix/include/tether/plugins/plugin.h" || fail "plugin.h was not installed"
-for example in range_2d position_prior odometry_scale; do
+for example in range_2d position_prior odometry_scale barron_loss; do
   test -f "$work/prefix/lib/tether/plugins/$example.so" || fail "example plugin $example.so was not installed"
 done
 test -f "$work/prefix/include/tether/core/jacobian_check.h" || fail "jacobian_check.h was not installed"
+test -f "$work/prefix/include/tether/core/loss_registry.h" || fail "loss_registry.h was not installed"
 
 cmake -S "$plugin_src" -B "$work/build" -DCMAKE_PREFIX_PATH="$work/prefix" -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_MODULE_LINKER_FLAGS="$link_flags" -DCMAKE_SHARED_LINKER_FLAGS="$link_flags" \
@@ -97,6 +98,11 @@ done
 for tag in EDGE_RANGE_SE2_XY EDGE_POSITION_PRIOR_SE2 EDGE_POSITION_PRIOR_SE3 VERTEX_SCALE EDGE_SE2_SCALED; do
   grep -q "$tag" "$work/examples.txt" || { cat "$work/examples.txt"; fail "plugins list does not show $tag"; }
 done
+# The example robust loss, by bare name, used by name in a rule.
+"$tether" optimize --plugin odometry_scale.so --plugin barron_loss.so "$plugin_src/scale.g2o" -q \
+  --robust all=barron:1 > "$work/barron.log" 2>&1 \
+  || { cat "$work/barron.log"; fail "tether optimize --plugin barron_loss.so --robust all=barron:1 failed"; }
+grep -q "1 robust loss" "$work/barron.log" || { cat "$work/barron.log"; fail "barron_loss.so does not load"; }
 # The guide's scale graph: odometry 10% long, two position fixes; the scale comes back as 1/1.1.
 "$tether" optimize --plugin odometry_scale.so "$plugin_src/scale.g2o" -o "$work/scale_out.g2o" \
   > "$work/scale.log" 2>&1 || { cat "$work/scale.log"; fail "tether optimize --plugin odometry_scale.so failed"; }

@@ -7,6 +7,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/loss_registry.h"
 #include "tether/core/output_file.h"
 #include "tether/core/svg_plot.h"
 #include "tether/core/trajectory_error.h"
@@ -419,8 +420,8 @@ void OptimizeCli::AddRobustOptions(CLI::App* sub) {
   PipelineOptions& po = cmd_.pipeline;
   sub->add_option("--robust", cmd_.robust,
                   "Robust loss rule SELECTOR=LOSS:SCALE: loop=huber:1.0 (edges between non-consecutive poses), "
-                  "all=cauchy:2, or a g2o tag (EDGE_SE2=dcs:1); losses huber, cauchy, tukey, gm, dcs (and a plugin's); "
-                  "repeatable")
+                  "all=cauchy:2, or a g2o tag (EDGE_SE2=dcs:1); losses " +
+                      RegisteredLossesText() + ", more from --plugin; repeatable")
       ->allow_extra_args(false);
   CLI::Option* gnc = sub->add_flag("--gnc", po.gnc,
                                    "Graduated non-convexity on the loop closures (edges between non-consecutive "

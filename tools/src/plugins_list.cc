@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <ostream>
 
+#include "tether/core/loss_registry.h"
 #include "tether/core/registry.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
@@ -16,7 +17,7 @@ int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostrea
   out << "plugin search path (after explicit paths):";
   for (const std::string& d : PluginLoader::SearchPath()) out << " " << d;
   out << "\n";
-  char line[256];
+  char line[512];
   std::snprintf(line, sizeof(line), "%-20s %-24s %-22s %s\n", "variable type", "g2o vertex tag", "ambient/tangent",
                 "owner");
   out << line;
@@ -36,6 +37,14 @@ int RunPluginsList(const PluginsListCommand& cmd, std::ostream& out, std::ostrea
     for (VarType v : t.variable_types) vars += (vars.empty() ? "" : " ") + std::string(ToString(v));
     std::snprintf(line, sizeof(line), "%-20s %-24s %4d  %-20s %s\n", name.c_str(),
                   t.tag.empty() ? "(none)" : t.tag.c_str(), t.dim, vars.c_str(), t.owner.c_str());
+    out << line;
+  }
+  out << "\n";
+  std::snprintf(line, sizeof(line), "%-20s %-14s %-22s %s\n", "robust loss", "parameter", "owner", "description");
+  out << line;
+  for (const LossEntry& e : DefaultLossRegistry().Entries()) {
+    std::snprintf(line, sizeof(line), "%-20s %-14s %-22s %s\n", e.name.c_str(),
+                  e.parameter.empty() ? "(none)" : e.parameter.c_str(), e.owner.c_str(), e.description.c_str());
     out << line;
   }
   return 0;

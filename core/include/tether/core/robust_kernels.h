@@ -13,11 +13,14 @@
 //               min(1, 2 phi / (phi + s))^2, which is rho'(s))
 //
 // The scale (d, c, phi) is in whitened units: huber:1 treats an error beyond one standard
-// deviation linearly.
+// deviation linearly. They are registered by name in the loss registry (loss_registry.h,
+// RegisterBuiltinLosses below) exactly as a plugin's losses are; MakeLoss("NAME:SCALE")
+// looks them up there.
 #include <memory>
 #include <string>
 
 #include "tether/core/loss_function.h"
+#include "tether/core/loss_registry.h"
 
 namespace tether {
 
@@ -78,10 +81,10 @@ class DcsLoss : public LossFunction {
 /// is not finite); the factor's cost, rho(s) or s, into *cost where not null.
 double RobustWeight(const LossFunction* loss, double s, double* cost = nullptr);
 
-/// A loss from its text form "NAME:SCALE" (huber:1.0, cauchy:2, tukey:4.685, gm:1, dcs:1;
-/// "NAME" alone takes the scale 1). Throws InvalidArgument naming the text and what is
-/// accepted for an unknown name or a scale that is not a finite number above 0.
-std::shared_ptr<const LossFunction> MakeLoss(const std::string& spec);
+/// Registers the losses above as huber, cauchy, tukey, gm and dcs (owner "builtin"), through
+/// LossRegistry::Register as a plugin's losses are. DefaultLossRegistry() holds them from its
+/// first use; MakeLoss (loss_registry.h) makes one from its text form "NAME:SCALE".
+void RegisterBuiltinLosses(LossRegistry& registry);
 
 /// The p quantile of the chi2 distribution with k degrees of freedom (0.99: 9.2 for 2, 11.3
 /// for 3, 16.8 for 6), by Wilson and Hilferty's cube-root normal approximation (within 1%

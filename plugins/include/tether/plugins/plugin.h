@@ -1,6 +1,6 @@
 #pragma once
-// What a plugin includes (variable types, factor types, linear solvers). A plugin is a shared
-// library that exports one C function,
+// What a plugin includes (variable types, factor types, linear solvers, robust losses). A
+// plugin is a shared library that exports one C function,
 //
 //   extern "C" const tether::PluginDescription* tether_plugin_entry();
 //
@@ -15,6 +15,7 @@
 //     r.AddVariableType<MyScale>();                       // a value type with VariableTraits
 //     r.AddFactorType(tether::DescribeFactor<MyFactor>("EDGE_MY", 1, make));
 //     r.AddLinearSolver("my_solver", make_solver);         // tether/core/linear_solver.h
+//     r.AddLoss(my_loss_entry);                            // tether/core/loss_registry.h
 //   }
 //   TETHER_PLUGIN("my_factors", "1.0.0", RegisterMyTypes)
 #include <Eigen/Core>
@@ -23,6 +24,7 @@
 #include <vector>
 
 #include "tether/core/linear_solver.h"
+#include "tether/core/loss_registry.h"
 #include "tether/core/registry.h"
 #include "tether/core/version.h"
 
@@ -110,6 +112,14 @@ class PluginRegistrar {
   /// The same with every field of the entry given; its owner is set to the plugin's name.
   void AddLinearSolver(LinearSolverEntry entry);
   const std::vector<LinearSolverEntry>& linear_solvers() const { return linear_solvers_; }
+  /// Adds a robust loss (tether/core/loss_registry.h) under entry.name, for the text forms
+  /// NAME:SCALE (and NAME:SCALE:PARAM where entry.parameter is set) of MakeLoss, `--robust`
+  /// and Python; its owner is set to the plugin's name. A name taken already (a built-in's or
+  /// another plugin's) registers nothing of the plugin.
+  void AddLoss(LossEntry entry);
+  /// The same for a loss without a parameter.
+  void AddLoss(const std::string& name, LossFactory make);
+  const std::vector<LossEntry>& losses() const { return losses_; }
   /// Adds an extension of a kind a module above plugins registers (see PluginExtension).
   void AddExtension(PluginExtension extension) { extensions_.push_back(std::move(extension)); }
   const std::vector<PluginExtension>& extensions() const { return extensions_; }
@@ -121,6 +131,10 @@ class PluginRegistrar {
   std::vector<VariableType> variables_;
   std::vector<LinearSolverEntry> linear_solvers_;
   std::vector<PluginExtension> extensions_;
+  // Last, and only touched by functions compiled into tether (AddLoss is not inline): a
+  // plugin built before losses existed sees the members above where it expects them, and
+  // still loads (the interface version did not change).
+  std::vector<LossEntry> losses_;
 };
 
 struct PluginDescription {

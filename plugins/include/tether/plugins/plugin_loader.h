@@ -1,6 +1,6 @@
 #pragma once
 // Loads plugins with dlopen(RTLD_NOW | RTLD_LOCAL) and registers their variable types, factor
-// types and linear solvers.
+// types, linear solvers and robust losses.
 //
 // Search order for Load(name): a path that exists as given (absolute or relative to the
 // working directory); then each folder of TETHER_PLUGIN_PATH (colon-separated); then the
@@ -12,7 +12,8 @@
 // stay registered until Registry::RemoveOwner(plugin name), which is only safe once no
 // factor of those types exists. A FactorType pointer or reference found in the registry
 // (FindByTag, FindByName) stays valid until its own owner is removed: loading other plugins,
-// or failing to, moves no registered type.
+// or failing to, moves no registered type. A plugin's robust losses stay registered until
+// LossRegistry::RemoveOwner(plugin name); losses made from them stay valid after that.
 #include <functional>
 #include <string>
 #include <utility>
@@ -20,6 +21,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/linear_solver.h"
+#include "tether/core/loss_registry.h"
 #include "tether/core/registry.h"
 #include "tether/plugins/plugin.h"
 
@@ -39,7 +41,9 @@ struct LoadedPlugin {
   std::vector<std::string> variable_names;       ///< variable types it registered
   std::vector<std::string> linear_solver_names;  ///< linear solvers it registered
   std::vector<std::string> extension_names;      ///< extensions it registered: "step strategy 'name'"
-  /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types, 1 linear solver)".
+  std::vector<std::string> loss_names;           ///< robust losses it registered
+  /// "loaded plugin NAME VERSION from PATH (1 variable type, 2 factor types, 1 linear solver,
+  /// 1 robust loss)".
   std::string Summary() const;
 };
 
@@ -59,9 +63,10 @@ void RegisterPluginExtensionKind(const std::string& kind, PluginExtensionKind ha
 
 class PluginLoader {
  public:
-  /// Factor types go to `registry`, linear solvers to `linear_solvers`.
-  explicit PluginLoader(Registry& registry, LinearSolverRegistry& linear_solvers = DefaultLinearSolverRegistry())
-      : registry_(registry), linear_solvers_(linear_solvers) {}
+  /// Factor types go to `registry`, linear solvers to `linear_solvers`, robust losses to `losses`.
+  explicit PluginLoader(Registry& registry, LinearSolverRegistry& linear_solvers = DefaultLinearSolverRegistry(),
+                        LossRegistry& losses = DefaultLossRegistry())
+      : registry_(registry), linear_solvers_(linear_solvers), losses_(losses) {}
 
   /// Loads and registers a plugin. Loading the same file again returns the earlier result
   /// and changes nothing. Throws PluginError.
@@ -77,10 +82,12 @@ class PluginLoader {
  private:
   // Registers what the trials accepted, all of it or (on an unexpected failure) none of it.
   void Commit(const PluginRegistrar& registrar, const std::vector<LinearSolverEntry>& solvers,
+              const std::vector<LossEntry>& losses,
               const std::vector<std::pair<PluginExtensionKind, const PluginExtension*>>& kinds);
 
   Registry& registry_;
   LinearSolverRegistry& linear_solvers_;
+  LossRegistry& losses_;
   std::vector<LoadedPlugin> loaded_;
 };
 
