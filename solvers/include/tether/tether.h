@@ -1,8 +1,9 @@
 #pragma once
 // The whole library in one include: core (Lie groups, keys, variable types, Values, factors,
 // noise, the registry, g2o/TORO files, the Jacobian checker), the built-in factors, the
-// plugin loader, and the solvers (Gauss-Newton, Levenberg-Marquardt, the Ceres adapter,
-// initialisation, the read -> initialise -> optimise -> write pipeline).
+// plugin loader, and the solvers (Gauss-Newton, Levenberg-Marquardt, dog-leg, the Ceres
+// adapter, initialisation, marginal covariances, the incremental smoother, the read ->
+// initialise -> optimise -> write pipeline), with the trajectory error and the SVG plot.
 //
 //   #include "tether/tether.h"
 //   tether::FactorGraph graph;
@@ -19,12 +20,15 @@
 #include "tether/core/loss_function.h"
 #include "tether/core/registry.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/loss_registry.h"
 #include "tether/core/robust_rules.h"
 #include "tether/core/se2.h"
 #include "tether/core/se3.h"
 #include "tether/core/so2.h"
 #include "tether/core/so3.h"
 #include "tether/core/sqrt_information.h"
+#include "tether/core/svg_plot.h"
+#include "tether/core/trajectory_error.h"
 #include "tether/core/values.h"
 #include "tether/core/variable.h"
 #include "tether/core/version.h"
@@ -37,7 +41,9 @@
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/ceres_adapter.h"
 #include "tether/solvers/ceres_problem.h"
+#include "tether/solvers/covariance.h"
 #include "tether/solvers/gnc.h"
+#include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/solvers/pipeline.h"
