@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Builds everything (Release) and runs every test. Dataset tests read ../shared/datasets and
-# skip with a message where it is absent.
+# Checks the layering of the includes, builds everything (Release) and runs every test. Dataset
+# tests read ../shared/datasets and skip with a message where it is absent.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# An include against the layers (DESIGN.md, "Layout") fails here, before the build; ctest runs
+# the same check again (layers.includes) beside the check of the checker.
+bash scripts/check_layers.sh .
 bash scripts/install_deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DTETHER_BUILD_TESTS=ON
 cmake --build build -j"$(nproc)"

@@ -16,6 +16,7 @@
 #include "../src/gauge.h"
 #include "../src/serial_openmp.h"
 #include "tether/core/error.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/ceres_problem.h"
 
 namespace tether {
@@ -23,8 +24,6 @@ namespace tether {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Ceres' evaluation thread count: SolverOptions::num_threads where SolverOptions has such a
 // field (<= 0: one per hardware thread), otherwise 1. Detected at compile time so that this

@@ -21,6 +21,7 @@
 #include "covariance_factor.h"
 #include "minimizer.h"
 #include "serial_openmp.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/covariance.h"
 
 namespace tether {

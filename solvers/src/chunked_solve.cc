@@ -8,6 +8,7 @@
 
 #include "minimizer.h"
 #include "tether/core/error.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -120,7 +121,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
       if (values->Has(k)) continue;
       r.message = "factor " + std::to_string(i) + " (" + graph.at(i).Describe() + ") uses variable " +
                   std::to_string(k) + ", which has no value; give every variable an initial value";
-      r.seconds = internal::SecondsSince(t0);
+      r.seconds = SecondsSince(t0);
       return r;
     }
   }
@@ -136,7 +137,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     r.iterations = r.last.iterations;
     r.usable = r.last.IsSolutionUsable();
     if (!r.usable) r.message = "the solve failed: " + r.last.message;
-    r.seconds = internal::SecondsSince(t0);
+    r.seconds = SecondsSince(t0);
     return r;
   }
   const int chunks = std::max(1, std::min(options.chunks, n / options.min_chunk_poses));
@@ -185,7 +186,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
       r.message = (c < chunks ? "chunk " + std::to_string(c + 1) + " of " + std::to_string(chunks)
                               : std::string("the whole graph after the last chunk")) +
                   " (" + std::to_string(end) + " poses) failed: " + r.last.message;
-      r.seconds = internal::SecondsSince(t0);
+      r.seconds = SecondsSince(t0);
       return r;
     }
   }
@@ -194,7 +195,7 @@ ChunkedSolveSummary SolveInChunks(const FactorGraph& graph, Values* values, cons
     std::copy(p, p + AmbientDim(values->TypeOf(k)), values->Params(k));
   }
   r.usable = true;
-  r.seconds = internal::SecondsSince(t0);
+  r.seconds = SecondsSince(t0);
   return r;
 }
 

@@ -11,6 +11,7 @@
 #include "problem.h"
 #include "tether/core/output_file.h"
 #include "tether/core/registry.h"
+#include "tether/core/timing.h"
 
 namespace tether {
 
@@ -78,7 +79,7 @@ Marginals::Marginals(const FactorGraph& graph, const Values& values, const Covar
     m.types.push_back(p.free_type(i));
   }
   if (p.tangent_dim() == 0) {
-    m.linearize_seconds = internal::SecondsSince(t0);
+    m.linearize_seconds = SecondsSince(t0);
     return;
   }
   const internal::ColumnNamer name = [&m](int column) {
@@ -93,13 +94,13 @@ Marginals::Marginals(const FactorGraph& graph, const Values& values, const Covar
     p.BuildJacobianStructure(&a, &positions);
     std::vector<double> rhs(static_cast<std::size_t>(a.rows));
     p.AssembleJacobian(&a, rhs.data());
-    m.linearize_seconds = internal::SecondsSince(t0);
+    m.linearize_seconds = SecondsSince(t0);
     m.factor = internal::MakeQrCovariance(a, name);
   } else {
     p.BuildNormalStructure(&a, &positions);
     std::vector<double> g(static_cast<std::size_t>(p.tangent_dim()));
     p.AssembleNormal(&a, g.data());
-    m.linearize_seconds = internal::SecondsSince(t0);
+    m.linearize_seconds = SecondsSince(t0);
     m.factor = options.linear_solver == "cholmod" ? internal::MakeCholmodCovariance(a, name)
                                                   : internal::MakeLdltCovariance(a, name);
   }

@@ -9,6 +9,7 @@
 
 #include "cholmod_views.h"
 #include "minimizer.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/covariance.h"
 
 namespace tether {

@@ -13,6 +13,7 @@
 #include "tether/core/error.h"
 #include "tether/core/loss_function.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/optimizer.h"
 
@@ -233,10 +234,10 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     g.start_iterations = g.start.iterations;
   }
   g.last = g.start;
-  g.start_seconds = internal::SecondsSince(t0);
+  g.start_seconds = SecondsSince(t0);
   if (!g.start.IsSolutionUsable()) {
     g.message = "the start (" + std::string(chunked ? "chunked DCS" : "least squares") + ") failed: " + g.start.message;
-    g.seconds = internal::SecondsSince(t0);
+    g.seconds = SecondsSince(t0);
     return g;
   }
   // One surrogate per residual dimension (c^2 from the chi2 quantile), or one for all. mu_0
@@ -288,7 +289,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
       g.message =
           "GNC stage " + std::to_string(g.stages) + " (mu " + std::to_string(mu) + ") failed: " + g.last.message;
       g.mu = mu;
-      g.seconds = internal::SecondsSince(t0);
+      g.seconds = SecondsSince(t0);
       return g;
     }
     if (gm) {
@@ -304,7 +305,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     }
   }
   g.mu = mu;
-  g.stages_seconds = internal::SecondsSince(t0) - g.start_seconds;
+  g.stages_seconds = SecondsSince(t0) - g.start_seconds;
   // From a robust start the stages refine it; where they end costing more under the final
   // surrogate (the robust objective both are measured by), the start is kept.
   if (chunked && !closures.empty()) {
@@ -399,7 +400,7 @@ GncSummary OptimizeGnc(const FactorGraph& graph, Values* values, const GncOption
     if (rejected[i]) g.rejected.push_back(i);
   }
   g.usable = true;
-  g.seconds = internal::SecondsSince(t0);
+  g.seconds = SecondsSince(t0);
   g.final_seconds = g.seconds - g.start_seconds - g.stages_seconds;
   return g;
 }

@@ -16,6 +16,7 @@
 #include "one_variable.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
@@ -23,10 +24,6 @@ namespace tether {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // Moves each of the new variables `fresh` in *values to the minimum of the cost of the new
 // factors that use it once, every other variable held at its value (the old ones' estimate,

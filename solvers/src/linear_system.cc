@@ -6,6 +6,7 @@
 
 #include "builtin_linear_solvers.h"
 #include "tether/core/error.h"
+#include "tether/core/timing.h"
 
 namespace tether {
 namespace internal {
@@ -13,8 +14,6 @@ namespace internal {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 double Dot(const std::vector<double>& a, const std::vector<double>& b) {
   double s = 0;

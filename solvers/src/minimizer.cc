@@ -6,8 +6,6 @@
 namespace tether {
 namespace internal {
 
-double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
 Minimizer::Minimizer(const SolverOptions& options, Problem* problem, LinearSystem* system, StepStrategy* strategy,
                      SolverSummary* summary, Clock::time_point t0)
     : options_(options),

@@ -14,13 +14,12 @@
 #include "problem.h"
 #include "step_strategy.h"
 #include "stopping_rules.h"
+#include "tether/core/timing.h"
 
 namespace tether {
 namespace internal {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point t0);
 
 class Minimizer {
  public:

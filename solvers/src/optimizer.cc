@@ -12,6 +12,7 @@
 #include "problem.h"
 #include "step_strategy.h"
 #include "tether/core/error.h"
+#include "tether/core/timing.h"
 #include "tether/solvers/ceres_adapter.h"
 
 namespace tether {
@@ -19,7 +20,6 @@ namespace tether {
 namespace {
 
 using internal::Clock;
-using internal::SecondsSince;
 
 SolverSummary Invalid(SolverSummary s, const std::string& why) {
   s.status = SolverStatus::kInvalidInput;

@@ -12,6 +12,7 @@
 #include "minimizer.h"
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/timing.h"
 #include "tether/factors/switchable.h"
 #include "tether/solvers/optimizer.h"
 
@@ -140,7 +141,7 @@ SwitchableSummary OptimizeSwitchable(const FactorGraph& graph, Values* values, c
       r.message = "least squares over the kept closures failed (" + r.refit.message + "); the switched solution stays";
     }
   }
-  r.seconds = internal::SecondsSince(t0);
+  r.seconds = SecondsSince(t0);
   return r;
 }
 

@@ -1,5 +1,6 @@
 // ScanMatchSE2: its error against the definition, its Jacobians against central differences,
 // its noise model (the weights), bad input, and that g2o files refuse it with a clear error.
+// Solved alone: tests/solvers/factor_solves_test.cc.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,7 +16,6 @@
 #include "tether/factors/builtin.h"
 #include "tether/factors/grid_interpolation.h"
 #include "tether/factors/scan_match_se2.h"
-#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {
@@ -94,42 +94,6 @@ TEST(ScanMatchSE2, JacobianMatchesNumeric) {
     largest = std::max(largest, testing::CheckJacobians(f, v, 1e-5, {n + 2}));
   }
   EXPECT_LT(largest, 1e-5);
-}
-
-TEST(ScanMatchSE2, SolvedAloneItMovesTheScanOntoTheHits) {
-  // A grid with a bright cross; a scan of points on it, displaced: the solve brings it back.
-  auto grid = std::make_shared<ProbabilityGrid>(0.05);
-  for (int i = -40; i <= 40; ++i) {
-    for (int j = -40; j <= 40; ++j) grid->SetProbability(Cell(i, j), 0.2);
-  }
-  // Lines three cells wide, brightest in the middle: a basin wider than one cell.
-  for (int i = -40; i <= 40; ++i) {
-    for (int d = -1; d <= 1; ++d) {
-      const double p = d == 0 ? 0.95 : 0.6;
-      grid->SetProbability(Cell(i, d), std::max(p, grid->Probability(Cell(i, d))));
-      grid->SetProbability(Cell(d, i), std::max(p, grid->Probability(Cell(d, i))));
-    }
-  }
-  std::vector<Eigen::Vector2d> pts;
-  for (int i = -30; i <= 30; i += 3) {
-    if (i == 0) continue;
-    pts.push_back(grid->CellCenter(Cell(i, 0)));
-    pts.push_back(grid->CellCenter(Cell(0, i)));
-  }
-  // The points are at the truth when the pose is the identity; start 2 cm and 1.5 degrees off.
-  ScanMatchWeights w;
-  w.translation = w.rotation = 1e-3;
-  FactorGraph graph;
-  graph.Add<ScanMatchSE2>(0, grid, pts, SE2d(0.02, -0.02, 0.026), w);
-  Values values;
-  values.Insert(0, SE2d(0.02, -0.02, 0.026));
-  const double before = graph.at(0).Chi2(values);
-  const SolverSummary summary = Optimize(graph, &values);
-  EXPECT_TRUE(summary.status == SolverStatus::kConverged) << summary.BriefReport();
-  const SE2d x = values.At<SE2d>(0);
-  EXPECT_LT(graph.at(0).Chi2(values), before);
-  EXPECT_LT(x.translation().norm(), 0.005);
-  EXPECT_LT(std::abs(x.theta()), 0.005);
 }
 
 TEST(ScanMatchSE2, BadInputIsAClearError) {

@@ -1,6 +1,6 @@
 #pragma once
 // The body of the graph-reader fuzz targets, shared with the regression test that replays
-// their findings in the normal build (tests/core/fuzz_regression_test.cc).
+// their findings in the normal build (tests/factors/fuzz_regression_test.cc).
 //
 // The first byte of an input picks the read options; the rest is the file:
 //   bits 0-1  repair: 0 or 3 none, 1 nearest-pd, 2 isotropic

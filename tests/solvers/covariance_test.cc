@@ -1,6 +1,8 @@
-// Marginal covariances against the dense inverse of H = J^T J, J built here from each
-// factor's whitened Jacobians at the same values, for every linear solver; the errors for
-// held variables, unknown keys and singular systems; the automatic gauge.
+// Marginal covariances against the dense inverse of H = J^T J, J built from each factor's
+// whitened Jacobians at the same values (testing/dense_covariance.h), for every linear solver;
+// the errors for held variables, unknown keys and singular systems; the automatic gauge. A
+// simulated sphere large enough for CHOLMOD's supernodal factor:
+// tests/frontends/covariance_simulated_test.cc.
 #include "tether/solvers/covariance.h"
 
 #include <gtest/gtest.h>
@@ -8,70 +10,19 @@
 #include <Eigen/Dense>
 #include <map>
 
+#include "testing/dense_covariance.h"
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
-#include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
 namespace {
 
-// The dense covariance of the free variables: H^-1 with H = J^T J over every factor, and
-// each free key's first column.
-struct Dense {
-  Eigen::MatrixXd sigma;
-  std::map<Key, int> offset;
-  std::map<Key, int> dim;
-  Eigen::MatrixXd Block(Key a, Key b) const { return sigma.block(offset.at(a), offset.at(b), dim.at(a), dim.at(b)); }
-};
-
-Dense DenseCovariance(const FactorGraph& graph, const Values& values, const std::set<Key>& fixed) {
-  Dense d;
-  std::set<Key> used;
-  for (const auto& f : graph.factors()) used.insert(f->keys().begin(), f->keys().end());
-  int n = 0;
-  for (Key k : values.keys()) {
-    if (fixed.count(k) || !used.count(k)) continue;
-    d.offset[k] = n;
-    d.dim[k] = TangentDim(values.TypeOf(k));
-    n += d.dim[k];
-  }
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n);
-  for (const auto& f : graph.factors()) {
-    const std::vector<const double*> params = f->GatherParams(values);
-    const std::vector<VarType> types = f->variable_types();
-    const int m = f->dim();
-    std::vector<std::vector<double>> jac(types.size());
-    std::vector<double*> jp;
-    for (std::size_t i = 0; i < types.size(); ++i) {
-      jac[i].assign(static_cast<std::size_t>(m * TangentDim(types[i])), 0.0);
-      jp.push_back(jac[i].data());
-    }
-    std::vector<double> r(static_cast<std::size_t>(m));
-    EXPECT_TRUE(f->Linearize(params.data(), r.data(), jp.data()));
-    // H += J^T J, one pair of the factor's keys at a time.
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    for (std::size_t a = 0; a < types.size(); ++a) {
-      for (std::size_t b = 0; b < types.size(); ++b) {
-        const Key ka = f->keys()[a], kb = f->keys()[b];
-        if (!d.offset.count(ka) || !d.offset.count(kb)) continue;
-        const Eigen::Map<const RowMajor> ja(jac[a].data(), m, TangentDim(types[a]));
-        const Eigen::Map<const RowMajor> jb(jac[b].data(), m, TangentDim(types[b]));
-        h.block(d.offset[ka], d.offset[kb], ja.cols(), jb.cols()) += ja.transpose() * jb;
-      }
-    }
-  }
-  d.sigma = h.inverse();
-  return d;
-}
-
-void ExpectNear(const Eigen::MatrixXd& got, const Eigen::MatrixXd& want, const std::string& what) {
-  ASSERT_EQ(got.rows(), want.rows()) << what;
-  ASSERT_EQ(got.cols(), want.cols()) << what;
-  EXPECT_LE((got - want).norm(), 1e-9 * want.norm()) << what << "\ngot\n" << got << "\nwant\n" << want;
-}
+using testing::Dense;
+using testing::DenseCovariance;
+using testing::ExpectNear;
 
 SqrtInformation Noise(int dim, double sigma) { return SqrtInformation::Isotropic(dim, sigma); }
 
@@ -144,26 +95,6 @@ TEST_P(CovarianceTest, Se3ChainWithALoopClosureMatchesTheDenseInverse) {
   g.Add<PosePoint3>(3, 20, Eigen::Vector3d(-0.8, 0.2, 0.8), Noise(3, 0.05));
   g.Fix(0);
   CheckAll(g, v, {3, 20, 1});
-}
-
-TEST_P(CovarianceTest, ASimulatedSphereMatchesTheDenseInverse) {
-  // Large enough (300 SE3 poses) for CHOLMOD to choose its supernodal factor.
-  SimulateOptions o;
-  o.world = SimWorld::kSphere;
-  o.poses = 300;
-  o.seed = 5;
-  const SimulatedGraph s = Simulate(o);
-  const Marginals m(s.graph, s.initial, Options());
-  const Dense d = DenseCovariance(s.graph, s.initial, m.fixed_keys());
-  const std::vector<Eigen::MatrixXd> batch = m.MarginalsOf(m.free_keys());
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    const Key k = m.free_keys()[i];
-    ExpectNear(batch[i], d.Block(k, k), "key " + std::to_string(k));
-  }
-  ExpectNear(m.JointMarginal({7, 250}).block(0, 6, 6, 6), d.Block(7, 250), "joint 7, 250");
-  if (std::string(GetParam()) == "cholmod") {
-    EXPECT_NE(m.Description().find("supernodal"), std::string::npos);
-  }
 }
 
 TEST_P(CovarianceTest, AFixedVariableHasNoCovariance) {

@@ -1,8 +1,8 @@
 // Powell's dog-leg (solvers/src/dogleg.cc): on a small problem its steps equal the ones worked
 // out here from H and g by the textbook formulas, for a radius that takes the Gauss-Newton
 // point, one that cuts the steepest-descent step, and one in between; the radius grows and
-// shrinks by the gain ratio as DogLegOptions documents; and the solver as a whole reaches the
-// optimum Levenberg-Marquardt reaches.
+// shrinks by the gain ratio as DogLegOptions documents. The solver as a whole reaching the
+// optimum Levenberg-Marquardt reaches on simulated worlds: tests/frontends/dogleg_simulated_test.cc.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -12,7 +12,6 @@
 #include "linear_system.h"
 #include "problem.h"
 #include "step_strategy.h"
-#include "testing/simulated.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
 #include "tether/solvers/optimizer.h"
@@ -195,22 +194,6 @@ TEST(DogLegTest, OptionsAreValidated) {
   o.dogleg.min_radius = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("dogleg.min_radius"), std::string::npos) << why;
-}
-
-TEST(DogLegTest, ReachesTheOptimumOfLevenbergMarquardtAndSaysSo) {
-  for (SimWorld world : {SimWorld::kManhattan, SimWorld::kSphere, SimWorld::kLandmarks}) {
-    const SimulatedGraph sim = testing::SimulateWorld(world, 300, 5);
-    Values lm_values = sim.initial, dl_values = sim.initial;
-    const SolverSummary lm = Optimize(sim.graph, &lm_values, {});
-    SolverOptions o;
-    o.algorithm = Algorithm::kDogLeg;
-    const SolverSummary dl = Optimize(sim.graph, &dl_values, o);
-    ASSERT_EQ(dl.status, SolverStatus::kConverged) << dl.FullReport();
-    EXPECT_NEAR(dl.final_chi2, lm.final_chi2, 1e-6 * lm.final_chi2) << dl.FullReport();
-    EXPECT_NE(dl.FullReport().find("dogleg / cholmod"), std::string::npos) << dl.FullReport();
-    EXPECT_NE(dl.FullReport().find("initial_radius"), std::string::npos) << dl.FullReport();
-    for (const IterationSummary& it : dl.log) EXPECT_EQ(it.lambda, 0.0);
-  }
 }
 
 TEST(DogLegTest, NameRoundTrips) {

@@ -19,6 +19,7 @@
 #include "bench_common.h"
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/timing.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
@@ -41,8 +42,6 @@ using bench::OutcomeFromName;
 using bench::OutcomeName;
 using bench::Severity;
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // The time split from the summary. The native solvers keep the numeric factorisations apart
 // from the triangular solves and time the last one (the floor); Ceres reports its linear

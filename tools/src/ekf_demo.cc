@@ -12,6 +12,7 @@
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
 #include "tether/core/svg_writer.h"
+#include "tether/core/timing.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/invariant_ekf_slam.h"
@@ -25,10 +26,6 @@ namespace tether {
 namespace {
 
 using ekf::Track;
-
-double SecondsSince(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 ekf::LandmarkWorldOptions WorldOptions(int experiment, std::uint64_t seed, const EkfDemoSetup& setup) {
   ekf::LandmarkWorldOptions o;

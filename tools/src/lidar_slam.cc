@@ -10,6 +10,7 @@
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
 #include "tether/core/registry.h"
+#include "tether/core/timing.h"
 #include "tether/core/trajectory_error.h"
 #include "tether/frontends/lidar/laser_offset.h"
 #include "tether/frontends/lidar/tum_trajectory.h"
@@ -213,7 +214,7 @@ int Map(const LidarCommand& cmd, const lidar::LidarLog& log, long n, lidar::Lida
   try {
     slam->Run(log, n, cmd.quiet ? 0 : cmd.progress_every, [&](long done) {
       const double logged = log.scans[static_cast<std::size_t>(done - 1)].stamp - log.scans[0].stamp;
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double seconds = SecondsSince(t0);
       out << "scans " << done << " of " << n << ", submaps " << slam->pose_graph().submap_count() << ", loop closures "
           << slam->pose_graph().loop_closures().size() << " (searches " << slam->pose_graph().stats().searches
           << "), real-time factor " << Fixed(logged / std::max(seconds, 1e-9), 1) << "\n"

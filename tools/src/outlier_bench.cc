@@ -11,6 +11,7 @@
 #include "tether/core/graph_io.h"
 #include "tether/core/robust_kernels.h"
 #include "tether/core/robust_rules.h"
+#include "tether/core/timing.h"
 #include "tether/core/trajectory_error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/between_se3.h"
@@ -23,10 +24,6 @@
 
 namespace tether {
 namespace {
-
-double Seconds(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
@@ -186,7 +183,7 @@ Truth LoadTruth(const std::string& file, std::ostream& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   Initialize(t.graph, &t.optimum, InitMethod::kChordal);
   const SolverSummary clean = Optimize(t.graph, &t.optimum);
-  t.seconds = Seconds(t0);
+  t.seconds = SecondsSince(t0);
   t.chi2 = clean.final_chi2;
   progress << file << ": " << t.closures.size() << " loop closures, optimum chi2 " << t.chi2 << " in " << t.seconds
            << " s\n";
@@ -233,7 +230,7 @@ std::vector<OutlierBenchRow> RunOutlierBench(const OutlierBenchOptions& options,
             ok = false;
             row.status = e.what();
           }
-          const double seconds = Seconds(s0);
+          const double seconds = SecondsSince(s0);
           if (!ok) {
             if (row.status == "ok") row.status = "a solve failed (seed " + std::to_string(seed) + ")";
             continue;

@@ -14,6 +14,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
+#include "tether/core/timing.h"
 #include "tether/factors/builtin.h"
 #include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
@@ -25,10 +26,6 @@
 namespace tether {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string Format(const char* fmt, double v) {
   char buf[64];

@@ -1,8 +1,6 @@
 #include "tether/frontends/ekf/ekf_slam.h"
 
-#include <Eigen/Cholesky>
-#include <limits>
-
+#include "innovation.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -40,11 +38,9 @@ void EkfSlam::Correct(int i, const Eigen::Vector2d& z) {
   Eigen::Matrix2d s;
   Eigen::MatrixXd pht;
   Innovation(i, z, &nu, &s, &pht);
-  const Eigen::LLT<Eigen::Matrix2d> llt(s);
-  if (llt.info() != Eigen::Success) throw InvalidArgument("EKF-SLAM: innovation covariance is not positive definite");
-  const Eigen::MatrixXd k = llt.solve(pht.transpose()).transpose();
-  mean_ += k * nu;
-  cov_ -= k * s * k.transpose();
+  if (!KalmanCorrect(pht, s, nu, &mean_, &cov_)) {
+    throw InvalidArgument("EKF-SLAM: innovation covariance is not positive definite");
+  }
 }
 
 void EkfSlam::AddLandmark(const Eigen::Vector2d& z) {
@@ -69,9 +65,7 @@ std::vector<double> EkfSlam::Distances(const Eigen::Vector2d& z) const {
     Eigen::Matrix2d s;
     Eigen::MatrixXd pht;
     Innovation(i, z, &nu, &s, &pht);
-    const Eigen::LLT<Eigen::Matrix2d> llt(s);
-    d[static_cast<std::size_t>(i)] =
-        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
+    d[static_cast<std::size_t>(i)] = SquaredMahalanobis(nu, s);
   }
   return d;
 }

@@ -2,8 +2,8 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
-#include <limits>
 
+#include "innovation.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -159,9 +159,7 @@ std::vector<double> InvariantEkfSlam::Distances(const Eigen::Vector2d& z) const 
     // H P H^T over the two position blocks: hp (P_pp - P_pl - P_lp + P_ll) hp^T.
     const Eigen::Matrix2d block = xi_cov_.block<2, 2>(0, 0) - xi_cov_.block<2, 2>(0, li) - xi_cov_.block<2, 2>(li, 0) +
                                   xi_cov_.block<2, 2>(li, li);
-    const Eigen::LLT<Eigen::Matrix2d> llt(hp * block * hp.transpose() + options_.measurement_cov);
-    d[static_cast<std::size_t>(i)] =
-        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
+    d[static_cast<std::size_t>(i)] = SquaredMahalanobis(nu, hp * block * hp.transpose() + options_.measurement_cov);
   }
   return d;
 }

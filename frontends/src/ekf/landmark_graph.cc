@@ -6,6 +6,7 @@
 #include <map>
 
 #include "tether/core/error.h"
+#include "tether/core/timing.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
 #include "tether/factors/range_bearing.h"
@@ -14,10 +15,6 @@ namespace tether {
 namespace ekf {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 // The known association: landmark indices in the order the true ids are first seen.
 Track KnownAssociation(const LandmarkWorld& world) {

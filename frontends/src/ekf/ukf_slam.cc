@@ -1,7 +1,6 @@
 #include "tether/frontends/ekf/ukf_slam.h"
 
-#include <Eigen/Cholesky>
-#include <limits>
+#include "innovation.h"
 
 namespace tether {
 namespace ekf {
@@ -82,9 +81,7 @@ std::vector<double> UkfSlam::Distances(const Eigen::Vector2d& z) const {
   for (int i = 0; i < m; ++i) {
     const Eigen::Matrix2d s = t.cov.block<2, 2>(2 * i, 2 * i) + options_.measurement_cov;
     const Eigen::Vector2d nu = MeasurementDifference(z, t.mean.segment<2>(2 * i));
-    const Eigen::LLT<Eigen::Matrix2d> llt(s);
-    d[static_cast<std::size_t>(i)] =
-        llt.info() == Eigen::Success ? nu.dot(llt.solve(nu)) : std::numeric_limits<double>::infinity();
+    d[static_cast<std::size_t>(i)] = SquaredMahalanobis(nu, s);
   }
   return d;
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "innovation.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -103,13 +104,10 @@ Eigen::VectorXd UnscentedUpdate(Eigen::VectorXd* mean, Eigen::MatrixXd* cov, con
                                 const Difference& x_diff, const Difference& z_diff) {
   const Transformed t = UnscentedTransform(*mean, *cov, h, params, x_diff, z_diff);
   const Eigen::MatrixXd s = t.cov + r;
-  const Eigen::LLT<Eigen::MatrixXd> llt(s);
-  if (llt.info() != Eigen::Success)
-    throw InvalidArgument("unscented update: the innovation covariance is not positive definite");
-  const Eigen::MatrixXd k = llt.solve(t.cross.transpose()).transpose();
   const Eigen::VectorXd nu = Diff(z_diff, z, t.mean);
-  *mean += k * nu;
-  *cov -= k * s * k.transpose();
+  if (!KalmanCorrect(t.cross, s, nu, mean, cov)) {
+    throw InvalidArgument("unscented update: the innovation covariance is not positive definite");
+  }
   *cov = 0.5 * (*cov + cov->transpose()).eval();
   return nu;
 }

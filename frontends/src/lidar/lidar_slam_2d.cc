@@ -9,6 +9,7 @@
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
 #include "tether/core/registry.h"
+#include "tether/core/timing.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/lidar/occupancy_map.h"
@@ -19,10 +20,6 @@ namespace tether {
 namespace lidar {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string Fixed(double v, int digits) { return FormatFixed(v, digits); }
 

@@ -5,6 +5,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
+#include "tether/core/timing.h"
 #include "tether/frontends/lidar/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/voxel_filter.h"
 
@@ -12,10 +13,6 @@ namespace tether {
 namespace lidar {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 double MeanProbability(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
                        double unknown) {

@@ -10,6 +10,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/robust_kernels.h"
+#include "tether/core/timing.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/prior.h"
 #include "tether/frontends/lidar/voxel_filter.h"
@@ -18,10 +19,6 @@ namespace tether {
 namespace lidar {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool PositiveFinite(double v) { return std::isfinite(v) && v > 0; }
 

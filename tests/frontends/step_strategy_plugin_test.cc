@@ -1,14 +1,12 @@
 // Step strategies from plugins: a test plugin adds "gn-halving" (Gauss-Newton with step
 // halving) through AddStepStrategy; it is selected by name like a built-in strategy, reaches
-// LM's optimum, and a plugin that claims a built-in strategy's name registers nothing.
+// LM's optimum on a simulated world, and a plugin that claims a built-in strategy's name
+// registers nothing. Selected on the command line: tests/tools/step_strategy_plugin_cli_test.cc.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <fstream>
 #include <string>
 
 #include "testing/simulated.h"
-#include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/optimizer.h"
@@ -87,23 +85,6 @@ TEST(StepStrategyPluginTest, AFactoryThatMakesNothingOrThrowsIsInvalidInput) {
   }
   EXPECT_TRUE(RemoveStepStrategy("test-null"));
   EXPECT_TRUE(RemoveStepStrategy("test-throws"));
-}
-
-TEST(StepStrategyPluginTest, TheCommandLineSelectsIt) {
-  const SimulatedGraph sim = testing::SimulateWorld(SimWorld::kManhattan, 200, 5);
-  const std::string dir = ::testing::TempDir();
-  const std::string in = dir + "/strategy_in.g2o", log = dir + "/strategy_cli.txt";
-  WriteG2oFile(in, sim.initial, sim.graph, DefaultRegistry());
-  const std::string cli = std::string(TETHER_CLI) + " optimize " + in + " -q --plugin " + TestPlugin("step_strategy");
-  ASSERT_EQ(std::system((cli + " --solver gn-halving > " + log + " 2>&1").c_str()), 0);
-  std::ifstream f(log);
-  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("step strategy 'gn-halving'"), std::string::npos) << text;
-  EXPECT_NE(text.find("converged"), std::string::npos) << text;
-  // Without the plugin the name is unknown: a usage error naming the choices.
-  const int code =
-      std::system((std::string(TETHER_CLI) + " optimize " + in + " -q --solver gn-halving > " + log + " 2>&1").c_str());
-  EXPECT_EQ(WEXITSTATUS(code), 2);
 }
 
 }  // namespace

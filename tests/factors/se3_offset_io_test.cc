@@ -1,6 +1,7 @@
 // g2o's 3D landmark and prior edges with their sensor offset: EDGE_SE3_TRACKXYZ and
 // EDGE_SE3_PRIOR with a parameter id naming a PARAMS_SE3OFFSET line. Round trip, the offset
-// applied exactly (chi2 as g2o defines it), a small graph solved, and every refused line.
+// applied exactly (chi2 as g2o defines it), and every refused line (a small graph solved:
+// tests/solvers/factor_solves_test.cc).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -12,7 +13,6 @@
 #include "tether/factors/builtin.h"
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
-#include "tether/solvers/optimizer.h"
 
 namespace tether {
 namespace {
@@ -115,54 +115,6 @@ TEST(Se3OffsetIoTest, TrackXyzAppliesAnOffsetExactly) {
     EXPECT_NEAR(g.graph.at(0).Chi2(v), chi2, 1e-9 * (1 + chi2));
     EXPECT_NEAR(back.graph.at(0).Chi2(v), chi2, 1e-9 * (1 + chi2));
   }
-}
-
-TEST(Se3OffsetIoTest, SmallGraphSolvesToTheTruth) {
-  // Three poses, a prior on the first, odometry, and four points each seen from every pose
-  // through a sensor offset; the vertices start away from the truth.
-  const SE3d offset(Eigen::Quaterniond(Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitY())),
-                    Eigen::Vector3d(0.2, 0, 0.5));
-  std::vector<SE3d> poses;
-  for (int i = 0; i < 3; ++i) {
-    poses.emplace_back(Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * i, Eigen::Vector3d::UnitZ())),
-                       Eigen::Vector3d(i, 0.5 * i, 0.1 * i));
-  }
-  const std::vector<Eigen::Vector3d> points = {{2, 3, 1}, {-1, 2, 0}, {3, -2, 2}, {1, 1, -1}};
-  const auto params = [](const SE3d& x) {
-    double p[7];
-    x.ToParams(p);
-    std::string s;
-    for (double v : p) s += " " + FormatDouble(v);
-    return s;
-  };
-  std::string text = "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\nPARAMS_SE3OFFSET 1" + params(offset) + "\n";
-  for (int i = 0; i < 3; ++i) {
-    const SE3d start = poses[i] * SE3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX())),
-                                       Eigen::Vector3d(0.2, -0.1, 0.1));
-    text += "VERTEX_SE3:QUAT " + std::to_string(i) + params(start) + "\n";
-  }
-  for (int j = 0; j < 4; ++j) {
-    text += "VERTEX_TRACKXYZ " + std::to_string(10 + j) + " " + FormatDouble(points[j].x() + 0.3) + " " +
-            FormatDouble(points[j].y()) + " " + FormatDouble(points[j].z() - 0.2) + "\n";
-  }
-  text += "EDGE_SE3_PRIOR 0 0" + params(poses[0]) + kPrior21 + "\n";
-  for (int i = 0; i + 1 < 3; ++i) {
-    text += "EDGE_SE3:QUAT " + std::to_string(i) + " " + std::to_string(i + 1) +
-            params(poses[i].Inverse() * poses[i + 1]) + kPrior21 + "\n";
-  }
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 4; ++j) {
-      const Eigen::Vector3d z = (poses[i] * offset).Inverse() * points[j];
-      text += "EDGE_SE3_TRACKXYZ " + std::to_string(i) + " " + std::to_string(10 + j) + " 1 " + FormatDouble(z.x()) +
-              " " + FormatDouble(z.y()) + " " + FormatDouble(z.z()) + " 10 0 0 10 0 10\n";
-    }
-  }
-  GraphFile g = Read(text);
-  ASSERT_EQ(g.graph.size(), 15u);
-  const SolverSummary s = Optimize(g.graph, &g.values);
-  EXPECT_LT(s.final_chi2, 1e-14) << s.FullReport();
-  for (int j = 0; j < 4; ++j) EXPECT_LT((g.values.At<Eigen::Vector3d>(10 + j) - points[j]).norm(), 1e-7);
-  for (int i = 0; i < 3; ++i) EXPECT_LT((g.values.At<SE3d>(i).translation() - poses[i].translation()).norm(), 1e-7);
 }
 
 TEST(Se3OffsetIoTest, EdgesWithoutVerticesAreInitialisedThroughTheOffset) {

@@ -34,7 +34,7 @@ class CeresPluginTest : public ::testing::Test {
   }
 
   // Solves `graph` from `start` natively and with Ceres, both run until rounding stops them
-  // (function_tolerance 1e-15, see tests/solvers/ceres_adapter_test.cc), and expects the
+  // (function_tolerance 1e-15, see tests/frontends/ceres_adapter_test.cc), and expects the
   // same chi2 to 1e-11 relative and the same poses to 1e-7.
   static void ExpectSameOptimum(const FactorGraph& graph, const Values& start) {
     SolverOptions o;
