@@ -6,6 +6,8 @@
 #include "tether/core/output_file.h"
 #include "tether/core/svg_plot.h"
 #include "tether/core/trajectory_error.h"
+#include "tether/factors/builtin.h"
+#include "tether/plugins/plugin_check.h"
 
 namespace tether {
 namespace python {
@@ -82,6 +84,29 @@ void BindEvaluation(py::module_& m) {
       py::arg("path"), py::arg("graph"), py::arg("before") = nullptr, py::arg("after") = nullptr,
       py::arg("truth") = nullptr, py::arg("options") = PlotOptions(),
       "plot_svg written to `path` through a temporary file renamed into place (never half a file).");
+
+  py::class_<FactorTypeCheck>(m, "FactorTypeCheck", "One factor type's Jacobian check at random points.")
+      .def_readonly("type", &FactorTypeCheck::type)
+      .def_readonly("trials", &FactorTypeCheck::trials)
+      .def_readonly("failed", &FactorTypeCheck::failed, "trials whose Jacobians did not match")
+      .def_readonly("refused", &FactorTypeCheck::refused, "trials whose measurement the type's factory refused")
+      .def_readonly("largest", &FactorTypeCheck::largest, "the largest |analytic - numeric|")
+      .def_readonly("first_failure", &FactorTypeCheck::first_failure)
+      .def_property_readonly("ok", &FactorTypeCheck::ok)
+      .def("__repr__", &FactorTypeCheck::Line);
+  m.def(
+      "check_factor_types",
+      [](const std::vector<std::string>& type_names, int trials, std::uint64_t seed, double tolerance) {
+        FactorTypeCheckOptions o;
+        o.trials = trials;
+        o.seed = seed;
+        o.jacobian.absolute_tolerance = o.jacobian.relative_tolerance = tolerance;
+        py::gil_scoped_release release;
+        return CheckFactorTypes(DefaultRegistry(), type_names, o);
+      },
+      py::arg("type_names"), py::arg("trials") = 100, py::arg("seed") = 7, py::arg("tolerance") = 1e-6,
+      "Checks the Jacobians of the named factor types (a loaded plugin's LoadedPlugin.type_names, or built-in "
+      "ones) against central differences at random points, as `tether check-plugin` does.");
 }
 
 }  // namespace python

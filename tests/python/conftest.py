@@ -34,3 +34,11 @@ def plugin_dir():
     if not d.is_dir():
         pytest.skip(f"the example plugins folder {d} is absent (TETHER_PLUGIN_BUILD_DIR)")
     return d
+
+
+@pytest.fixture(scope="session")
+def test_plugin_dir():
+    d = pathlib.Path(os.environ.get("TETHER_TEST_PLUGIN_DIR", REPO / "build" / "tests" / "plugins"))
+    if not d.is_dir():
+        pytest.skip(f"the test plugins folder {d} is absent (TETHER_TEST_PLUGIN_DIR)")
+    return d

@@ -82,3 +82,17 @@ def test_enum_options_take_the_tables_names():
         o.factorization = "supernodal"
     with pytest.raises(tether.InvalidArgument, match="use manhattan, sphere or landmarks"):
         tether.simulate("city")
+
+
+def test_check_factor_types_finds_a_wrong_jacobian(test_plugin_dir):
+    loaded = tether.load_plugin(str(test_plugin_dir / "test_wrong_jacobian.so"))
+    checks = {c.type: c for c in tether.check_factor_types(loaded.type_names, trials=30)}
+    assert set(checks) == {"TestRightRange", "TestWrongRange"}
+    assert checks["TestRightRange"].ok and checks["TestRightRange"].largest < 1e-6
+    wrong = checks["TestWrongRange"]
+    assert not wrong.ok and wrong.failed > 0
+    assert "d e[0] / d delta_0[1]" in wrong.first_failure
+    # The built-in types pass the same check.
+    assert all(c.ok for c in tether.check_factor_types(["BetweenSE2", "BetweenSE3"], trials=20))
+    with pytest.raises(tether.InvalidArgument, match="no factor type named"):
+        tether.check_factor_types(["NoSuchType"])

@@ -28,6 +28,9 @@ const OptionRange kRanges[] = {
     {"simulate", "--poses", 1, 1e8},
     {"simulate", "--scans", 1, 1e7},
     {"simulate", "--beams", 2, 1 << 20},
+    // check-plugin
+    {"check-plugin", "--trials", 1, 1e7},
+    {"check-plugin", "--tolerance", 0, 1},
     // bench
     {"bench", "--repeat", 1, 1e6},
     // replay

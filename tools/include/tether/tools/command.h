@@ -67,6 +67,7 @@ CLI::Option* AddEnumOption(CLI::App* app, const std::string& flags, E* value, co
 std::unique_ptr<Command> MakeOptimizeCommand();
 std::unique_ptr<Command> MakeSimulateCommand();
 std::unique_ptr<Command> MakePluginsCommand();
+std::unique_ptr<Command> MakeCheckPluginCommand();
 std::unique_ptr<Command> MakeBenchCommand();
 std::unique_ptr<Command> MakeReplayCommand();
 std::unique_ptr<Command> MakeEkfDemoCommand();
