@@ -97,6 +97,8 @@ std::string SolverSummary::BriefReport() const {
     std::snprintf(buf, sizeof(buf), " (robust cost %.6g -> %.6g)", initial_cost, final_cost);
     line += buf;
   }
+  // A solve that did not give a usable result says why on the same line.
+  if (!IsSolutionUsable() && !message.empty()) line += ": " + message;
   return line;
 }
 

@@ -96,3 +96,17 @@ def test_check_factor_types_finds_a_wrong_jacobian(test_plugin_dir):
     assert all(c.ok for c in tether.check_factor_types(["BetweenSE2", "BetweenSE3"], trials=20))
     with pytest.raises(tether.InvalidArgument, match="no factor type named"):
         tether.check_factor_types(["NoSuchType"])
+
+
+def test_a_failed_solve_prints_its_reason():
+    graph, values = tether.FactorGraph(), tether.Values()
+    values.insert(0, tether.SE2(0, 0, 0))
+    values.insert(1, tether.SE2(float("nan"), 0, 0))
+    graph.add(tether.BetweenSE2(0, 1, tether.SE2(1, 0, 0), tether.SqrtInformation.identity(3)))
+    graph.fix(0)
+    summary = tether.optimize(graph, values)
+    assert summary.status == "invalid-input"
+    # The printed line names the factor, as the message does; a usable result prints no message.
+    assert str(summary).startswith("invalid-input: ")
+    assert "factor 0 (BetweenSE2, keys 0, 1) has a non-finite error" in str(summary)
+    assert summary.message in str(summary)

@@ -239,7 +239,8 @@ struct SolverSummary {
     return status == SolverStatus::kConverged || status == SolverStatus::kMaxIterations ||
            status == SolverStatus::kTimeLimit || status == SolverStatus::kStopped;
   }
-  /// One line: status, chi2 before and after, iterations, time.
+  /// One line: status, chi2 before and after, iterations, time; where the result is not usable,
+  /// the message saying why after a colon.
   std::string BriefReport() const;
   /// Several lines: problem size, settings, timings and why it stopped.
   std::string FullReport() const;
