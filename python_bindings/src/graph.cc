@@ -221,6 +221,14 @@ void BindValues(py::module_& m) {
             } else if (py::isinstance<SE3d>(value)) {
               t = VarType::kSE3;
             } else {
+              // Three plain numbers may be an SE2's (x, y, theta) as well as a Point3: the caller
+              // says which. A NumPy array of shape (3,) is a point.
+              if ((py::isinstance<py::tuple>(value) || py::isinstance<py::list>(value)) && py::len(value) == 3) {
+                throw InvalidArgument("insert(" + KeyToString(k) +
+                                      "): three numbers in a tuple or list may be an SE2's (x, y, theta) or a "
+                                      "Point3; pass tether.SE2(x, y, theta), a NumPy array for a point, or "
+                                      "type='SE2' / type='Point3'");
+              }
               const DoubleArray a = DoubleArray::ensure(value);
               if (!a || a.ndim() != 1 || (a.shape(0) != 2 && a.shape(0) != 3)) {
                 throw InvalidArgument("insert(" + KeyToString(k) +

@@ -56,7 +56,15 @@ def test_values_arrays_shapes_and_types():
     v.insert(1, tether.SE2(1, 2, 0.3))
     v.insert(2, tether.SE3())
     v.insert(3, np.array([1.0, 2.0]))
-    v.insert(4, [1, 2, 3])  # ints and lists are converted to float64
+    v.insert(4, [1, 2, 3], type="Point3")  # ints and lists are converted to float64
+    # Three plain numbers are ambiguous (SE2 or Point3) without the type; nothing is stored.
+    for ambiguous in ((1, 2, 0.5), [1.0, 2.0, 0.5]):
+        with pytest.raises(tether.InvalidArgument, match="type='SE2' / type='Point3'"):
+            v.insert(5, ambiguous)
+    assert 5 not in v
+    v.insert(5, (1, 2, 0.5), type="SE2")
+    assert isinstance(v.at(5), tether.SE2) and v.at(5).theta == pytest.approx(0.5)
+    assert v.erase(5)
     assert len(v) == 4 and 3 in v and 9 not in v
     assert v.keys() == [1, 2, 3, 4]
     assert [v.type_of(k) for k in v.keys()] == ["SE2", "SE3", "Point2", "Point3"]
