@@ -63,6 +63,32 @@ TEST_F(CliTest, SimulateThenOptimizeWritesGraphAndPlot) {
 
 // --init: chordal by default (and said so), file and spanning-tree on request, all reaching
 // the same optimum here; an unknown name is bad usage.
+// -q is quiet in every command that reports progress or what it wrote: the help lists it, and
+// simulate, lidar-degrade and lidar-eval print nothing but their results with it.
+TEST_F(CliTest, QuietMeansQuietEverywhere) {
+  for (const char* command : {"optimize", "simulate", "check-plugin", "bench", "replay", "ekf-demo", "lidar",
+                              "lidar-eval", "lidar-degrade"}) {
+    CliRun help = Tether(std::string(command) + " --help");
+    EXPECT_NE(help.output.find("-q,--quiet"), std::string::npos) << command << ":\n" << help.output;
+  }
+  CliRun sim = Tether("simulate manhattan --poses 50 -q -o " + P("q.g2o"));
+  EXPECT_EQ(sim.code, 0) << sim.output;
+  EXPECT_EQ(sim.output, "");
+  EXPECT_TRUE(fs::exists(P("q.g2o")));
+  CliRun loud = Tether("simulate manhattan --poses 50 -o " + P("l.g2o"));
+  EXPECT_NE(loud.output.find("wrote "), std::string::npos) << loud.output;
+  CliRun log = Tether("simulate lidar --scans 40 -q -o " + P("q.log") + " --truth " + P("q.tum"));
+  EXPECT_EQ(log.code, 0) << log.output;
+  EXPECT_EQ(log.output, "");
+  CliRun degrade = Tether("lidar-degrade " + P("q.log") + " --preset lds -q -o " + P("d.log"));
+  EXPECT_EQ(degrade.code, 0) << degrade.output;
+  EXPECT_EQ(degrade.output, "");
+  // Errors are never quiet.
+  CliRun bad = Tether("simulate city -q -o " + P("c.g2o"));
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("unknown world 'city'"), std::string::npos) << bad.output;
+}
+
 TEST_F(CliTest, InitChoosesTheInitialGuess) {
   ASSERT_EQ(Tether("simulate sphere --poses 300 --seed 4 -o " + P("s.g2o")).code, 0);
   CliRun byDefault = Tether("optimize " + P("s.g2o") + " -q -o " + P("d.g2o"));

@@ -517,10 +517,12 @@ std::string ParseConfigs(const BenchCommand& cmd, std::vector<BenchConfig>* conf
 // Every file under every configuration, --repeat times each, in child processes.
 std::vector<BenchRow> RunConfigs(const BenchCommand& cmd, const std::vector<BenchConfig>& configs,
                                  const std::string& blas, std::ostream& err) {
+  std::ostream none(nullptr);  // -q: no progress lines
+  std::ostream& progress = cmd.quiet ? none : err;
   const std::size_t total_rows = cmd.files.size() * configs.size();
-  err << "tether bench: " << cmd.files.size() << (cmd.files.size() == 1 ? " file" : " files") << " x " << configs.size()
-      << (configs.size() == 1 ? " configuration" : " configurations") << " x " << cmd.repeat
-      << (cmd.repeat == 1 ? " run" : " runs") << "; BLAS " << blas << "\n";
+  progress << "tether bench: " << cmd.files.size() << (cmd.files.size() == 1 ? " file" : " files") << " x "
+           << configs.size() << (configs.size() == 1 ? " configuration" : " configurations") << " x " << cmd.repeat
+           << (cmd.repeat == 1 ? " run" : " runs") << "; BLAS " << blas << "\n";
   std::vector<BenchRow> rows;
   for (const std::string& file : cmd.files) {
     for (const BenchConfig& config : configs) {
@@ -528,10 +530,10 @@ std::vector<BenchRow> RunConfigs(const BenchCommand& cmd, const std::vector<Benc
       row.file = file;
       row.config = config;
       for (int k = 1; k <= cmd.repeat; ++k) {
-        err << "[" << rows.size() + 1 << "/" << total_rows << "] " << file << " " << config.Name() << ": run " << k
-            << " of " << cmd.repeat << " ... " << std::flush;
+        progress << "[" << rows.size() + 1 << "/" << total_rows << "] " << file << " " << config.Name() << ": run " << k
+                 << " of " << cmd.repeat << " ... " << std::flush;
         const BenchRun r = RunBenchInChild(file, config);
-        err << Fmt("%.3f s, ", r.total_seconds) << r.status << std::endl;
+        progress << Fmt("%.3f s, ", r.total_seconds) << r.status << std::endl;
         row.runs.push_back(r);
       }
       SummarizeBenchRow(&row);
@@ -560,7 +562,8 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   // Plugins first, into the registry the runs read with (the forked children inherit them);
   // a plugin's step strategy or linear solver is known once it is loaded.
   PluginLoader loader(DefaultRegistry());
-  if (!LoadPlugins(cmd.plugins, &loader, err, err)) return kExitPluginFailed;
+  std::ostream none(nullptr);
+  if (!LoadPlugins(cmd.plugins, &loader, cmd.quiet ? none : err, err)) return kExitPluginFailed;
   std::vector<BenchConfig> configs;
   if (const std::string why = ParseConfigs(cmd, &configs, err); !why.empty()) return usage(why);
 
@@ -597,6 +600,7 @@ void BenchCli::Add(CLI::App& app) {
   sub->add_option("--repeat", cmd_.repeat, "Runs per configuration")->capture_default_str();
   sub->add_option("--format", cmd_.format, "md | csv")->capture_default_str();
   AddPath(sub, "-o,--output", &cmd_.output, "Write the table here instead of stdout");
+  sub->add_flag("-q,--quiet", cmd_.quiet, "No progress lines (the table and errors only)");
   sub->add_flag("--replay", cmd_.replay,
                 "Replay each file through the incremental smoother (as tether replay) and tabulate update "
                 "latencies, chi2 and peak memory");

@@ -131,16 +131,21 @@ namespace {
 class LidarDegradeCli : public Command {
  public:
   void Add(CLI::App& app) override;
-  int Run(std::ostream& out, std::ostream& err) override { return RunLidarDegrade(cmd_, out, err); }
+  int Run(std::ostream& out, std::ostream& err) override {
+    std::ostream none(nullptr);  // -q: the report goes nowhere
+    return RunLidarDegrade(cmd_, quiet_ ? none : out, err);
+  }
 
  private:
   LidarDegradeCommand cmd_;
+  bool quiet_ = false;
 };
 
 void LidarDegradeCli::Add(CLI::App& app) {
   CLI::App* sub = app_ = app.add_subcommand(
       "lidar-degrade", "Write a laser log degraded as a cheaper scanner would record it (CARMEN; docs/lidar.md)");
   sub->add_option("log", cmd_.input, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
+  sub->add_flag("-q,--quiet", quiet_, "Print nothing but errors");
   AddPath(sub, "-o,--output", &cmd_.output, "The degraded log (CARMEN text)")->required();
   sub->add_option("--preset", cmd_.preset, "lds: 360 beams, 6 m, 0.02 m noise, 5% drops, every other scan");
   sub->add_option("--beams", cmd_.beams, "Resample each scan to N beams over its field of view");

@@ -118,7 +118,7 @@ std::vector<lidar::StampedPose2> ReadScoredPoses(const LidarEvalCommand& cmd, co
 // Scores the poses on the relations and writes --trajectory-out; the exit code. Throws what
 // the readers throw.
 int Score(const LidarEvalCommand& cmd, const std::vector<lidar::StampedPose2>& poses, OutputSet* outputs,
-          OutputFile* tum_file, std::ostream& out, std::ostream& err) {
+          OutputFile* tum_file, std::ostream& out, std::ostream& info, std::ostream& err) {
   if (poses.empty()) {
     err << "error: " << cmd.trajectory << ": the trajectory has no pose; nothing to score\n";
     return kExitBadInput;
@@ -132,8 +132,8 @@ int Score(const LidarEvalCommand& cmd, const std::vector<lidar::StampedPose2>& p
   ro.tolerance = cmd.tolerance;
   const lidar::RelationsResult result = lidar::EvaluateRelations(poses, relations, ro);
   out << result.Report();
-  out << "stamps matched within " << cmd.tolerance << " s (largest difference " << result.max_stamp_difference
-      << " s)\n";
+  info << "stamps matched within " << cmd.tolerance << " s (largest difference " << result.max_stamp_difference
+       << " s)\n";
   if (result.matched == 0) {
     err << kUsage << "no relation matched the trajectory's stamps within " << cmd.tolerance
         << " s; are they the same clock (the relations use CARMEN's ipc_timestamp; see --time-reference)?\n";
@@ -146,7 +146,7 @@ int Score(const LidarEvalCommand& cmd, const std::vector<lidar::StampedPose2>& p
     err << "error: " << e.what() << "\n";
     return kExitWriteFailed;
   }
-  out << "trajectory written to " << cmd.trajectory_output << "\n";
+  info << "trajectory written to " << cmd.trajectory_output << "\n";
   return kExitOk;
 }
 
@@ -174,13 +174,15 @@ int RunLidarEval(const LidarEvalCommand& cmd, std::ostream& out, std::ostream& e
       err << kUsage << "--time-reference needs a log as the trajectory (its scans are matched by their ranges)\n";
       return kExitUsage;
     }
-    std::vector<lidar::StampedPose2> poses = ReadScoredPoses(cmd, kind, read, out);
+    std::ostream none(nullptr);  // -q: only the scores
+    std::ostream& info = cmd.quiet ? none : out;
+    std::vector<lidar::StampedPose2> poses = ReadScoredPoses(cmd, kind, read, info);
     if (!cmd.pose_offset.empty()) {
       for (lidar::StampedPose2& p : poses) p.pose = p.pose * offset;
-      out << "every pose composed with the offset (" << offset.x() << ", " << offset.y() << ", " << offset.theta()
-          << ")\n";
+      info << "every pose composed with the offset (" << offset.x() << ", " << offset.y() << ", " << offset.theta()
+           << ")\n";
     }
-    return Score(cmd, poses, &outputs, tum_file, out, err);
+    return Score(cmd, poses, &outputs, tum_file, out, info, err);
   } catch (const IoError& e) {
     err << "error: " << e.what() << "\n";
     return kExitBadInput;
@@ -227,6 +229,7 @@ void LidarEvalCli::Add(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--pose-offset", cmd_.pose_offset,
                   "x,y,theta: score every pose T as T * offset (e.g. laser poses on relations of the robot's)");
+  sub->add_flag("-q,--quiet", cmd_.quiet, "Only the scores");
   AddPath(sub, "--trajectory-out", &cmd_.trajectory_output, "Also write the scored trajectory (TUM text)");
 }
 

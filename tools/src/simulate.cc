@@ -84,15 +84,19 @@ class SimulateCli : public Command {
     sub->add_option("--beams", lidar_.beams, "lidar: beams over 360 degrees (default 360)");
     sub->add_flag("--no-odometry", lidar_.no_odometry, "lidar: scans without odometry");
     sub->add_option("--preset", lidar_.preset, "lidar: lds (6 m, 0.02 m noise, 5% of the beams dropped, 5 Hz)");
+    sub->add_flag("-q,--quiet", quiet_, "Print nothing but errors");
   }
   int Run(std::ostream& out, std::ostream& err) override {
-    if (sim_.world == "lidar" || lidar_.Given()) return RunSimulateLidar(sim_, lidar_, out, err);
-    return RunSimulate(sim_, out, err);
+    std::ostream none(nullptr);  // -q: the report goes nowhere
+    std::ostream& report = quiet_ ? none : out;
+    if (sim_.world == "lidar" || lidar_.Given()) return RunSimulateLidar(sim_, lidar_, report, err);
+    return RunSimulate(sim_, report, err);
   }
 
  private:
   SimulateCommand sim_;
   SimulateLidarCommand lidar_;
+  bool quiet_ = false;
 };
 
 }  // namespace

@@ -20,6 +20,7 @@ namespace tether {
 
 struct BenchCommand {
   std::vector<std::string> files;
+  bool quiet = false;              ///< no progress lines (errors still go to the error stream)
   std::string solvers = "lm";      ///< comma-separated: gn, lm, ceres
   std::string linear = "cholmod";  ///< comma-separated: cholmod, ldlt, qr
   std::string init = "chordal";    ///< comma-separated: file, spanning-tree, chordal

@@ -8,6 +8,7 @@
 namespace tether {
 
 struct LidarEvalCommand {
+  bool quiet = false;  ///< only the scores (no lines on what was read)
   std::string trajectory;
   std::string relations;
   /// auto: a ROS bag by its first bytes, a CARMEN log by its name (.clf, .log, .gz), else TUM.
