@@ -174,6 +174,43 @@ TEST_F(BenchTest, OneRowPerFileAndConfigurationWithEveryColumn) {
 }
 
 // The final chi2 is what `tether optimize` reports for the same configuration.
+// --columns chooses the columns and their order; "÷ best" is 1 for the fastest solved row of
+// each file and above 1 for the others; an unknown column is refused with the list, and -q
+// leaves out the progress lines.
+TEST_F(BenchTest, ColumnsChooseWhatIsShownAndTheBestIsOne) {
+  BenchCommand cmd;
+  cmd.files = {Simulated("m.g2o", SimWorld::kManhattan, 200, nullptr),
+               Simulated("t.g2o", SimWorld::kManhattan, 150, nullptr)};
+  cmd.solvers = "gn,lm,dogleg";
+  cmd.repeat = 1;
+  cmd.format = "csv";
+  cmd.quiet = true;
+  cmd.columns = "wall_over_best,file,solver,final_chi2";
+  ASSERT_EQ(Bench(cmd), 0) << err_.str();
+  EXPECT_EQ(err_.str(), "");  // -q: no progress
+  const std::string header = out_.str().substr(0, out_.str().find('\n'));
+  EXPECT_EQ(header, "wall_over_best,file,solver,final_chi2,runs,blas,message");
+  const auto rows = ParseCsv(out_.str());
+  ASSERT_EQ(rows.size(), 6u) << out_.str();
+  for (const std::string& file : cmd.files) {
+    int ones = 0;
+    for (const auto& r : rows) {
+      if (r.at("file") != file) continue;
+      const double ratio = std::stod(r.at("wall_over_best"));
+      EXPECT_GE(ratio, 1.0) << out_.str();
+      ones += ratio == 1.0;
+    }
+    EXPECT_GE(ones, 1) << file << ":\n" << out_.str();
+  }
+  BenchCommand bad = cmd;
+  bad.columns = "file,speed";
+  out_.str("");
+  err_.str("");
+  EXPECT_EQ(Bench(bad), 2);
+  EXPECT_NE(err_.str().find("unknown column 'speed'"), std::string::npos) << err_.str();
+  EXPECT_NE(err_.str().find("wall_over_best"), std::string::npos) << err_.str();
+}
+
 TEST_F(BenchTest, FinalChi2MatchesTetherOptimize) {
   const std::string file = Simulated("l.g2o", SimWorld::kLandmarks, 120);
   BenchCommand cmd;
@@ -270,7 +307,7 @@ TEST_F(BenchTest, MarkdownTableParses) {
   EXPECT_NE(preface.find("2 runs per configuration"), std::string::npos) << preface;
   ASSERT_EQ(table.size(), 4u) << out_.str();
   const std::size_t width = table[0].size();
-  EXPECT_EQ(width, 26u);
+  EXPECT_EQ(width, 27u);  // with "÷ best"
   for (const auto& row : table) EXPECT_EQ(row.size(), width);
   EXPECT_EQ(table[0][0], "file");
   EXPECT_EQ(table[0][12], "wall median [s]");
@@ -280,7 +317,8 @@ TEST_F(BenchTest, MarkdownTableParses) {
   EXPECT_EQ(table[3][1], "lm");
   EXPECT_EQ(table[3][5], "150");
   EXPECT_EQ(table[3][11], "converged");
-  EXPECT_GT(std::stod(table[3][25]), 1.0);  // peak RSS
+  EXPECT_EQ(table[0][15], "÷ best");
+  EXPECT_GT(std::stod(table[3][26]), 1.0);  // peak RSS
 }
 
 // Progress goes to stderr, one line per run with the file, the configuration and run k of N;

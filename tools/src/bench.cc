@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <iterator>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -167,6 +168,7 @@ const Column kColumns[] = {
     {"wall median [s]", "wall_median_s"},
     {"wall min [s]", "wall_min_s"},
     {"wall max [s]", "wall_max_s"},
+    {"÷ best", "wall_over_best"},
     {"read [s]", "read_s"},
     {"init [s]", "init_s"},
     {"setup [s]", "setup_s"},
@@ -180,8 +182,20 @@ const Column kColumns[] = {
     {"peak RSS [MiB]", "peak_rss_mib"},
 };
 
-// One row's cells; `csv` chooses the number format and how missing numbers look.
-std::vector<std::string> Cells(const BenchRow& row, bool csv) {
+// The least median wall time of the solved rows of each file.
+std::map<std::string, double> BestWall(const std::vector<BenchRow>& rows) {
+  std::map<std::string, double> best;
+  for (const BenchRow& r : rows) {
+    if (r.outcome != BenchOutcome::kSolved) continue;
+    const auto it = best.find(r.file);
+    if (it == best.end() || r.median_seconds < it->second) best[r.file] = r.median_seconds;
+  }
+  return best;
+}
+
+// One row's cells; `csv` chooses the number format and how missing numbers look; `best` is the
+// least median wall time of the row's file (0: none solved).
+std::vector<std::string> Cells(const BenchRow& row, bool csv, double best) {
   const auto sec = [csv](double s) { return csv ? CsvNumber("%.6g", s) : Seconds(s); };
   const std::string none = csv ? "" : "-";
   const BenchRun* rep = Representative(row);
@@ -205,6 +219,11 @@ std::vector<std::string> Cells(const BenchRow& row, bool csv) {
   c.push_back(sec(row.median_seconds));
   c.push_back(sec(row.min_seconds));
   c.push_back(sec(row.max_seconds));
+  if (best > 0 && row.outcome == BenchOutcome::kSolved) {
+    c.push_back(Fmt(csv ? "%.4g" : "%.2f", row.median_seconds / best));
+  } else {
+    c.push_back(none);
+  }
   for (double BenchRun::*f : {&BenchRun::read_seconds, &BenchRun::init_seconds, &BenchRun::setup_seconds,
                               &BenchRun::linearize_seconds, &BenchRun::factorize_seconds, &BenchRun::solve_seconds,
                               &BenchRun::write_seconds, &BenchRun::optimize_seconds, &BenchRun::floor_seconds}) {
@@ -366,32 +385,79 @@ void SummarizeBenchRow(BenchRow* row) {
   row->max_seconds = *std::max_element(totals.begin(), totals.end());
 }
 
-std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas) {
+std::vector<std::string> BenchColumnNames() {
+  std::vector<std::string> names;
+  for (const Column& c : kColumns) names.emplace_back(c.csv);
+  return names;
+}
+
+std::vector<std::size_t> SelectBenchColumns(const std::string& names) {
+  std::vector<std::size_t> out;
+  if (names.empty()) return out;
+  std::vector<std::string> items;
+  if (!SplitList(names, &items)) throw InvalidArgument("--columns '" + names + "' is not a comma-separated list");
+  for (const std::string& n : items) {
+    std::size_t i = 0;
+    while (i < std::size(kColumns) && n != kColumns[i].csv) ++i;
+    if (i == std::size(kColumns)) {
+      std::string known;
+      for (const Column& c : kColumns) known += (known.empty() ? "" : ", ") + std::string(c.csv);
+      throw InvalidArgument("unknown column '" + n + "' in --columns; the columns are " + known);
+    }
+    out.push_back(i);
+  }
+  return out;
+}
+
+namespace {
+
+// The indices shown: `columns`, or every column where it is empty.
+std::vector<std::size_t> Shown(const std::vector<std::size_t>& columns) {
+  if (!columns.empty()) return columns;
+  std::vector<std::size_t> all(std::size(kColumns));
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+  return all;
+}
+
+}  // namespace
+
+std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas,
+                                const std::vector<std::size_t>& columns) {
   std::ostringstream o;
   o << "CHOLMOD's BLAS (where dgemm_ resolves): `" << blas << "`. " << repeat << (repeat == 1 ? " run" : " runs")
     << " per configuration, each in a fresh child process; wall = read + initialise + solve + write; the "
-       "split and the floor are medians over the runs, the ratio is that of the medians; n/a: not measured apart "
-       "(Ceres times its linear solver as a whole).\n\n";
+       "split and the floor are medians over the runs, the ratio is that of the medians; ÷ best: the median wall "
+       "over the least of the file's solved rows; n/a: not measured apart (Ceres times its linear solver as a "
+       "whole).\n\n";
+  const std::vector<std::size_t> shown = Shown(columns);
   std::string header = "|", rule = "|";
-  for (const Column& c : kColumns) {
-    header += std::string(" ") + c.md + " |";
+  for (std::size_t i : shown) {
+    header += std::string(" ") + kColumns[i].md + " |";
     rule += "---|";
   }
   o << header << "\n" << rule << "\n";
+  const std::map<std::string, double> best = BestWall(rows);
   for (const BenchRow& row : rows) {
+    const auto b = best.find(row.file);
+    const std::vector<std::string> cells = Cells(row, false, b == best.end() ? 0 : b->second);
     o << "|";
-    for (const std::string& cell : Cells(row, false)) o << " " << cell << " |";
+    for (std::size_t i : shown) o << " " << cells[i] << " |";
     o << "\n";
   }
   return o.str();
 }
 
-std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas) {
+std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas,
+                           const std::vector<std::size_t>& columns) {
   std::ostringstream o;
-  for (const Column& c : kColumns) o << c.csv << ",";
+  const std::vector<std::size_t> shown = Shown(columns);
+  for (std::size_t i : shown) o << kColumns[i].csv << ",";
   o << "runs,blas,message\n";
+  const std::map<std::string, double> best = BestWall(rows);
   for (const BenchRow& row : rows) {
-    for (const std::string& cell : Cells(row, true)) o << CsvField(cell) << ",";
+    const auto b = best.find(row.file);
+    const std::vector<std::string> cells = Cells(row, true, b == best.end() ? 0 : b->second);
+    for (std::size_t i : shown) o << CsvField(cells[i]) << ",";
     o << row.runs.size() << "," << CsvField(blas) << "," << CsvField(OneLine(row.message)) << "\n";
   }
   return o.str();
@@ -566,11 +632,17 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   if (!LoadPlugins(cmd.plugins, &loader, cmd.quiet ? none : err, err)) return kExitPluginFailed;
   std::vector<BenchConfig> configs;
   if (const std::string why = ParseConfigs(cmd, &configs, err); !why.empty()) return usage(why);
+  std::vector<std::size_t> columns;
+  try {
+    columns = SelectBenchColumns(cmd.columns);
+  } catch (const InvalidArgument& e) {
+    return usage(e.what());
+  }
 
   const std::string blas = ActiveBlasLibrary();
   const std::vector<BenchRow> rows = RunConfigs(cmd, configs, blas, err);
   const std::string table =
-      cmd.format == "csv" ? FormatBenchCsv(rows, blas) : FormatBenchMarkdown(rows, cmd.repeat, blas);
+      cmd.format == "csv" ? FormatBenchCsv(rows, blas, columns) : FormatBenchMarkdown(rows, cmd.repeat, blas, columns);
   if (const int rc = bench::WriteTable(table, cmd.output, out, err); rc != 0) return rc;
 
   std::vector<BenchOutcome> outcomes;
@@ -601,6 +673,9 @@ void BenchCli::Add(CLI::App& app) {
   sub->add_option("--format", cmd_.format, "md | csv")->capture_default_str();
   AddPath(sub, "-o,--output", &cmd_.output, "Write the table here instead of stdout");
   sub->add_flag("-q,--quiet", cmd_.quiet, "No progress lines (the table and errors only)");
+  sub->add_option("--columns", cmd_.columns,
+                  "Comma-separated columns to show, in that order (CSV names: file, solver, linear, init, threads, "
+                  "final_chi2, iterations, status, wall_median_s, wall_over_best, ...; default: all)");
   sub->add_flag("--replay", cmd_.replay,
                 "Replay each file through the incremental smoother (as tether replay) and tabulate update "
                 "latencies, chi2 and peak memory");

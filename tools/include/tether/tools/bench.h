@@ -21,6 +21,7 @@ namespace tether {
 struct BenchCommand {
   std::vector<std::string> files;
   bool quiet = false;              ///< no progress lines (errors still go to the error stream)
+  std::string columns;             ///< comma-separated CSV column names to show, in that order; empty: all
   std::string solvers = "lm";      ///< comma-separated: gn, lm, ceres
   std::string linear = "cholmod";  ///< comma-separated: cholmod, ldlt, qr
   std::string init = "chordal";    ///< comma-separated: file, spanning-tree, chordal
@@ -118,10 +119,23 @@ void SummarizeBenchRow(BenchRow* row);
 /// resolves to in this process, with symbolic links resolved; "none" where no BLAS is loaded.
 std::string ActiveBlasLibrary();
 
+/// The table's columns by their CSV names ("file", "wall_median_s", "wall_over_best", ...), in
+/// order.
+std::vector<std::string> BenchColumnNames();
+/// The indices of the comma-separated column names in `names` (CSV names), in the order given;
+/// every column where `names` is empty. Throws InvalidArgument naming an unknown column and
+/// listing the known ones.
+std::vector<std::size_t> SelectBenchColumns(const std::string& names);
+
 /// The table as Markdown (a line naming the BLAS, then the table) or CSV (a header row, then
-/// one row per configuration; numbers not available are empty fields).
-std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas);
-std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas);
+/// one row per configuration; numbers not available are empty fields). `columns`: the indices
+/// of the columns to show (SelectBenchColumns); empty: all. The "÷ best" column
+/// (wall_over_best) is a row's median wall time over the least median wall time of the solved
+/// rows of the same file.
+std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, const std::string& blas,
+                                const std::vector<std::size_t>& columns = {});
+std::string FormatBenchCsv(const std::vector<BenchRow>& rows, const std::string& blas,
+                           const std::vector<std::size_t>& columns = {});
 
 /// `tether bench`. Progress (plugins loaded, file, configuration, run k of N) goes to `err`, the table to
 /// `out` or cmd.output. Exit codes: 0 every run solved; 1 some file could not be read or
