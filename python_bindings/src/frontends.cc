@@ -3,6 +3,7 @@
 // tether.simulate (the CLI's pose-graph simulator).
 #include "common.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/experiment.h"
 #include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/landmark_simulator.h"
@@ -192,7 +193,57 @@ void BindLandmarkGraph(py::module_& ek) {
   ek.def("landmark_key", &ekf::LandmarkKey, py::arg("j"));
 }
 
+// The experiment `tether ekf-demo` runs (tether/frontends/ekf/experiment.h).
+void BindExperiment(py::module_& ek) {
+  py::class_<EkfDemoSetup>(ek, "ExperimentSetup", "The world and what the experiment runs (steps, noise, ...).")
+      .def(py::init<>())
+      .def_readwrite("steps", &EkfDemoSetup::steps)
+      .def_readwrite("range_sigma", &EkfDemoSetup::range_sigma)
+      .def_readwrite("bearing_sigma", &EkfDemoSetup::bearing_sigma)
+      .def_readwrite("consistency", &EkfDemoSetup::consistency)
+      .def_readwrite("invariant_min_range", &EkfDemoSetup::invariant_min_range)
+      .def_readwrite("min_range", &EkfDemoSetup::min_range)
+      .def_readwrite("invariant_iterations", &EkfDemoSetup::invariant_iterations)
+      .def_readwrite("graphs", &EkfDemoSetup::graphs);
+  py::class_<EkfDemoRow>(ek, "ExperimentRow", "One method's figures, one entry per seed.")
+      .def_readonly("method", &EkfDemoRow::method)
+      .def_readonly("trajectory_rmse", &EkfDemoRow::trajectory_rmse)
+      .def_readonly("landmark_rmse", &EkfDemoRow::landmark_rmse)
+      .def_readonly("wrong_associations", &EkfDemoRow::wrong_associations)
+      .def_readonly("seconds", &EkfDemoRow::seconds)
+      .def_readonly("failures", &EkfDemoRow::failures)
+      .def_readonly("failure_note", &EkfDemoRow::failure_note);
+  py::class_<EkfDemoConfig>(ek, "ExperimentResult", "One experiment and association over the seeds.")
+      .def_readonly("experiment", &EkfDemoConfig::experiment)
+      .def_readonly("nearest_neighbour", &EkfDemoConfig::nearest_neighbour)
+      .def_readonly("observations", &EkfDemoConfig::observations)
+      .def_readonly("rows", &EkfDemoConfig::rows)
+      .def(
+          "table", [](const EkfDemoConfig& c) { return EkfDemoTable({c}); }, "The ekf-demo table (markdown).");
+  ek.def(
+      "run_experiment",
+      [](int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed, const EkfDemoSetup& setup) {
+        if (experiment != 1 && experiment != 2) throw InvalidArgument("experiment must be 1 or 2");
+        if (seeds < 1) throw InvalidArgument("seeds must be at least 1");
+        py::gil_scoped_release release;
+        return RunEkfExperiment(experiment, nearest_neighbour, seeds, first_seed, setup);
+      },
+      py::arg("experiment") = 1, py::arg("nearest_neighbour") = false, py::arg("seeds") = 20, py::arg("first_seed") = 1,
+      py::arg("setup") = EkfDemoSetup(),
+      "Runs dead reckoning, the EKF, UKF and invariant EKF and the graphs they seed over the seeds, as "
+      "`tether ekf-demo` does.");
+  ek.def(
+      "experiment_svg",
+      [](int experiment, bool nearest_neighbour, std::uint64_t seed, const EkfDemoSetup& setup) {
+        py::gil_scoped_release release;
+        return EkfDemoSvg(experiment, nearest_neighbour, seed, setup);
+      },
+      py::arg("experiment") = 1, py::arg("nearest_neighbour") = false, py::arg("seed") = 1,
+      py::arg("setup") = EkfDemoSetup(), "The picture `tether ekf-demo --plot` draws, as SVG text.");
+}
+
 void BindEkf(py::module_& ek) {
+  BindExperiment(ek);
   py::class_<ekf::Observation>(ek, "Observation", "A range [m] and bearing [rad] to a landmark; id -1 where unknown.")
       .def(py::init([](double r, double b, int id) {
              return ekf::Observation{r, b, id};

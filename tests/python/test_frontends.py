@@ -1,5 +1,6 @@
 """The front-ends through Python: the motion model, the odometry front-end, EKF/UKF-SLAM."""
 import math
+import subprocess
 
 import numpy as np
 import pytest
@@ -85,3 +86,27 @@ def test_filter_seeds_the_graph_and_the_smoother_solves_it():
     assert ekf.trajectory_rmse(solved.track.poses, gt) < ekf.trajectory_rmse(ekf.dead_reckoning(world), gt)
     assert ekf.landmark_rmse(solved.track, world.landmarks()) < 5.0
     assert values.at(ekf.pose_key(60)).params().shape == (3,)
+
+
+def test_the_ekf_demo_experiment_from_python(cli):
+    setup = ekf.ExperimentSetup()
+    setup.steps = 60
+    setup.graphs = False
+    result = ekf.run_experiment(experiment=1, seeds=2, first_seed=1, setup=setup)
+    methods = [r.method for r in result.rows]
+    assert methods == ["dead reckoning", "EKF", "UKF", "invariant EKF"]
+    for r in result.rows:
+        assert len(r.trajectory_rmse) == 2 and all(x > 0 for x in r.trajectory_rmse)
+    # The filters beat dead reckoning on the mean, as the command's table says.
+    dr = sum(result.rows[0].trajectory_rmse)
+    assert sum(result.rows[1].trajectory_rmse) < dr
+    # The command runs the same library loop: the same table rows (times aside).
+    out = subprocess.run([cli, "ekf-demo", "--seeds", "2", "--steps", "60", "--no-graph", "--experiments", "1",
+                          "--association", "known", "-q"], capture_output=True, text=True, check=True).stdout
+    ekf_row = [line for line in result.table().splitlines() if "| EKF |" in line][0]
+    cli_row = [line for line in out.splitlines() if "| EKF |" in line][0]
+    # Every column but the time (the last but one) is the same.
+    cells = lambda line: [c.strip() for c in line.strip("|").split("|")]
+    assert cells(ekf_row)[:-2] == cells(cli_row)[:-2] and cells(ekf_row)[-1] == cells(cli_row)[-1]
+    svg = ekf.experiment_svg(1, False, 1, setup)
+    assert svg.startswith("<svg") and "EKF" in svg

@@ -1,6 +1,6 @@
 #pragma once
-// `tether ekf-demo`: the filter experiment of the thesis's chapters 3 and 4.2 on simulated
-// worlds (frontends/ekf/landmark_simulator.h). For each experiment (1: control noise std
+// `tether ekf-demo`: the filter experiment of tether/frontends/ekf/experiment.h over the
+// experiments, associations and seeds the flags name, printed as tables. For each experiment (1: control noise std
 // (0.1 m/s, pi/18 rad/s); 2: doubled), each data association (known, nearest neighbour) and
 // each seed, it runs dead reckoning, EKF-SLAM, UKF-SLAM and the invariant EKF, builds the pose graph from the same
 // odometry and observations, seeds it with each filter's run, feeds it to the incremental
@@ -12,27 +12,9 @@
 #include <string>
 #include <vector>
 
-namespace tether {
+#include "tether/frontends/ekf/experiment.h"
 
-/// The world: steps and the measurement noise (std of range [m] and bearing [rad]; the thesis's
-/// 2 m and pi/18 by default).
-struct EkfDemoSetup {
-  int steps = 200;
-  double range_sigma = 2.0;
-  double bearing_sigma = 0.17453292519943295;
-  /// Also the consistency of each method's pose estimate at every step (NEES; the graphs: the
-  /// smoother's online estimate and marginal after each step). Costs a marginal per step.
-  bool consistency = false;
-  /// The invariant EKF's min_range [m]: observations nearer are not used. Negative: 1.5 range
-  /// sigmas (3 m at the thesis's noise; docs/front_ends.md, "Consistency").
-  double invariant_min_range = -1;
-  /// The EKF's and UKF's min_range [m] (default 0: every observation).
-  double min_range = 0;
-  /// The invariant EKF's update_iterations.
-  int invariant_iterations = 2;
-  /// Also the graphs seeded by the filters (false: the filters alone, much faster).
-  bool graphs = true;
-};
+namespace tether {
 
 struct EkfDemoCommand {
   int seeds = 20;
@@ -44,40 +26,6 @@ struct EkfDemoCommand {
   std::string plot;    ///< an SVG of the first seed of the first experiment and association
   bool quiet = false;
 };
-
-/// One method's figures over the seeds.
-struct EkfDemoRow {
-  std::string method;
-  std::vector<double> trajectory_rmse;
-  std::vector<double> landmark_rmse;
-  std::vector<double> wrong_associations;
-  std::vector<double> seconds;
-  /// With setup.consistency: per step (the start first), the NEES summed over nees_runs runs.
-  std::vector<double> step_nees;
-  int nees_runs = 0;
-  int failures = 0;          ///< runs that threw (a filter whose covariance broke down)
-  std::string failure_note;  ///< the first failure's message
-};
-
-struct EkfDemoConfig {
-  int experiment = 1;
-  bool nearest_neighbour = false;
-  EkfDemoSetup setup;
-  double observations = 0;  ///< per run, the mean over the seeds
-  std::vector<EkfDemoRow> rows;
-};
-
-/// Runs one experiment and association over the seeds (no output).
-EkfDemoConfig RunEkfExperiment(int experiment, bool nearest_neighbour, int seeds, std::uint64_t first_seed,
-                               const EkfDemoSetup& setup = {});
-
-/// The markdown table of the configurations.
-std::string EkfDemoTable(const std::vector<EkfDemoConfig>& configs);
-
-/// The consistency table (setup.consistency): per method the NEES averaged over the runs at each
-/// step from the second, then its mean over those steps, the steps whose average lies in the 95%
-/// interval for that many runs, and the average at a few steps.
-std::string EkfDemoConsistencyTable(const std::vector<EkfDemoConfig>& configs);
 
 /// Exit codes: 0 done; 2 bad usage; 4 an output could not be written.
 int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err);
