@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "testing/pipeline_fixture.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/simulation/simulate.h"
@@ -20,36 +21,9 @@ namespace tether {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ReadAll;
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-class PipelineTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("tether_pipeline_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string P(const std::string& name) const { return (dir_ / name).string(); }
-
-  std::string Simulated(const std::string& name, SimWorld world, int poses) {
-    SimulateOptions so;
-    so.world = world;
-    so.poses = poses;
-    so.seed = 7;
-    const SimulatedGraph sim = Simulate(so);
-    WriteG2oFile(P(name), sim.initial, sim.graph, DefaultRegistry());
-    return P(name);
-  }
-
-  fs::path dir_;
-};
+using PipelineTest = testing::PipelineFixture;
 
 // Each stage in turn, reported through the hooks in order; with keep_intermediate_values the
 // file's start is kept apart from the initial guess and the result.

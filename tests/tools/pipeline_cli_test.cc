@@ -12,6 +12,7 @@
 #include <string>
 
 #include "testing/cli.h"
+#include "testing/pipeline_fixture.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/simulation/simulate.h"
@@ -21,13 +22,7 @@ namespace tether {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::ReadAll;
 
 // The value the CLI's summary prints on the line starting with `what` ("  final chi2 ...").
 std::string SummaryField(const std::string& report, const std::string& what) {
@@ -43,26 +38,8 @@ std::string Chi2Text(double chi2) {
   return buf;
 }
 
-class PipelineTest : public ::testing::Test {
+class PipelineTest : public testing::PipelineFixture {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("tether_pipeline_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string P(const std::string& name) const { return (dir_ / name).string(); }
-
-  std::string Simulated(const std::string& name, SimWorld world, int poses) {
-    SimulateOptions so;
-    so.world = world;
-    so.poses = poses;
-    so.seed = 7;
-    const SimulatedGraph sim = Simulate(so);
-    WriteG2oFile(P(name), sim.initial, sim.graph, DefaultRegistry());
-    return P(name);
-  }
-
   // Runs the pipeline and the CLI on `input` with default options and compares them.
   void ExpectSameAsCli(const std::string& input) {
     PipelineOptions o;
@@ -79,8 +56,6 @@ class PipelineTest : public ::testing::Test {
     EXPECT_FALSE(a.empty());
     EXPECT_TRUE(a == b) << "the files written by the pipeline and by `tether optimize` differ";
   }
-
-  fs::path dir_;
 };
 
 TEST_F(PipelineTest, GivesTheCliResultOnASimulatedGraph) {
