@@ -313,6 +313,62 @@ TEST_F(DegradeTest, KeepEveryCropAndDropOdometry) {
   EXPECT_TRUE(Text(d, true) == Text(d, false));
 }
 
+// Odometry drift: each step perturbed with the sigmas asked for and chained again, so the first
+// scan keeps its pose, the steps' errors have the asked spread, the error grows along the log,
+// the same seed gives the same log, and the ranges and stamps are left alone.
+TEST_F(DegradeTest, OdometryDriftPerturbsEachStepAndAccumulates) {
+  LidarLog log = MakeLog(2000, 20);
+  // Straight steps of 0.1 m with a turn of 0.02 rad each.
+  for (std::size_t k = 0; k < log.scans.size(); ++k) {
+    const double kd = static_cast<double>(k);
+    log.scans[k].odometry = SE2<double>(0, 0, 0.02 * kd);
+    if (k > 0) log.scans[k].odometry = log.scans[k - 1].odometry * SE2<double>(0.1, 0, 0.02);
+  }
+  DegradeOptions o;
+  o.odometry_translation_noise = 0.1;    // sigma 0.01 m per axis per step
+  o.odometry_rotation_noise = 0.5;       // sigma 0.01 rad from the turn
+  o.odometry_rotation_per_metre = 0.05;  // plus 0.005 rad from the length
+  o.seed = 3;
+  ASSERT_TRUE(o.DriftsOdometry());
+  const LidarLog d = DegradeLog(log, o);
+  ASSERT_EQ(d.scans.size(), log.scans.size());
+  EXPECT_TRUE(d.odometry.Sorted().empty());  // the messages would not carry the drift
+  EXPECT_EQ(d.scans[0].odometry.translation(), log.scans[0].odometry.translation());
+  double sx = 0, st = 0;
+  const std::size_t n = d.scans.size();
+  for (std::size_t k = 1; k < n; ++k) {
+    const SE2<double> step = d.scans[k - 1].odometry.Inverse() * d.scans[k].odometry;
+    sx += (step.x() - 0.1) * (step.x() - 0.1);
+    st += (step.theta() - 0.02) * (step.theta() - 0.02);
+    EXPECT_EQ(d.scans[k].ranges, log.scans[k].ranges);
+    EXPECT_EQ(d.scans[k].stamp, log.scans[k].stamp);
+    EXPECT_EQ(d.scans[k].odometry_origin, log.scans[k].odometry_origin);
+  }
+  // Sample sigmas of 1999 steps: within 10% of the asked ones.
+  EXPECT_NEAR(std::sqrt(sx / static_cast<double>(n - 1)), 0.01, 0.001);
+  EXPECT_NEAR(std::sqrt(st / static_cast<double>(n - 1)), 0.01 + 0.005, 0.0015);  // the two add
+  // The error accumulates: the end lies farther from the truth than the tenth scan.
+  const auto off = [&](std::size_t k) {
+    return (d.scans[k].odometry.translation() - log.scans[k].odometry.translation()).norm();
+  };
+  EXPECT_GT(off(n - 1), 10 * off(10) + 0.1);
+  // Deterministic for a seed, different for another.
+  EXPECT_EQ(Text(DegradeLog(log, o)), Text(d));
+  o.seed = 4;
+  EXPECT_NE(Text(DegradeLog(log, o)), Text(d));
+  // Refused: negative or not finite; together with dropping the odometry nothing drifts.
+  o.odometry_rotation_noise = -0.1;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("odometry noise"), std::string::npos) << why;
+  o.odometry_rotation_noise = std::nan("");
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_THROW(DegradeLog(log, o), InvalidArgument);
+  o.odometry_rotation_noise = 0.5;
+  o.drop_odometry = true;
+  for (const LaserScan& s : DegradeLog(log, o).scans) EXPECT_EQ(s.odometry_origin, OdometryOrigin::kNone);
+}
+
 TEST_F(DegradeTest, PresetAndUnusableOptions) {
   DegradeOptions o;
   o.seed = 5;

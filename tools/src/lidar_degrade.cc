@@ -32,9 +32,22 @@ bool Options(const LidarDegradeCommand& cmd, lidar::DegradeOptions* o, std::ostr
   if (cmd.max_scans) o->max_scans = *cmd.max_scans;
   if (cmd.seed) o->seed = *cmd.seed;
   if (cmd.no_odometry) o->drop_odometry = true;
+  if (!cmd.odometry_drift.empty()) {
+    if (cmd.odometry_drift.size() != 3) {
+      err << usage << "--odometry-drift takes three numbers T,R,RPM (got " << cmd.odometry_drift.size() << ")\n";
+      return false;
+    }
+    o->odometry_translation_noise = cmd.odometry_drift[0];
+    o->odometry_rotation_noise = cmd.odometry_drift[1];
+    o->odometry_rotation_per_metre = cmd.odometry_drift[2];
+    if (o->drop_odometry) {
+      err << usage << "--odometry-drift and --no-odometry exclude each other (no odometry left to drift)\n";
+      return false;
+    }
+  }
   std::string why;
   if (!o->IsValid(&why)) {
-    err << usage << why << " (--beams, --max-range, --noise, --drop, --error-share, --keep-every)\n";
+    err << usage << why << " (--beams, --max-range, --noise, --drop, --error-share, --keep-every, --odometry-drift)\n";
     return false;
   }
   return true;
@@ -53,7 +66,12 @@ std::string Describe(const LidarDegradeCommand& cmd, const lidar::DegradeOptions
   }
   s << ", noise " << o.noise_sigma << " m, drop " << o.drop_fraction << " (error share " << o.error_share
     << "), keep every " << o.keep_every << ", first scan " << o.first_scan << ", max scans " << o.max_scans
-    << ", odometry " << (o.drop_odometry ? "dropped" : "kept") << ", seed " << o.seed;
+    << ", odometry " << (o.drop_odometry ? "dropped" : "kept");
+  if (o.DriftsOdometry()) {
+    s << " with drift " << o.odometry_translation_noise << ", " << o.odometry_rotation_noise << ", "
+      << o.odometry_rotation_per_metre << " rad/m";
+  }
+  s << ", seed " << o.seed;
   return s.str();
 }
 
@@ -158,6 +176,10 @@ void LidarDegradeCli::Add(CLI::App& app) {
   sub->add_option("--max-scans", cmd_.max_scans, "At most N scans (0: all)");
   sub->add_option("--seed", cmd_.seed, "Random seed of the noise and the drops (default 1)");
   sub->add_flag("--no-odometry", cmd_.no_odometry, "Drop the odometry (RAWLASER1 lines, no ODOM lines)");
+  sub->add_option("--odometry-drift", cmd_.odometry_drift,
+                  "T,R,RPM: each odometry step perturbed (sigma T x length per axis, R x turn + RPM x length "
+                  "[rad]) and chained again; for logs whose poses are a reference (docs/lidar.md)")
+      ->delimiter(',');
   sub->add_option("--odometry", cmd_.odometry, "Reading: auto, scan-line, interpolated or none")->capture_default_str();
   sub->add_option("--scan-topic", cmd_.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   sub->add_option("--odom-topic", cmd_.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();

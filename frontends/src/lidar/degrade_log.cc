@@ -27,6 +27,9 @@ bool Share(double v) { return v >= 0 && v <= 1; }
 constexpr std::uint64_t kNoiseStream = 0;
 constexpr std::uint64_t kDropStream = 1;
 std::uint64_t StreamOf(std::size_t scan, std::uint64_t which) { return 2 * static_cast<std::uint64_t>(scan) + which; }
+// The odometry drift's streams, apart from the others (so adding drift leaves the noise and the
+// drops of a seed as they were).
+std::uint64_t DriftStreamOf(std::size_t scan) { return (std::uint64_t{1} << 62) + static_cast<std::uint64_t>(scan); }
 
 // The smallest float at or above `range_max` (infinity beyond the floats).
 float NoReturn(double range_max) {
@@ -122,7 +125,39 @@ void LaserFields(std::ostream& out, const LaserScan& s) {
   out << " 0";  // no remissions
 }
 
+// Chains the kept scans' odometry steps again, each perturbed (DegradeOptions' odometry noise).
+// `indices` are the kept scans' indices in the source log (their streams).
+void DriftOdometry(const DegradeOptions& o, const std::vector<std::size_t>& indices, std::vector<LaserScan>* scans) {
+  bool started = false;
+  SE2<double> true_before, drifted_before;
+  for (std::size_t k = 0; k < scans->size(); ++k) {
+    LaserScan& s = (*scans)[k];
+    if (s.odometry_origin == OdometryOrigin::kNone) continue;
+    const SE2<double> truth = s.odometry;
+    if (started) {
+      const SE2<double> step = true_before.Inverse() * truth;
+      const double length = step.translation().norm();
+      RandomStream noise(o.seed, DriftStreamOf(indices[k]));
+      const double sigma_t = o.odometry_translation_noise * length;
+      const double sigma_r =
+          o.odometry_rotation_noise * std::abs(step.theta()) + o.odometry_rotation_per_metre * length;
+      const double dx = sigma_t * noise.Normal();
+      const double dy = sigma_t * noise.Normal();
+      const double dtheta = sigma_r * noise.Normal();
+      const SE2<double> drifted_step(step.x() + dx, step.y() + dy, step.theta() + dtheta);
+      s.odometry = drifted_before * drifted_step;
+    }
+    started = true;
+    true_before = truth;
+    drifted_before = s.odometry;
+  }
+}
+
 }  // namespace
+
+bool DegradeOptions::DriftsOdometry() const {
+  return odometry_translation_noise > 0 || odometry_rotation_noise > 0 || odometry_rotation_per_metre > 0;
+}
 
 bool DegradeOptions::IsValid(std::string* why) const {
   if (beams < 0 || beams == 1) return Fail(why, "beams must be 0 (keep the scans') or at least 2");
@@ -134,6 +169,12 @@ bool DegradeOptions::IsValid(std::string* why) const {
   if (!Share(drop_fraction)) return Fail(why, "drop_fraction must be in [0, 1]");
   if (!Share(error_share)) return Fail(why, "error_share must be in [0, 1]");
   if (keep_every < 1) return Fail(why, "keep_every must be at least 1 (1 keeps every scan)");
+  for (const double v : {odometry_translation_noise, odometry_rotation_noise, odometry_rotation_per_metre}) {
+    if (!(v >= 0) || !std::isfinite(v)) {
+      return Fail(why,
+                  "the odometry noise (translation, rotation, rotation per metre) must be finite and not negative");
+    }
+  }
   return true;
 }
 
@@ -165,8 +206,10 @@ LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options) {
   out.format = log.format;
   const std::size_t step = static_cast<std::size_t>(options.keep_every);
   double first = INFINITY, last = -INFINITY;
+  std::vector<std::size_t> indices;
   for (std::size_t i = options.first_scan; i < log.scans.size(); i += step) {
     if (options.max_scans > 0 && out.scans.size() >= options.max_scans) break;
+    indices.push_back(i);
     LaserScan s = log.scans[i];
     Degrade(options, i, &s);
     first = std::min(first, s.stamp);
@@ -174,7 +217,10 @@ LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options) {
     if (s.odometry_origin == OdometryOrigin::kClamped) ++out.clamped_odometry;
     out.scans.push_back(std::move(s));
   }
-  if (!options.drop_odometry) {
+  if (options.drop_odometry) return out;
+  if (options.DriftsOdometry()) {
+    DriftOdometry(options, indices, &out.scans);
+  } else {
     // The messages within [first, last] and the nearest one outside on either side.
     const std::vector<StampedPose2>& track = log.odometry.Sorted();
     const auto begin = std::lower_bound(track.begin(), track.end(), first,

@@ -7,6 +7,7 @@
 #include <iosfwd>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace tether {
 
@@ -26,6 +27,9 @@ struct LidarDegradeCommand {
   std::optional<std::size_t> max_scans;
   std::optional<std::uint64_t> seed;
   bool no_odometry = false;
+  /// Odometry drift: translation share, rotation share, rotation per metre (DegradeOptions'
+  /// odometry_*_noise); empty: none.
+  std::vector<double> odometry_drift;
   /// Reading the input: where each scan's odometry comes from (auto, scan-line, interpolated,
   /// none), and a bag's topics.
   std::string odometry = "auto";

@@ -43,6 +43,18 @@ struct DegradeOptions {
   int keep_every = 1;
   /// Drop every scan's odometry (identity, OdometryOrigin::kNone) and the odometry messages.
   bool drop_odometry = false;
+  /// Odometry drift, as a poorer robot's wheels would give it: each kept scan's odometry step
+  /// from the kept scan before is perturbed by Gaussian noise and the steps are chained again,
+  /// so the errors accumulate. Standard deviations: translation (each axis of the step)
+  /// odometry_translation_noise x the step's length; rotation odometry_rotation_noise x the
+  /// step's turn + odometry_rotation_per_metre x its length (radians per metre). The scans keep
+  /// their odometry origin; the odometry messages are dropped where any of the three is set
+  /// (each scan carries its own, and `interpolated` odometry would not be the drifted one).
+  /// Made for logs whose poses are a reference (e.g. the corrected logs): the reference stays
+  /// as the truth, the drifted odometry is what the front-end sees.
+  double odometry_translation_noise = 0;
+  double odometry_rotation_noise = 0;
+  double odometry_rotation_per_metre = 0;
   /// The first scan kept (an index into the log's scans, in their order).
   std::size_t first_scan = 0;
   /// At most this many scans kept (0: all).
@@ -51,8 +63,10 @@ struct DegradeOptions {
   /// index in the log), so cropping or thinning the log leaves the other scans' draws as they were.
   std::uint64_t seed = 1;
 
-  /// False (and why) for beams 1 or negative, a negative or non-finite range or sigma, a
-  /// fraction or share outside [0, 1], keep_every below 1.
+  /// True where any odometry noise is set.
+  bool DriftsOdometry() const;
+  /// False (and why) for beams 1 or negative, a negative or non-finite range, sigma or odometry
+  /// noise, a fraction or share outside [0, 1], keep_every below 1.
   bool IsValid(std::string* why) const;
 };
 
