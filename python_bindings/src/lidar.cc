@@ -75,6 +75,10 @@ void BindLidar(py::module_& m) {
           "scans_per_submap", [](const LidarSlamOptions& o) { return o.local.submaps.scans_per_submap; },
           [](LidarSlamOptions& o, int v) { o.local.submaps.scans_per_submap = v; })
       .def_property(
+          "max_submap_travel", [](const LidarSlamOptions& o) { return o.local.submaps.max_submap_travel; },
+          [](LidarSlamOptions& o, double v) { o.local.submaps.max_submap_travel = v; },
+          "A submap is also finished once the robot travelled this far over its scans [m] (0: by scans only)")
+      .def_property(
           "loop_closure", [](const LidarSlamOptions& o) { return o.pose_graph.loop_closure; },
           [](LidarSlamOptions& o, bool v) { o.pose_graph.loop_closure = v; })
       .def_property(
@@ -84,6 +88,10 @@ void BindLidar(py::module_& m) {
       .def_property(
           "search_every", [](const LidarSlamOptions& o) { return o.pose_graph.search_every_n_scans; },
           [](LidarSlamOptions& o, int v) { o.pose_graph.search_every_n_scans = v; })
+      .def_property(
+          "search_every_metres", [](const LidarSlamOptions& o) { return o.pose_graph.search_every_metres; },
+          [](LidarSlamOptions& o, double v) { o.pose_graph.search_every_metres = v; },
+          "A scan is also searched where the robot travelled this far since the last searched one [m] (0: by count)")
       .def_property(
           "min_score", [](const LidarSlamOptions& o) { return o.pose_graph.min_score; },
           [](LidarSlamOptions& o, double v) { o.pose_graph.min_score = v; })

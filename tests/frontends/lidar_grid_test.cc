@@ -194,6 +194,44 @@ TEST(ActiveSubmaps2D, TwoOverlapAndFinishedOnesAreFrozen) {
   }
 }
 
+// Scans a metre apart (a log recorded with a coarse motion filter): a submap is finished by the
+// distance travelled over its scans, not only by their number.
+TEST(ActiveSubmaps2D, ASubmapIsFinishedByTheDistanceTravelled) {
+  SubmapOptions o;
+  o.max_submap_travel = 10;
+  ActiveSubmaps2D maps(o);
+  for (int i = 0; i < 40; ++i) {
+    const SE2d pose(1.0 * i, 0, 0);
+    maps.InsertScan(pose, pose.translation(), Arc(2.0, pose.translation()));
+  }
+  // Each finished submap spans 10 m (11 scans); the next one starts with the scan after the one
+  // that took the last 5 m along.
+  int finished = 0;
+  for (std::size_t k = 0; k < maps.submaps().size(); ++k) {
+    const auto& s = maps.submaps()[k];
+    EXPECT_DOUBLE_EQ(s->local_pose().x(), 6.0 * static_cast<double>(k)) << k;
+    if (!s->finished()) continue;
+    ++finished;
+    EXPECT_EQ(s->num_scans(), 11) << k;
+    EXPECT_DOUBLE_EQ(s->travel(), 10.0) << k;
+  }
+  EXPECT_EQ(finished, 5);
+  // By scans only, the same scans stay in one submap and the one started at half of it.
+  o.max_submap_travel = 0;
+  ActiveSubmaps2D by_scans(o);
+  for (int i = 0; i < 40; ++i) {
+    const SE2d pose(1.0 * i, 0, 0);
+    by_scans.InsertScan(pose, pose.translation(), Arc(2.0, pose.translation()));
+  }
+  ASSERT_EQ(by_scans.submaps().size(), 1u);
+  EXPECT_FALSE(by_scans.submaps()[0]->finished());
+  EXPECT_DOUBLE_EQ(by_scans.submaps()[0]->travel(), 39.0);
+  o.max_submap_travel = -1;
+  EXPECT_THROW(ActiveSubmaps2D bad(o), InvalidArgument);
+  o.max_submap_travel = std::nan("");
+  EXPECT_THROW(ActiveSubmaps2D bad(o), InvalidArgument);
+}
+
 TEST(ActiveSubmaps2D, OneScanPerSubmapAndBadOptions) {
   SubmapOptions o;
   o.scans_per_submap = 1;

@@ -502,6 +502,41 @@ TEST(PoseGraph2DTest, AMatchNoOtherConfirmsIsNotAdded) {
   }
 }
 
+// The scans searched for loop closures: every search_every_n_scans-th, and sooner where the
+// robot travelled search_every_metres since the last searched one (a log thinned in time or
+// recorded only where the robot moved far is searched as densely in space).
+std::vector<int> SampledScans(double metres) {
+  PoseGraphOptions po;
+  po.loop_closure = false;
+  po.threads = 0;
+  po.search_every_n_scans = 10;
+  po.search_every_metres = metres;
+  PoseGraph2D graph(po);
+  const std::vector<Eigen::Vector2d> points{{1, 0}, {0, 1}, {-1, 0}};
+  double x = 0;
+  for (int i = 0; i < 40; ++i) {
+    x += i == 0 ? 0.0 : (i <= 15 ? 0.75 : 0.01);  // 0.75 m a scan, then nearly standing
+    graph.AddScan(SE2d(x, 0, 0), points, {});
+  }
+  std::vector<int> sampled;
+  for (int i = 0; i < graph.scan_count(); ++i) {
+    if (graph.sampled(i)) sampled.push_back(i);
+  }
+  return sampled;
+}
+
+TEST(PoseGraph2DTest, ScansAreSearchedByCountOrByTheDistanceTravelled) {
+  EXPECT_EQ(SampledScans(2.0), (std::vector<int>{0, 3, 6, 9, 12, 15, 25, 35}));
+  EXPECT_EQ(SampledScans(0.0), (std::vector<int>{0, 10, 20, 30}));
+  PoseGraphOptions o;
+  std::string why;
+  o.search_every_metres = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("search_every_metres"), std::string::npos) << why;
+  o.search_every_metres = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(o.IsValid(&why));
+}
+
 TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
   PoseGraphOptions o;
   std::string why;

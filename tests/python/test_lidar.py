@@ -90,6 +90,24 @@ def test_bad_scans_raise():
         tether.lidar.LidarSlam2D(options)
 
 
+def test_submaps_and_searches_by_distance():
+    options = tether.lidar.LidarSlamOptions()
+    assert options.max_submap_travel == pytest.approx(30)
+    assert options.search_every_metres == pytest.approx(2)
+    options.max_submap_travel = 12.5
+    options.search_every_metres = 0
+    assert options.max_submap_travel == 12.5 and options.search_every_metres == 0
+    assert options.is_valid()[0]
+    options.max_submap_travel = -1
+    valid, why = options.is_valid()
+    assert not valid and "max_submap_travel" in why
+    with pytest.raises(tether.InvalidArgument):
+        tether.lidar.LidarSlam2D(options)
+    options.max_submap_travel = 30
+    options.search_every_metres = math.nan
+    assert "search_every_metres" in options.is_valid()[1]
+
+
 def test_same_files_as_the_command(tmp_path, cli):
     truth, scans = trip()
     lines = []

@@ -99,6 +99,8 @@ constexpr std::pair<const char*, const char*> kFieldFlags[] = {
     {"still_distance", "--still-distance"},
     {"still_angle", "--still-angle"},
     {"scans_per_submap", "--scans-per-submap"},
+    {"max_submap_travel", "--max-submap-travel"},
+    {"search_every_metres", "--search-every-metres"},
 };
 
 // `why` with the flag after each field name it mentions: "huber_delta (--huber) must ...".
@@ -306,8 +308,13 @@ void LidarCli::Add(CLI::App& app) {
          "inline; the result does not depend on it)");
   Option("--max-scans", cmd_.max_scans, "Only the first N scans (0: all)");
   Option("--scans-per-submap", lo.submaps.scans_per_submap, "Scans in a finished submap");
+  Option("--max-submap-travel", lo.submaps.max_submap_travel,
+         "A submap is also finished once the robot travelled this far over its scans [m] (0: by scans only)");
   Option("--resolution", lo.submaps.resolution, "Grid resolution [m]");
   Option("--search-every", po.search_every_n_scans, "Loop-closure search for every N-th scan");
+  Option("--search-every-metres", po.search_every_metres,
+         "Loop-closure search for a scan sooner where the robot travelled this far since the last searched [m] (0: "
+         "by count only)");
   Option("--update-every", po.update_every_n_scans,
          "Scans per smoother update (in between, new scans follow local SLAM from the last estimate)");
   Option("--min-score", po.min_score, "Branch and bound's score threshold");

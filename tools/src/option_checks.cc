@@ -65,6 +65,8 @@ const OptionRange kRanges[] = {
     {"lidar", "--scans-per-submap", 1, 1e6},
     {"lidar", "--resolution", 0.001, 10},
     {"lidar", "--search-every", 1, kBig},
+    {"lidar", "--search-every-metres", 0, 1e6},
+    {"lidar", "--max-submap-travel", 0, 1e6},
     {"lidar", "--update-every", 1, kBig},
     {"lidar", "--min-score", 0, 1},
     {"lidar", "--local-sigma-t", 1e-9, 1e6},

@@ -81,6 +81,9 @@ bool PoseGraphOptions::IsValid(std::string* why) const {
   if (search_every_n_scans < 1 || apply_every_n_scans < 1 || update_every_n_scans < 1) {
     return fail("search_every_n_scans, apply_every_n_scans and update_every_n_scans must be at least 1");
   }
+  if (!(std::isfinite(search_every_metres) && search_every_metres >= 0)) {
+    return fail("search_every_metres must be finite and not negative (0: by count only)");
+  }
   if (threads < 0) return fail("threads must not be negative");
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
   if (!PositiveFinite(rival_distance) || !PositiveFinite(rival_angle)) {
@@ -188,6 +191,19 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
                     : Noise(options_.local_translation_sigma, options_.local_rotation_sigma));
     if (consecutive) local_loss(f);
   }
+  // Sampled for the loop-closure search: every search_every_n_scans-th scan since the last
+  // sampled one, or sooner where the robot travelled search_every_metres since.
+  if (scans_.empty()) {
+    scan.sampled = true;
+  } else {
+    travel_since_sampled_ += (local_pose.translation() - scans_.back().local_pose.translation()).norm();
+    scan.sampled = i - last_sampled_ >= options_.search_every_n_scans ||
+                   (options_.search_every_metres > 0 && travel_since_sampled_ >= options_.search_every_metres);
+  }
+  if (scan.sampled) {
+    last_sampled_ = i;
+    travel_since_sampled_ = 0;
+  }
   scans_.push_back(std::move(scan));
   // The searches started before this scan are applied with its update: one update for both.
   const bool closures = i > 0 && i % options_.apply_every_n_scans == 0 && ApplyFinishedSearches();
@@ -200,7 +216,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
       SearchNewlyFinished(j, i);
     }
     // This scan, if sampled, against every finished submap near it.
-    if (i % options_.search_every_n_scans == 0) {
+    if (scans_.back().sampled) {
       const std::vector<double> d = GraphDistances(scans_.back().submaps);
       for (int j = 0; j < submap_count(); ++j) {
         if (submaps_[static_cast<std::size_t>(j)].finished) SearchNear(i, j, d[static_cast<std::size_t>(j)]);
@@ -226,7 +242,8 @@ void PoseGraph2D::SearchNewlyFinished(int j, int before) {
   node.finished = true;
   node.matcher = std::make_unique<LazyMatcher>();
   const std::vector<double> d = GraphDistances({j});
-  for (int k = 0; k < before; k += options_.search_every_n_scans) {
+  for (int k = 0; k < before; ++k) {
+    if (!scans_[static_cast<std::size_t>(k)].sampled) continue;
     double distance = std::numeric_limits<double>::infinity();
     for (int m : scans_[static_cast<std::size_t>(k)].submaps) distance = std::min(distance, d[m]);
     SearchNear(k, j, distance);

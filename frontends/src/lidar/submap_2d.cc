@@ -20,6 +20,10 @@ bool SubmapOptions::IsValid(std::string* why) const {
   if (scans_per_submap < 1) {
     return fail("scans_per_submap is " + std::to_string(scans_per_submap) + "; a submap holds at least one scan");
   }
+  if (!(std::isfinite(max_submap_travel) && max_submap_travel >= 0)) {
+    return fail("max_submap_travel is " + FormatDouble(max_submap_travel) +
+                " m; it must be finite and not negative (0: finish by scans only)");
+  }
   if (!(min_probability > 0 && min_probability < max_probability && max_probability < 1)) {
     return fail("the probability range [" + FormatDouble(min_probability) + ", " + FormatDouble(max_probability) +
                 "] must satisfy 0 < min < max < 1");
@@ -55,6 +59,10 @@ ActiveSubmaps2D::ActiveSubmaps2D(const SubmapOptions& options)
 
 InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin,
                                             const std::vector<Eigen::Vector2d>& points) {
+  const double step = any_scan_ ? (scan_pose.translation() - last_position_).norm() : 0.0;
+  any_scan_ = true;
+  last_position_ = scan_pose.translation();
+  for (const auto& s : active_) s->travel_ += step;
   if (start_new_) {
     submaps_.push_back(std::make_shared<Submap2D>(scan_pose, options_));
     active_.push_back(submaps_.back());
@@ -67,12 +75,16 @@ InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::
     s->InsertScan(inserter_, origin, points);
     inserted.emplace_back(index++, s);
   }
-  if (active_.front()->num_scans() >= options_.scans_per_submap) {
+  const double cap = options_.max_submap_travel;
+  const Submap2D& older = *active_.front();
+  if (older.num_scans() >= options_.scans_per_submap || (cap > 0 && older.travel() >= cap)) {
     active_.front()->Finish();
     active_.erase(active_.begin());
   }
   const int half = std::max(1, options_.scans_per_submap / 2);
-  if (active_.empty() || (active_.size() == 1 && active_.back()->num_scans() >= half)) start_new_ = true;
+  const bool half_full =
+      !active_.empty() && (active_.back()->num_scans() >= half || (cap > 0 && active_.back()->travel() >= 0.5 * cap));
+  if (active_.empty() || (active_.size() == 1 && half_full)) start_new_ = true;
   return inserted;
 }
 

@@ -23,6 +23,13 @@ struct SubmapOptions {
   double resolution = 0.05;  ///< m per cell
   /// Scans in a finished submap (a new submap starts every max(1, N / 2) scans).
   int scans_per_submap = 90;
+  /// A submap is also finished once the robot travelled this far (m) between its first and its
+  /// last scan (a new one starts at half of it), whichever comes first; 0: scans only. Where
+  /// scans come densely (the motion filter inserts one each 0.2 m or 1 degree) 90 scans span at
+  /// most about 27 m and the cap never applies; where each scan moved a metre (a log recorded
+  /// with a coarse motion filter, a slow scanner on a fast robot), 90 scans would span 90 m,
+  /// and a loop inside one submap could neither be closed nor kept out of its grid.
+  double max_submap_travel = 30;
   double min_probability = ProbabilityGrid::kDefaultMinProbability;  ///< clamp (0.12)
   double max_probability = ProbabilityGrid::kDefaultMaxProbability;  ///< clamp (0.97)
   GridInsertOptions insert;
@@ -37,6 +44,8 @@ class Submap2D {
 
   const SE2d& local_pose() const { return local_pose_; }
   int num_scans() const { return num_scans_; }
+  /// The distance the robot travelled between the submap's first and last scan (m).
+  double travel() const { return travel_; }
   bool finished() const { return finished_; }
   /// The grid, for matching (shared with the factors that read it).
   std::shared_ptr<const ProbabilityGrid> grid() const { return grid_; }
@@ -55,7 +64,9 @@ class Submap2D {
   SE2d local_pose_;
   std::shared_ptr<ProbabilityGrid> grid_;
   int num_scans_ = 0;
+  double travel_ = 0;
   bool finished_ = false;
+  friend class ActiveSubmaps2D;
 };
 
 /// Submaps a scan went into: each one's index in ActiveSubmaps2D::submaps() (the order of
@@ -88,6 +99,8 @@ class ActiveSubmaps2D {
   std::vector<std::shared_ptr<Submap2D>> active_;
   std::vector<std::shared_ptr<Submap2D>> submaps_;
   bool start_new_ = true;  // the next scan starts a submap
+  bool any_scan_ = false;
+  Eigen::Vector2d last_position_ = Eigen::Vector2d::Zero();  // the last inserted scan's
 };
 
 }  // namespace lidar
