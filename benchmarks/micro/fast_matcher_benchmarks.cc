@@ -7,8 +7,8 @@
 #include <fstream>
 #include <random>
 
-#include "tether/frontends/lidar/fast_correlative_scan_matcher_2d.h"
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/scan_matching/fast_correlative_scan_matcher_2d.h"
 
 namespace tether {
 namespace lidar {

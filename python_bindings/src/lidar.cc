@@ -6,9 +6,9 @@
 
 #include "common.h"
 #include "tether/core/output_file.h"
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
-#include "tether/frontends/lidar/occupancy_map.h"
 
 namespace tether {
 namespace python {

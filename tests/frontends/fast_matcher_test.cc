@@ -9,8 +9,8 @@
 #include "testing/lidar_files.h"
 #include "testing/synthetic_room.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/fast_correlative_scan_matcher_2d.h"
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/scan_matching/fast_correlative_scan_matcher_2d.h"
 
 namespace tether {
 namespace lidar {

@@ -1,5 +1,5 @@
 // EstimateLaserOffset: the laser's place on the robot from the log's turns in place.
-#include "tether/frontends/lidar/laser_offset.h"
+#include "tether/frontends/lidar/io/laser_offset.h"
 
 #include <gtest/gtest.h>
 

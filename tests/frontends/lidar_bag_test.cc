@@ -13,8 +13,8 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/rosbag_reader.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/io/rosbag_reader.h"
 
 namespace tether {
 namespace lidar {

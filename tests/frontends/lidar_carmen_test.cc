@@ -8,8 +8,8 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/carmen_reader.h"
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/carmen_reader.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
 
 namespace tether {
 namespace lidar {

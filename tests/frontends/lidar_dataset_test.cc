@@ -7,11 +7,11 @@
 #include <cmath>
 
 #include "testing/lidar_files.h"
-#include "tether/frontends/lidar/carmen_reader.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/restamp.h"
-#include "tether/frontends/lidar/rosbag_reader.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/carmen_reader.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/io/restamp.h"
+#include "tether/frontends/lidar/io/rosbag_reader.h"
 
 namespace tether {
 namespace lidar {

@@ -7,8 +7,8 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/carmen_reader.h"
-#include "tether/frontends/lidar/degrade_log.h"
+#include "tether/frontends/lidar/io/carmen_reader.h"
+#include "tether/frontends/lidar/io/degrade_log.h"
 
 namespace tether {
 namespace lidar {

@@ -8,8 +8,8 @@
 #include <set>
 
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/probability_grid_inserter.h"
-#include "tether/frontends/lidar/submap_2d.h"
+#include "tether/frontends/lidar/mapping/probability_grid_inserter.h"
+#include "tether/frontends/lidar/mapping/submap_2d.h"
 
 namespace tether {
 namespace lidar {

@@ -14,12 +14,12 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/local_slam_2d.h"
-#include "tether/frontends/lidar/real_time_correlative_scan_matcher_2d.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/scan_refiner_2d.h"
-#include "tether/frontends/lidar/submap_2d.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/mapping/local_slam_2d.h"
+#include "tether/frontends/lidar/mapping/submap_2d.h"
+#include "tether/frontends/lidar/scan_matching/real_time_correlative_scan_matcher_2d.h"
+#include "tether/frontends/lidar/scan_matching/scan_refiner_2d.h"
 
 namespace tether {
 namespace lidar {

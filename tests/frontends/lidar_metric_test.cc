@@ -7,9 +7,9 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/restamp.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/restamp.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 
 namespace tether {
 namespace lidar {

@@ -6,10 +6,10 @@
 
 #include "testing/lidar_files.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/laser_scan.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/odometry_track.h"
-#include "tether/frontends/lidar/voxel_filter.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/sensor/laser_scan.h"
+#include "tether/frontends/lidar/sensor/odometry_track.h"
+#include "tether/frontends/lidar/sensor/voxel_filter.h"
 
 namespace tether {
 namespace lidar {

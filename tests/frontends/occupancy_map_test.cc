@@ -1,5 +1,5 @@
 // The occupancy map as files: pixels, orientation, PGM, PNG (decoded back with zlib) and YAML.
-#include "tether/frontends/lidar/occupancy_map.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>

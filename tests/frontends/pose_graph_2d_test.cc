@@ -1,6 +1,6 @@
 // The LiDAR pose graph: local SLAM's scans and submaps in, loop closures by branch and bound,
 // the incremental smoother; on a simulated room driven twice around with drifting odometry.
-#include "tether/frontends/lidar/pose_graph_2d.h"
+#include "tether/frontends/lidar/mapping/pose_graph_2d.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include "testing/synthetic_room.h"
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
-#include "tether/frontends/lidar/submap_2d.h"
+#include "tether/frontends/lidar/mapping/submap_2d.h"
 
 namespace tether {
 namespace lidar {

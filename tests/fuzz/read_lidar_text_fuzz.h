@@ -20,9 +20,9 @@
 
 #include "scratch_path.h"
 #include "tether/core/error.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/rosbag_reader.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/rosbag_reader.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 
 namespace tether {
 namespace fuzz {

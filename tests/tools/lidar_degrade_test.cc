@@ -8,7 +8,7 @@
 
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
-#include "tether/frontends/lidar/carmen_reader.h"
+#include "tether/frontends/lidar/io/carmen_reader.h"
 
 namespace tether {
 namespace {

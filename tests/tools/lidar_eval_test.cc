@@ -8,8 +8,8 @@
 
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 
 namespace tether {
 namespace {

@@ -7,8 +7,8 @@
 
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
-#include "tether/frontends/lidar/carmen_reader.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/io/carmen_reader.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 
 namespace tether {
 namespace {

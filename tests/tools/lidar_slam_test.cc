@@ -14,9 +14,9 @@
 #include "testing/synthetic_room.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/io/rosbag_reader.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
-#include "tether/frontends/lidar/rosbag_reader.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
 
 namespace tether {
 namespace {

@@ -6,8 +6,8 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
-#include "tether/frontends/lidar/degrade_log.h"
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/degrade_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 

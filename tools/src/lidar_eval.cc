@@ -7,11 +7,11 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
-#include "tether/frontends/lidar/laser_scan.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/relations_metric.h"
-#include "tether/frontends/lidar/restamp.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/eval/relations_metric.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/io/restamp.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
+#include "tether/frontends/lidar/sensor/laser_scan.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 

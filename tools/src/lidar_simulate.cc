@@ -5,8 +5,8 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
-#include "tether/frontends/lidar/degrade_log.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/io/degrade_log.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {

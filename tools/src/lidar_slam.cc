@@ -12,8 +12,8 @@
 #include "tether/core/registry.h"
 #include "tether/core/timing.h"
 #include "tether/core/trajectory_error.h"
-#include "tether/frontends/lidar/laser_offset.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/io/laser_offset.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 

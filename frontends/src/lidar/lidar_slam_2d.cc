@@ -12,9 +12,9 @@
 #include "tether/core/timing.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
-#include "tether/frontends/lidar/occupancy_map.h"
-#include "tether/frontends/lidar/probability_grid_inserter.h"
-#include "tether/frontends/lidar/tum_trajectory.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
+#include "tether/frontends/lidar/mapping/probability_grid_inserter.h"
 
 namespace tether {
 namespace lidar {

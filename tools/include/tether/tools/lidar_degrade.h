@@ -1,7 +1,7 @@
 #pragma once
 // `tether lidar-degrade IN -o OUT.log`: a laser log (CARMEN or ROS 1 bag) degraded as a cheaper
 // scanner or a poorer robot would record it, written as a CARMEN log (see
-// tether/frontends/lidar/degrade_log.h and docs/lidar.md, "Degraded logs").
+// tether/frontends/lidar/io/degrade_log.h and docs/lidar.md, "Degraded logs").
 #include <cstddef>
 #include <cstdint>
 #include <iosfwd>

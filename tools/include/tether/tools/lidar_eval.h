@@ -1,6 +1,6 @@
 #pragma once
 // `tether lidar-eval TRAJECTORY RELATIONS`: the relations metric of Kümmerle et al. (see
-// tether/frontends/lidar/relations_metric.h) of a trajectory: TUM text, or a laser log (CARMEN,
+// tether/frontends/lidar/eval/relations_metric.h) of a trajectory: TUM text, or a laser log (CARMEN,
 // plain or gzip, or a ROS 1 bag) whose scans' odometry poses are the trajectory.
 #include <iosfwd>
 #include <string>

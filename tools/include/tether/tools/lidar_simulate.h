@@ -2,7 +2,7 @@
 // `tether simulate lidar -o LOG --truth TRUE.tum`: a run through the simulated office world
 // (tether/frontends/simulation/lidar_world.h) written as a CARMEN log, with the robot's true
 // trajectory as TUM text; `--preset lds` degrades the scans as a low-cost scanner would give
-// them (tether/frontends/lidar/degrade_log.h). docs/lidar.md, "A simulated world".
+// them (tether/frontends/lidar/io/degrade_log.h). docs/lidar.md, "A simulated world".
 #include <iosfwd>
 #include <optional>
 #include <string>

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
 
 namespace tether {

@@ -24,11 +24,11 @@
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
 #include "tether/factors/probability_grid.h"
-#include "tether/frontends/lidar/laser_scan.h"
-#include "tether/frontends/lidar/lidar_log.h"
-#include "tether/frontends/lidar/local_slam_2d.h"
-#include "tether/frontends/lidar/pose_graph_2d.h"
-#include "tether/frontends/lidar/self_check_2d.h"
+#include "tether/frontends/lidar/eval/self_check_2d.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/mapping/local_slam_2d.h"
+#include "tether/frontends/lidar/mapping/pose_graph_2d.h"
+#include "tether/frontends/lidar/sensor/laser_scan.h"
 
 namespace tether {
 namespace lidar {

@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-#include "tether/frontends/lidar/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_log.h"
 
 namespace tether {
 namespace lidar {

@@ -1,0 +1,190 @@
+#include "tether/frontends/lidar/mapping/local_slam_2d.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "tether/core/error.h"
+#include "tether/core/registry.h"
+#include "tether/core/timing.h"
+#include "tether/frontends/lidar/scan_matching/scan_to_scan_2d.h"
+#include "tether/frontends/lidar/sensor/voxel_filter.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+double MeanProbability(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
+                       double unknown) {
+  double sum = 0;
+  for (const Eigen::Vector2d& p : points) sum += grid.Probability(grid.CellOf(pose * p), unknown);
+  return sum / static_cast<double>(points.size());
+}
+
+LocalSlamOptions Checked(const LocalSlamOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("LocalSlamOptions: " + why);
+  return options;
+}
+
+}  // namespace
+
+bool LocalSlamOptions::IsValid(std::string* why) const {
+  if (!(std::isfinite(matching_voxel_size) && matching_voxel_size >= 0)) {
+    if (why != nullptr) {
+      *why = "matching_voxel_size is " + FormatDouble(matching_voxel_size) + "; it must be finite and not negative";
+    }
+    return false;
+  }
+  if (!(min_match_probability >= 0 && min_match_probability <= 1)) {
+    if (why != nullptr)
+      *why = "min_match_probability is " + FormatDouble(min_match_probability) + "; it must lie in [0, 1]";
+    return false;
+  }
+  for (double v : {insert_min_distance, insert_min_angle, insert_max_seconds, still_distance, still_angle}) {
+    if (!(std::isfinite(v) && v >= 0)) {
+      if (why != nullptr) *why = "the motion filter's and still_* thresholds must be finite and not negative";
+      return false;
+    }
+  }
+  for (double v : {weak_prediction_linear_window, weak_prediction_angular_window, weak_prediction_translation_weight,
+                   scan_to_scan_translation_weight}) {
+    if (!(std::isfinite(v) && v >= 0)) {
+      if (why != nullptr) {
+        *why = "the weak_prediction_* options and scan_to_scan_translation_weight must be finite and not negative";
+      }
+      return false;
+    }
+  }
+  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why) && scan_to_scan_options.IsValid(why);
+}
+
+LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options) : options_(Checked(options)), submaps_(options.submaps) {}
+
+SE2d LocalSlam2D::ConstantVelocity() const {
+  const std::size_t n = trajectory_.size();
+  if (n < 2) return trajectory_.back().pose;
+  const SE2d& a = trajectory_[n - 2].pose;
+  const SE2d& b = trajectory_[n - 1].pose;
+  return b * (a.Inverse() * b);
+}
+
+bool LocalSlam2D::WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, const ProbabilityGrid& grid) const {
+  if (m.mean_probability < options_.min_match_probability) return true;
+  const Eigen::Vector2d d = SO2d(-predicted.theta()) * (m.pose.translation() - predicted.translation());
+  const double edge = options_.correlative.linear_search_window - 0.5 * grid.resolution();
+  return std::abs(d.x()) >= edge || std::abs(d.y()) >= edge ||
+         std::abs(WrapAngle(m.pose.theta() - predicted.theta())) >=
+             options_.correlative.angular_search_window - 0.5 * m.angular_step;
+}
+
+LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
+  LocalScanResult result;
+  result.stamp = scan.stamp;
+  const bool has_odometry = scan.odometry_origin != OdometryOrigin::kNone;
+  result.scan_only = !has_odometry;
+  // Points in the robot's frame.
+  std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
+  for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+  auto t0 = std::chrono::steady_clock::now();
+  if (trajectory_.empty()) {
+    result.predicted = has_odometry ? scan.odometry : SE2d();
+  } else {
+    result.predicted = trajectory_.back().pose;
+    if (!has_odometry) {
+      // Constant motion per scan, then the motion from the scan before by scan-to-scan
+      // matching from it and from no motion.
+      result.predicted = ConstantVelocity();
+      if (options_.scan_to_scan && !last_points_.empty() && !points.empty()) {
+        const SE2d& last = trajectory_.back().pose;
+        const ScanToScanMatch moving =
+            MatchScanToScan(last_points_, points, last.Inverse() * result.predicted, options_.scan_to_scan_options);
+        const ScanToScanMatch still = MatchScanToScan(last_points_, points, SE2d(), options_.scan_to_scan_options);
+        // Constant motion unless no motion pairs clearly more points (10%): along a corridor
+        // both pair alike and the scans cannot tell (aces 62-80 s: taking no motion there, local
+        // SLAM stalled while the robot drove on).
+        const bool take_still = still.ok && (!moving.ok || still.pairs * 10 > moving.pairs * 11);
+        const ScanToScanMatch& m = take_still ? still : moving;
+        if (m.ok) {
+          result.predicted = last * m.motion;
+          result.scan_to_scan = true;
+        }
+      }
+    } else if (last_has_odometry_) {
+      const SE2d motion = last_odometry_.Inverse() * scan.odometry;
+      result.predicted = result.predicted * motion;
+      result.still =
+          motion.translation().norm() < options_.still_distance && std::abs(motion.theta()) < options_.still_angle;
+    }
+  }
+  result.scan_to_scan_seconds = SecondsSince(t0);
+  last_odometry_ = scan.odometry;
+  last_has_odometry_ = has_odometry;
+  result.pose = result.predicted;
+  // A scan-only scan whose prediction is constant velocity alone (no scan-to-scan match).
+  const bool weak_prediction = result.scan_only && !result.scan_to_scan;
+
+  result.matching =
+      options_.matching_voxel_size > 0 && !points.empty() ? VoxelFilter(points, options_.matching_voxel_size) : points;
+  const std::vector<Eigen::Vector2d>& matching = result.matching;
+  const std::shared_ptr<const Submap2D> target = submaps_.matching_submap();
+  if (target != nullptr && !points.empty() && !result.still) {
+    result.matching_points = static_cast<int>(matching.size());
+    t0 = std::chrono::steady_clock::now();
+    SE2d start = result.predicted;
+    if (options_.use_correlative_matcher) {
+      CorrelativeMatcherOptions correlative = options_.correlative;
+      if (result.scan_to_scan) {
+        correlative.translation_delta_cost_weight =
+            std::max(correlative.translation_delta_cost_weight, options_.scan_to_scan_translation_weight);
+      }
+      CorrelativeMatch m = MatchCorrelative(*target->grid(), result.predicted, matching, correlative);
+      result.correlative_candidates = m.candidates;
+      if (weak_prediction && WeakMatch(m, result.predicted, *target->grid())) {
+        CorrelativeMatcherOptions wide = options_.correlative;
+        wide.linear_search_window = std::max(wide.linear_search_window, options_.weak_prediction_linear_window);
+        wide.angular_search_window = std::max(wide.angular_search_window, options_.weak_prediction_angular_window);
+        wide.translation_delta_cost_weight = options_.weak_prediction_translation_weight;
+        m = MatchCorrelative(*target->grid(), result.predicted, matching, wide);
+        result.correlative_candidates += m.candidates;
+        result.widened = true;
+      }
+      start = m.pose;
+      result.correlative_score = m.score;
+    }
+    result.correlative_seconds = SecondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    // The refinement's regularisers pull towards the prediction, or, where the prediction was
+    // too weak to search around, towards the wide search's best.
+    const SE2d refined =
+        RefineScanPose(target->grid(), start, result.widened ? start : result.predicted, matching, options_.refiner)
+            .pose;
+    result.refine_seconds = SecondsSince(t0);
+    result.matched = true;
+    result.match_probability =
+        MeanProbability(*target->grid(), refined, matching, options_.correlative.unknown_probability);
+    result.trusted = result.match_probability >= options_.min_match_probability;
+    // A scan whose prediction is constant velocity alone has nothing of its own to fall back to
+    // (it repeats the match before): it keeps its match however weak.
+    if (result.trusted || weak_prediction) result.pose = refined;
+  }
+  const SE2d moved = inserted_any_ ? last_inserted_.pose.Inverse() * result.pose : SE2d();
+  const bool insert = !inserted_any_ || moved.translation().norm() >= options_.insert_min_distance ||
+                      std::abs(moved.theta()) >= options_.insert_min_angle ||
+                      scan.stamp - last_inserted_.stamp >= options_.insert_max_seconds;
+  trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
+  if (!points.empty()) last_points_ = points;
+  if (!insert) return result;
+  inserted_any_ = true;
+  last_inserted_ = trajectory_.back();
+  result.inserted = true;
+  t0 = std::chrono::steady_clock::now();
+  std::vector<Eigen::Vector2d> in_map(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
+  result.inserted_into = submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
+  result.insert_seconds = SecondsSince(t0);
+  return result;
+}
+
+}  // namespace lidar
+}  // namespace tether
