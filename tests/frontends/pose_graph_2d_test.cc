@@ -520,7 +520,7 @@ std::vector<int> SampledScans(double metres) {
   }
   std::vector<int> sampled;
   for (int i = 0; i < graph.scan_count(); ++i) {
-    if (graph.sampled(i)) sampled.push_back(i);
+    if (graph.constraint_builder().sampled(i)) sampled.push_back(i);
   }
   return sampled;
 }
