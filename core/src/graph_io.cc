@@ -151,6 +151,11 @@ class Reader {
         throw ParseError(name_ + ": " + e.what());
       }
     }
+    if (options_.isam_noise != ReadOptions().isam_noise && !isam_) {
+      out.warnings.push_back(name_ + ": the iSAM noise reading '" + ToString(options_.isam_noise) +
+                             "' changed nothing: the file was not read as iSAM's (no ODOMETRY or LANDMARK line; "
+                             "give the iSAM format to read its EDGE2 lines so)");
+    }
     if (equiv_lines_ > 0) {
       out.warnings.push_back(name_ + ": ignored " + Plural(equiv_lines_, "EQUIV line", "EQUIV lines") +
                              " (first at line " + std::to_string(first_equiv_line_) +

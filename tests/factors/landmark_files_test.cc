@@ -115,6 +115,14 @@ TEST(LandmarkFilesTest, CovarianceReading) {
   EXPECT_CONTAINS(ReadError("LANDMARK 1 5 2 3 0.4 1 0.4\n", "v.txt", cov),
                   "v.txt:1: LANDMARK: the covariance (fields 5 to 7, read as a covariance: IsamNoise::kCovariance) "
                   "is not usable: ");
+  // Read as iSAM's, the option is used and nothing is said; on a file that is not iSAM's it
+  // changes nothing, and the reader says so.
+  EXPECT_TRUE(g.warnings.empty());
+  const GraphFile g2o = Read("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", "p.g2o", cov);
+  ASSERT_EQ(g2o.warnings.size(), 1u);
+  EXPECT_CONTAINS(g2o.warnings[0], "p.g2o: the iSAM noise reading 'covariance' changed nothing");
+  EXPECT_TRUE(
+      Read("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", "p.g2o").warnings.empty());
 }
 
 TEST(LandmarkFilesTest, ToroBearingRangeLines) {
