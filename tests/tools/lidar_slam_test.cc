@@ -13,6 +13,7 @@
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
 #include "testing/synthetic_room.h"
+#include "testing/write_bag.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
@@ -258,6 +259,43 @@ TEST_F(LidarSlamTest, AutoPicksLdsForALowCostScanner) {
   EXPECT_NE(run.output.find("scanner: lds (maximum range 6.0 m, at most 16 m: a low-cost scanner's;"),
             std::string::npos)
       << run.output;
+}
+
+// A bag with an IMU topic: read where named (and said at the start), an error where missing.
+TEST_F(LidarSlamTest, AnImuTopicIsReadWhereNamed) {
+  if (!lidar::RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
+  if (!testing::kCanWriteBags) GTEST_SKIP() << testing::kNoBagWriting;
+  std::vector<testing::Segment> world;
+  testing::AddRectangle(0, 0, 8, 6, &world);
+  testing::AddRectangle(2, 2, 3, 3, &world);
+  std::vector<lidar::LaserScan> scans;
+  std::vector<lidar::ImuSample> imu;
+  for (int k = 0; k < 30; ++k) {
+    lidar::LaserScan s;
+    s.stamp = 5 + 0.1 * k;
+    s.angle_min = -M_PI;
+    s.angle_increment = 2 * M_PI / 360;
+    s.range_max = 10;
+    for (double r : testing::RayCastScan(world, SE2d(5, 3, 0.05 * k), 360, s.angle_min, s.angle_increment)) {
+      s.ranges.push_back(static_cast<float>(r));
+    }
+    scans.push_back(std::move(s));
+  }
+  for (int k = 0; k <= 300; ++k) imu.push_back({5 + 0.01 * k, 0.5});
+  const std::string bag = P("turn.bag");
+  testing::WriteBag(bag, scans, imu);
+  const auto run = Tether("lidar " + bag + " -o " + P("turn") + " --imu-topic /imu --threads 0");
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("IMU: 301 messages, a heading for 30 of 30 scans; no bias taken off (the robot turned"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("it turns the scans without odometry"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find(", 29 turned by the IMU"), std::string::npos) << run.output;
+  const auto missing = Tether("lidar " + bag + " -o " + P("gyro") + " --imu-topic /gyro");
+  EXPECT_EQ(missing.code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("no topic /gyro; the bag has"), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("choose the IMU topic"), std::string::npos) << missing.output;
+  EXPECT_FALSE(std::filesystem::exists(P("gyro")));
 }
 
 TEST_F(LidarSlamTest, UsageAndInputErrors) {
