@@ -7,7 +7,7 @@
 //   const tether::lidar::SensorChoice choice = tether::lidar::ChooseSensor(stats);
 //   o = tether::lidar::ForSensor(choice.sensor);   // choice.why says why
 //
-// Three classes (docs/lidar_slam.md, "Scanners"; benchmarks/RESULTS.md, "LiDAR XII"):
+// Three classes (docs/lidar.md, "Scanners"; benchmarks/RESULTS.md, "LiDAR XII"):
 // - sick: a SICK LMS-class scanner, 180 or 361 beams over 180 degrees, 80 m, 10-75 Hz, about
 //   1 cm noise. The settings are LidarSlamOptions' defaults, tuned on the benchmark's logs
 //   (Intel, aces, fr079), which are such scanners.
