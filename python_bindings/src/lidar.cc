@@ -9,6 +9,7 @@
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
+#include "tether/frontends/lidar/sensor/sensor_preset.h"
 
 namespace tether {
 namespace python {
@@ -60,6 +61,14 @@ lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double an
   return s;
 }
 
+lidar::SensorClass SensorNamed(const std::string& name) {
+  lidar::SensorClass c;
+  if (!FromString(name, &c)) {
+    throw InvalidArgument("unknown sensor class '" + name + "'; use " + EnumNameList<lidar::SensorClass>());
+  }
+  return c;
+}
+
 }  // namespace
 
 void BindLidar(py::module_& m) {
@@ -101,11 +110,45 @@ void BindLidar(py::module_& m) {
       .def_property(
           "self_check_every", [](const LidarSlamOptions& o) { return o.self_check.sample_every; },
           [](LidarSlamOptions& o, int v) { o.self_check.sample_every = v; })
+      .def_property(
+          "min_range", [](const LidarSlamOptions& o) { return o.mask.min_range; },
+          [](LidarSlamOptions& o, double v) { o.mask.min_range = v; },
+          "The robot's body: returns nearer than this are dropped before matching and mapping [m] (0: none)")
+      .def_property(
+          "mask_angles", [](const LidarSlamOptions& o) { return lidar::FormatAngleSectors(o.mask.sectors); },
+          [](LidarSlamOptions& o, const std::string& v) {
+            if (v.empty()) {
+              o.mask.sectors.clear();
+              return;
+            }
+            std::string why;
+            if (!lidar::ParseAngleSectors(v, &o.mask.sectors, &why)) throw InvalidArgument("mask_angles: " + why);
+          },
+          "The robot's body: returns at these angles of the laser are dropped, 'from:to[,from:to]' counter-clockwise "
+          "in degrees ('': none)")
+      .def_static(
+          "for_sensor", [](const std::string& name) { return lidar::ForSensor(SensorNamed(name)); }, py::arg("sensor"),
+          "The settings of a class of scanner: 'lds' (low-cost 360-degree), 'sick' (SICK LMS-class: the defaults) or "
+          "'hokuyo' (UTM-30LX-class); tether lidar --sensor")
       .def("is_valid", [](const LidarSlamOptions& o) {
         std::string why;
         const bool ok = o.IsValid(&why);
         return py::make_tuple(ok, why);
       });
+
+  li.def(
+      "sensor_classes", [] { return EnumNameVector<lidar::SensorClass>(); },
+      "The sensor classes' names: 'auto' (chosen from a log) and the classes LidarSlamOptions.for_sensor takes.");
+  li.def(
+      "choose_sensor",
+      [](const std::string& path, long max_scans) {
+        const lidar::LidarLog log = lidar::ReadLidarLog(path);
+        const lidar::SensorChoice c = lidar::ChooseSensor(lidar::ComputeScanStatistics(log.scans, max_scans));
+        return py::make_tuple(std::string(ToString(c.sensor)), c.why);
+      },
+      py::arg("path"), py::arg("max_scans") = 0,
+      "(class, why): the sensor class a log's scans point to (its first max_scans; 0: all), as tether lidar --sensor "
+      "auto chooses it.");
 
   py::class_<LidarSlam2D>(li, "LidarSlam2D",
                           "2D LiDAR SLAM: add scans (add_scan, or run_log for a CARMEN log or ROS 1 bag), finish(), "
@@ -125,14 +168,16 @@ void BindLidar(py::module_& m) {
           "(None: scan-only), the laser's pose on the robot.")
       .def(
           "run_log",
-          [](LidarSlam2D& s, const std::string& path, long max_scans) {
+          [](LidarSlam2D& s, const std::string& path, long max_scans, const std::string& imu_topic) {
             lidar::LidarReadOptions ro;
             ro.limits = s.options().local.limits;
+            ro.imu_topic = imu_topic;
             const lidar::LidarLog log = lidar::ReadLidarLog(path, ro);
             s.Run(log, max_scans);
           },
-          py::arg("path"), py::arg("max_scans") = 0,
-          "Reads a CARMEN log or ROS 1 bag, adds its scans (the first max_scans; 0: all) and finishes.")
+          py::arg("path"), py::arg("max_scans") = 0, py::arg("imu_topic") = "",
+          "Reads a CARMEN log or ROS 1 bag, adds its scans (the first max_scans; 0: all) and finishes. imu_topic: a "
+          "bag's sensor_msgs/Imu topic, whose yaw rate turns the scans without odometry.")
       .def("finish", &LidarSlam2D::Finish, "The final solve, the map and the checks (once).")
       .def_property_readonly("finished", &LidarSlam2D::finished)
       .def_property_readonly("scan_count", &LidarSlam2D::scan_count)

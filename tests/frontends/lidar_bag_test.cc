@@ -3,6 +3,8 @@
 // are absent.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -12,9 +14,12 @@
 #include <vector>
 
 #include "testing/lidar_files.h"
+#include "testing/write_bag.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/io/rosbag_reader.h"
+#include "tether/frontends/lidar/lidar_slam_2d.h"
+#include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {
 namespace lidar {
@@ -154,6 +159,118 @@ TEST(BagRecordCheck, DamagedLengthsAreRefusedBeforeAnythingIsAllocated) {
     EXPECT_THROW(CheckBagRecords(write("cut.bag", good.substr(0, n))), ParseError) << n;
   }
   std::filesystem::remove_all(dir);
+}
+
+// A bag with an IMU: a robot in a round room (5 m across; from its centre every heading looks
+// the same) stands 1 s, turns 0.4 rad a scan for 15 scans at 10 Hz, and stands again; a gyro at
+// 200 Hz reads 0.01 rad/s high.
+class RosBagImuTest : public testing::LidarFilesTest {
+ protected:
+  void SetUp() override {
+    LidarFilesTest::SetUp();
+    if (!RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
+    if (!testing::kCanWriteBags) GTEST_SKIP() << testing::kNoBagWriting;
+    std::vector<WallSegment> room;
+    for (int i = 0; i < 180; ++i) {
+      const double a = 2 * M_PI * i / 180, b = 2 * M_PI * (i + 1) / 180;
+      room.push_back({{2.5 * std::cos(a), 2.5 * std::sin(a)}, {2.5 * std::cos(b), 2.5 * std::sin(b)}});
+    }
+    for (int k = 0; k < 40; ++k) {
+      const double heading = 0.4 * std::clamp(k - 10, 0, 15);
+      truth_.push_back(heading);
+      LaserScan s;
+      s.stamp = 20 + 0.1 * k;
+      s.angle_min = -M_PI;
+      s.angle_increment = 2 * M_PI / 360;
+      s.range_min = 0.05;
+      s.range_max = 6;
+      for (int i = 0; i < 360; ++i) {
+        const double a = heading + s.Angle(static_cast<std::size_t>(i));
+        s.ranges.push_back(static_cast<float>(CastRay(room, Eigen::Vector2d::Zero(), {std::cos(a), std::sin(a)})));
+      }
+      scans_.push_back(std::move(s));
+    }
+    for (int k = 0; k <= 800; ++k) {
+      const double t = 20 + 0.005 * k;
+      imu_.push_back({t, (t > 21 + 1e-9 && t <= 22.5 + 1e-9 ? 4.0 : 0.0) + 0.01});
+    }
+  }
+  std::vector<double> truth_;
+  std::vector<LaserScan> scans_;
+  std::vector<ImuSample> imu_;
+};
+
+TEST_F(RosBagImuTest, TheYawRateIsReadAndTurnsTheScanOnlyPrediction) {
+  const std::string bag = P("round.bag");
+  testing::WriteBag(bag, scans_, imu_);
+  // Without --imu-topic the IMU is not read.
+  const LidarLog plain = ReadLidarLog(bag);
+  EXPECT_TRUE(plain.imu.empty());
+  EXPECT_FALSE(plain.scans.at(12).has_imu_yaw);
+  LidarReadOptions o;
+  o.imu_topic = "/imu";
+  const LidarLog log = ReadLidarLog(bag, o);
+  ASSERT_EQ(log.imu.samples.size(), imu_.size());
+  EXPECT_NEAR(log.imu.samples[3].yaw_rate, 0.01, 1e-12);
+  EXPECT_TRUE(log.imu.bias_estimated) << log.imu.bias_why;
+  EXPECT_NEAR(log.imu.bias, 0.01, 1e-12);
+  ASSERT_EQ(log.scans.size(), scans_.size());
+  EXPECT_EQ(log.imu.scans_with_yaw, 40);
+  for (std::size_t i = 0; i < log.scans.size(); ++i) {
+    ASSERT_TRUE(log.scans[i].has_imu_yaw);
+    EXPECT_NEAR(log.scans[i].imu_yaw, truth_[i], 0.011) << i;  // the trapezoid's ramp at the step
+  }
+  // Mapped scan-only: the IMU's turn holds the heading the scans cannot see.
+  LidarSlamOptions so;
+  so.pose_graph.loop_closure = false;
+  so.pose_graph.threads = 0;
+  so.self_check.sample_every = 0;
+  double with = 0, without = 0;
+  for (const LidarLog* l : {&log, &plain}) {
+    LidarSlam2D slam(so);
+    slam.Run(*l);
+    const std::vector<StampedPose2> t = slam.Trajectory();
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      double& worst = l == &log ? with : without;
+      worst = std::max(worst, std::abs(WrapAngle(t[i].pose.theta() - truth_[i])));
+    }
+    if (l == &log) {
+      EXPECT_EQ(slam.report().imu_turns, 39);
+    }
+  }
+  EXPECT_LT(with, 0.15);
+  EXPECT_GT(without, 1.0);
+}
+
+TEST_F(RosBagImuTest, AMissingOrMistypedImuTopicIsAnError) {
+  const std::string bag = P("round.bag");
+  testing::WriteBag(bag, scans_, imu_);
+  LidarReadOptions o;
+  o.imu_topic = "/gyro";
+  std::string m = ErrorOf<ParseError>([&] { ReadLidarLog(bag, o); });
+  EXPECT_NE(m.find("no topic /gyro; the bag has"), std::string::npos) << m;
+  EXPECT_NE(m.find("/imu (sensor_msgs/Imu)"), std::string::npos) << m;
+  EXPECT_NE(m.find("choose the IMU topic"), std::string::npos) << m;
+  const std::string odometry = P("odometry_on_imu.bag");
+  testing::WriteBag(odometry, scans_, imu_, "/imu", /*imu_as_odometry=*/true);
+  o.imu_topic = "/imu";
+  m = ErrorOf<ParseError>([&] { ReadLidarLog(odometry, o); });
+  EXPECT_NE(m.find("topic /imu holds nav_msgs/Odometry, not sensor_msgs/Imu"), std::string::npos) << m;
+  // A gyro reading beyond any robot's.
+  std::vector<ImuSample> wild = imu_;
+  wild[5].yaw_rate = 1e6;
+  const std::string damaged = P("wild.bag");
+  testing::WriteBag(damaged, scans_, wild);
+  m = ErrorOf<ParseError>([&] { ReadLidarLog(damaged, o); });
+  EXPECT_NE(m.find("angular_velocity.z 1e+06 rad/s is not finite or beyond 1000"), std::string::npos) << m;
+  // Turning from the start: no bias taken off, and why.
+  std::vector<ImuSample> turning = imu_;
+  for (ImuSample& s : turning) s.yaw_rate += 0.5;
+  const std::string spinning = P("spinning.bag");
+  testing::WriteBag(spinning, scans_, turning);
+  const LidarLog log = ReadLidarLog(spinning, o);
+  EXPECT_FALSE(log.imu.bias_estimated);
+  EXPECT_NE(log.imu.bias_why.find("the robot turned in the first 1 s"), std::string::npos) << log.imu.bias_why;
 }
 
 TEST(RosBagSupport, WithoutItTheReaderSaysHowToGetIt) {

@@ -127,3 +127,63 @@ def test_same_files_as_the_command(tmp_path, cli):
     for name in ["trajectory.tum", "trajectory.g2o", "pose_graph.g2o", "map.pgm", "map.png", "loop_closures.txt",
                  "self_check.png"]:
         assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
+
+
+def test_sensor_presets_and_the_body_mask():
+    assert tether.lidar.sensor_classes() == ["auto", "lds", "sick", "hokuyo"]
+    lds = tether.lidar.LidarSlamOptions.for_sensor("lds")
+    assert lds.min_range == 0.15
+    assert tether.lidar.LidarSlamOptions.for_sensor("hokuyo").min_range == 0.1
+    assert tether.lidar.LidarSlamOptions.for_sensor("sick").min_range == tether.lidar.LidarSlamOptions().min_range == 0
+    with pytest.raises(tether.InvalidArgument, match="unknown sensor class 'velodyne'; use auto, lds, sick or hokuyo"):
+        tether.lidar.LidarSlamOptions.for_sensor("velodyne")
+    with pytest.raises(tether.InvalidArgument, match="auto is a class chosen from a log"):
+        tether.lidar.LidarSlamOptions.for_sensor("auto")
+    options = tether.lidar.LidarSlamOptions()
+    options.mask_angles = "160:200,-10:10"
+    assert options.mask_angles == "160:200,-10:10"
+    with pytest.raises(tether.InvalidArgument, match="has no width"):
+        options.mask_angles = "10:10"
+    assert options.mask_angles == "160:200,-10:10"
+    options.mask_angles = ""
+    assert options.mask_angles == ""
+    options.min_range = -1
+    assert not options.is_valid()[0]
+
+    # A return on the robot (0.1 m) in the first beam of every scan: masked by the minimum range,
+    # the run is the one without it.
+    truth, scans = trip()
+    body = scans.copy()
+    body[:, 0] = 0.1
+    bare = scans.copy()
+    bare[:, 0] = math.nan
+
+    def run(ranges, min_range):
+        o = tether.lidar.LidarSlamOptions()
+        o.scans_per_submap = 20
+        o.threads = 0
+        o.min_range = min_range
+        slam = tether.lidar.LidarSlam2D(o)
+        for k, r in enumerate(ranges):
+            slam.add_scan(r, angle_min=-math.pi / 2, angle_increment=math.pi / 179, stamp=10 + 0.1 * k, range_max=12.0)
+        slam.finish()
+        return slam.poses
+
+    assert np.array_equal(run(body, 0.15), run(bare, 0))
+
+
+def test_choose_sensor(tmp_path):
+    truth, scans = trip(5)
+    flaser = tmp_path / "sick.log"
+    flaser.write_text("".join(
+        f"FLASER 180 {' '.join(f'{r:.6g}' for r in ranges)} 0 0 0 0 0 0 {1000 + 0.2 * k} sim {0.2 * k}\n"
+        for k, ranges in enumerate(scans)))
+    sensor, why = tether.lidar.choose_sensor(str(flaser))
+    assert sensor == "sick"
+    assert "maximum range 80.0 m" in why
+    raw = tmp_path / "lds.log"
+    raw.write_text("".join(
+        f"RAWLASER1 0 -3.14159 6.26573 0.0174533 6 0 0 360 {' '.join(['2.5'] * 360)} 0 {1000 + 0.2 * k} sim {0.2 * k}\n"
+        for k in range(5)))
+    assert tether.lidar.choose_sensor(str(raw), max_scans=3) == ("lds", "maximum range 6.0 m, at most 16 m: a low-cost "
+                                                                 "scanner's")

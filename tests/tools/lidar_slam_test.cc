@@ -7,11 +7,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
 #include "testing/synthetic_room.h"
+#include "testing/write_bag.h"
 #include "tether/core/graph_io.h"
 #include "tether/factors/builtin.h"
 #include "tether/frontends/lidar/io/rosbag_reader.h"
@@ -24,6 +26,11 @@ namespace {
 using testing::Tether;
 
 class LidarSlamTest : public testing::LidarFilesTest {};
+
+std::string Bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 
 // 80 scans on a circle in a 24 m x 18 m room with boxes: FLASER lines (180 beams over 180
 // degrees), odometry = truth.
@@ -181,6 +188,116 @@ TEST_F(LidarSlamTest, ABagWithoutMessagesOnTheOdometryTopicWarns) {
   EXPECT_EQ(quiet.output.find("warning"), std::string::npos) << quiet.output;
 }
 
+// The scanner's class: chosen from the log (FLASER lines: 80 m, sick, the defaults), given by
+// --sensor, and explicit flags kept over the preset's values.
+TEST_F(LidarSlamTest, TheSensorClassFromTheLogOrTheFlag) {
+  const std::string log = Write("room.log", RoomLog());
+  const auto autod = Tether("lidar " + log + " -o " + P("auto") + " --threads 0");
+  ASSERT_EQ(autod.code, 0) << autod.output;
+  EXPECT_NE(autod.output.find("scanner: sick (maximum range 80.0 m, over 40 m: a SICK-class scanner's; "),
+            std::string::npos)
+      << autod.output;
+  EXPECT_NE(autod.output.find("; no body mask\n"), std::string::npos) << autod.output;
+  const auto sick = Tether("lidar " + log + " -o " + P("sick") + " --threads 0 --sensor sick");
+  ASSERT_EQ(sick.code, 0) << sick.output;
+  EXPECT_NE(sick.output.find("scanner: sick (given by --sensor;"), std::string::npos) << sick.output;
+  for (const char* f : {"trajectory.tum", "map.pgm", "pose_graph.g2o"}) {
+    EXPECT_EQ(Bytes(P("auto") + "/" + f), Bytes(P("sick") + "/" + f)) << f;
+  }
+  // lds: its minimum range; --min-range given keeps its own, as does --mask-angles.
+  const auto lds = Tether("lidar " + log + " -o " + P("lds") + " --threads 0 --sensor lds");
+  ASSERT_EQ(lds.code, 0) << lds.output;
+  EXPECT_NE(lds.output.find("scanner: lds (given by --sensor; a low-cost 360-degree scanner"), std::string::npos)
+      << lds.output;
+  EXPECT_NE(lds.output.find("body mask: returns nearer than 0.15 m\n"), std::string::npos) << lds.output;
+  const auto own = Tether("lidar " + log + " -o " + P("own") + " --threads 0 --sensor lds --min-range 0");
+  ASSERT_EQ(own.code, 0) << own.output;
+  EXPECT_NE(own.output.find("; no body mask\n"), std::string::npos) << own.output;
+  const auto masked =
+      Tether("lidar " + log + " -o " + P("masked") + " --threads 0 --min-range 0.3 --mask-angles 80:100,-100:-80");
+  ASSERT_EQ(masked.code, 0) << masked.output;
+  EXPECT_NE(masked.output.find("body mask: returns nearer than 0.3 m and at 80:100,-100:-80 degrees"),
+            std::string::npos)
+      << masked.output;
+  EXPECT_NE(masked.output.find("the body mask made "), std::string::npos) << masked.output;
+  // Bad values, refused before anything is written.
+  const struct {
+    const char* option;
+    const char* message;
+  } bad[] = {
+      {"--sensor velodyne", "--sensor velodyne is not one of auto, lds, sick or hokuyo"},
+      {"--mask-angles 10:10", "--mask-angles 10:10: the sector '10:10' has no width"},
+      {"--mask-angles 160-200", "'160-200' is not a sector from:to"},
+      {"--mask-angles 1:x", "'x' in the sector '1:x' is not a finite number of degrees"},
+      {"--min-range -1", "--min-range: '-1' is outside"},
+      {"--imu-bias-seconds -1", "--imu-bias-seconds: '-1' is outside"},
+  };
+  for (const auto& b : bad) {
+    const auto r = Tether("lidar " + log + " -o " + P("bad") + " " + b.option);
+    EXPECT_EQ(r.code, 2) << b.option << ": " << r.output;
+    EXPECT_NE(r.output.find(b.message), std::string::npos) << b.option << ": " << r.output;
+    EXPECT_FALSE(std::filesystem::exists(P("bad"))) << b.option << ": nothing is written";
+  }
+  // A minimum range above the log's maximum leaves nothing to map: refused by the options.
+  const auto beyond = Tether("lidar " + log + " -o " + P("beyond") + " --min-range 0.5 --max-range 0.4");
+  EXPECT_NE(beyond.code, 0) << beyond.output;
+  // An IMU topic for a CARMEN log.
+  const auto imu = Tether("lidar " + log + " -o " + P("imu") + " --imu-topic /imu");
+  EXPECT_EQ(imu.code, 1) << imu.output;
+  EXPECT_NE(imu.output.find("an IMU topic (/imu) is for ROS bags; a CARMEN log has no IMU messages"), std::string::npos)
+      << imu.output;
+  EXPECT_FALSE(std::filesystem::exists(P("imu")));
+}
+
+// An LDS-class simulated scanner (6 m): auto picks lds.
+TEST_F(LidarSlamTest, AutoPicksLdsForALowCostScanner) {
+  const auto sim =
+      Tether("simulate lidar -o " + P("lds.log") + " --truth " + P("lds.tum") + " --seed 3 --scans 300 --preset lds");
+  ASSERT_EQ(sim.code, 0) << sim.output;
+  const auto run = Tether("lidar " + P("lds.log") + " -o " + P("lds") + " --ground-truth " + P("lds.tum"));
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("scanner: lds (maximum range 6.0 m, at most 16 m: a low-cost scanner's;"),
+            std::string::npos)
+      << run.output;
+}
+
+// A bag with an IMU topic: read where named (and said at the start), an error where missing.
+TEST_F(LidarSlamTest, AnImuTopicIsReadWhereNamed) {
+  if (!lidar::RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
+  if (!testing::kCanWriteBags) GTEST_SKIP() << testing::kNoBagWriting;
+  std::vector<testing::Segment> world;
+  testing::AddRectangle(0, 0, 8, 6, &world);
+  testing::AddRectangle(2, 2, 3, 3, &world);
+  std::vector<lidar::LaserScan> scans;
+  std::vector<lidar::ImuSample> imu;
+  for (int k = 0; k < 30; ++k) {
+    lidar::LaserScan s;
+    s.stamp = 5 + 0.1 * k;
+    s.angle_min = -M_PI;
+    s.angle_increment = 2 * M_PI / 360;
+    s.range_max = 10;
+    for (double r : testing::RayCastScan(world, SE2d(5, 3, 0.05 * k), 360, s.angle_min, s.angle_increment)) {
+      s.ranges.push_back(static_cast<float>(r));
+    }
+    scans.push_back(std::move(s));
+  }
+  for (int k = 0; k <= 300; ++k) imu.push_back({5 + 0.01 * k, 0.5});
+  const std::string bag = P("turn.bag");
+  testing::WriteBag(bag, scans, imu);
+  const auto run = Tether("lidar " + bag + " -o " + P("turn") + " --imu-topic /imu --threads 0");
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("IMU: 301 messages, a heading for 30 of 30 scans; no bias taken off (the robot turned"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("it turns the scans without odometry"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find(", 29 turned by the IMU"), std::string::npos) << run.output;
+  const auto missing = Tether("lidar " + bag + " -o " + P("gyro") + " --imu-topic /gyro");
+  EXPECT_EQ(missing.code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("no topic /gyro; the bag has"), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("choose the IMU topic"), std::string::npos) << missing.output;
+  EXPECT_FALSE(std::filesystem::exists(P("gyro")));
+}
+
 TEST_F(LidarSlamTest, UsageAndInputErrors) {
   const std::string log = Write("room.log", RoomLog());
   EXPECT_EQ(Tether("lidar " + log).code, 2);  // -o is required
@@ -198,21 +315,20 @@ TEST_F(LidarSlamTest, UsageAndInputErrors) {
   const struct {
     const char* option;
     const char* field;
-  } local[] = {
-      {"--min-match-probability 1.5", "--min-match-probability: '1.5' is outside its range"},
-      {"--correlative-rotation-weight -1", "--correlative-rotation-weight: '-1' is outside"},
-      {"--correlative-angle -5", "--correlative-angle: '-5' is outside"},
-      {"--match-rotation-weight 0", "rotation"},
-      {"--still-angle -1", "--still-angle: '-1' is outside"},
-      {"--search-window -1", "--search-window: '-1' is outside"},
-      {"--search-angle 200", "--search-angle: '200' is outside its range [0, 180]"},
-      {"--search-voxel -1", "--search-voxel: '-1' is outside"},
-      {"--search-window-growth -0.1", "--search-window-growth: '-0.1' is outside"},
-      {"--max-search-window nan", "--max-search-window: 'nan' is not a finite number"},
-      {"--max-search-angle 4", "--max-search-angle: '4' is outside"},
-      {"--search-angle-growth -1", "--search-angle-growth: '-1' is outside"},
-      {"--consecutive-sigma-r 0", "consecutive_rotation_sigma (--consecutive-sigma-r) must both be positive"},
-      {"--local-huber -1", "--local-huber: '-1' is outside"}};
+  } local[] = {{"--min-match-probability 1.5", "--min-match-probability: '1.5' is outside its range"},
+               {"--correlative-rotation-weight -1", "--correlative-rotation-weight: '-1' is outside"},
+               {"--correlative-angle -5", "--correlative-angle: '-5' is outside"},
+               {"--match-rotation-weight 0", "rotation"},
+               {"--still-angle -1", "--still-angle: '-1' is outside"},
+               {"--search-window -1", "--search-window: '-1' is outside"},
+               {"--search-angle 200", "--search-angle: '200' is outside its range [0, 180]"},
+               {"--search-voxel -1", "--search-voxel: '-1' is outside"},
+               {"--search-window-growth -0.1", "--search-window-growth: '-0.1' is outside"},
+               {"--max-search-window nan", "--max-search-window: 'nan' is not a finite number"},
+               {"--max-search-angle 4", "--max-search-angle: '4' is outside"},
+               {"--search-angle-growth -1", "--search-angle-growth: '-1' is outside"},
+               {"--consecutive-sigma-r 0", "consecutive_rotation_sigma (--consecutive-sigma-r) must both be positive"},
+               {"--local-huber -1", "--local-huber: '-1' is outside"}};
   for (const auto& l : local) {
     const auto r = Tether("lidar " + log + " -o " + P("o_local") + " " + l.option);
     EXPECT_EQ(r.code, 2) << l.option << ": " << r.output;

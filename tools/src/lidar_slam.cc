@@ -1,5 +1,6 @@
 #include "tether/tools/lidar_slam.h"
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -14,6 +15,8 @@
 #include "tether/core/trajectory_error.h"
 #include "tether/frontends/lidar/io/laser_offset.h"
 #include "tether/frontends/lidar/io/tum_trajectory.h"
+#include "tether/frontends/lidar/sensor/body_mask.h"
+#include "tether/frontends/lidar/sensor/sensor_preset.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
 
@@ -24,28 +27,17 @@ namespace {
 std::string Fixed(double v, int digits) { return FormatFixed(v, digits); }
 
 // What the log holds, said before the run: scans, beams, rate, range, odometry.
-std::string Describe(const lidar::LidarLog& log, long n) {
-  std::size_t beams_min = SIZE_MAX, beams_max = 0;
-  double range_max = 0;
-  long with_odometry = 0;
-  for (long i = 0; i < n; ++i) {
-    const lidar::LaserScan& s = log.scans[static_cast<std::size_t>(i)];
-    beams_min = std::min(beams_min, s.ranges.size());
-    beams_max = std::max(beams_max, s.ranges.size());
-    range_max = std::max(range_max, s.range_max);
-    with_odometry += s.odometry_origin != lidar::OdometryOrigin::kNone;
-  }
-  const double span = log.scans[static_cast<std::size_t>(n - 1)].stamp - log.scans[0].stamp;
+std::string Describe(const lidar::LidarLog& log, const lidar::ScanStatistics& st) {
+  const long n = st.scans;
   const lidar::LaserScan& first = log.scans[0];
   std::ostringstream s;
-  s << log.path << ": " << n << " scans of " << beams_min;
-  if (beams_max != beams_min) s << "-" << beams_max;
-  s << " beams over "
-    << Fixed(std::abs(first.angle_increment) * static_cast<double>(first.ranges.size() - 1) * 180 / M_PI, 0)
-    << " degrees, maximum range " << Fixed(range_max, 1) << " m, "
-    << (span > 0 ? Fixed(static_cast<double>(n - 1) / span, 1) + " scans/s over " + Fixed(span, 1) + " s"
-                 : std::string("no time span"))
+  s << log.path << ": " << n << " scans of " << st.beams_min;
+  if (st.beams_max != st.beams_min) s << "-" << st.beams_max;
+  s << " beams over " << Fixed(st.field_of_view * 180 / M_PI, 0) << " degrees, maximum range " << Fixed(st.max_range, 1)
+    << " m, "
+    << (st.span > 0 ? Fixed(st.rate, 1) + " scans/s over " + Fixed(st.span, 1) + " s" : std::string("no time span"))
     << "; odometry: ";
+  const long with_odometry = st.with_odometry;
   if (with_odometry == 0) {
     s << "none (scan-only: each scan predicted from the scans before it)";
   } else if (with_odometry < n) {
@@ -66,6 +58,11 @@ std::string Describe(const lidar::LidarLog& log, long n) {
     }
   }
   s << "\n";
+  if (!log.imu.empty()) {
+    s << "IMU: " << log.imu.samples.size() << " messages, a heading for " << log.imu.scans_with_yaw << " of "
+      << log.scans.size() << " scans; " << log.imu.bias_why
+      << (with_odometry == n ? "; unused: every scan has odometry" : "; it turns the scans without odometry") << "\n";
+  }
   return s.str();
 }
 
@@ -101,7 +98,27 @@ constexpr std::pair<const char*, const char*> kFieldFlags[] = {
     {"scans_per_submap", "--scans-per-submap"},
     {"max_submap_travel", "--max-submap-travel"},
     {"search_every_metres", "--search-every-metres"},
+    {"min_range", "--min-range"},
+    {"imu_bias_seconds", "--imu-bias-seconds"},
+    {"imu_rotation_weight", "--imu-rotation-weight"},
 };
+
+// The options a sensor preset sets, each with the flag that sets it too: where that flag was
+// given, its value stays. Every field lidar::ForSensor changes from the defaults is here.
+struct PresetField {
+  const char* flag;
+  void (*take)(const lidar::LidarSlamOptions& preset, LidarCommand* cmd);
+};
+constexpr PresetField kPresetFields[] = {
+    {"--min-range",
+     [](const lidar::LidarSlamOptions& p, LidarCommand* c) { c->options.mask.min_range = p.mask.min_range; }},
+    {"--mask-angles",
+     [](const lidar::LidarSlamOptions& p, LidarCommand* c) { c->options.mask.sectors = p.mask.sectors; }},
+};
+
+bool Given(const LidarCommand& cmd, const char* flag) {
+  return std::find(cmd.given.begin(), cmd.given.end(), flag) != cmd.given.end();
+}
 
 // `why` with the flag after each field name it mentions: "huber_delta (--huber) must ...".
 std::string WithFlags(std::string why) {
@@ -127,6 +144,18 @@ bool ResolveLidarOptions(LidarCommand* cmd, std::ostream& err) {
   cmd->options.pose_graph.search.angular_search_window = cmd->search_angle_deg * M_PI / 180;
   cmd->options.local.correlative.angular_search_window = cmd->correlative_angle_deg * M_PI / 180;
   cmd->options.local.limits = cmd->read.limits;
+  lidar::SensorClass sensor;
+  if (!FromString(cmd->sensor, &sensor)) {
+    err << "tether lidar: --sensor " << cmd->sensor << " is not one of " << EnumNameList<lidar::SensorClass>() << "\n";
+    return false;
+  }
+  if (!cmd->mask_angles.empty()) {
+    std::string why;
+    if (!lidar::ParseAngleSectors(cmd->mask_angles, &cmd->options.mask.sectors, &why)) {
+      err << "tether lidar: --mask-angles " << cmd->mask_angles << ": " << why << "\n";
+      return false;
+    }
+  }
   if (!FromString(cmd->odometry, &cmd->read.odometry)) {
     err << "tether lidar: --odometry " << cmd->odometry << " is not one of " << EnumNameList<lidar::OdometrySource>()
         << "\n";
@@ -258,7 +287,32 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   if (const int rc = ReadLidarInputs(cmd, &log, &truth, err); rc != kExitOk) return outputs.Fail(rc);
   const long n = cmd.max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), cmd.max_scans)
                                    : static_cast<long>(log.scans.size());
-  if (!cmd.quiet) out << Describe(log, n) << std::flush;
+  const lidar::ScanStatistics statistics = lidar::ComputeScanStatistics(log.scans, n);
+  // The scanner's settings where the command line gave none.
+  lidar::SensorChoice choice;
+  FromString(cmd.sensor, &choice.sensor);  // checked by ResolveLidarOptions
+  if (choice.sensor == lidar::SensorClass::kAuto) {
+    choice = lidar::ChooseSensor(statistics);
+  } else {
+    choice.why = "given by --sensor";
+  }
+  const lidar::LidarSlamOptions preset = lidar::ForSensor(choice.sensor);
+  for (const PresetField& f : kPresetFields) {
+    if (!Given(cmd, f.flag)) f.take(preset, &cmd);
+  }
+  if (!ResolveLidarOptions(&cmd, err)) return outputs.Fail(kExitUsage);
+  if (!cmd.quiet) {
+    out << Describe(log, statistics) << "scanner: " << ToString(choice.sensor) << " (" << choice.why << "; "
+        << lidar::SensorDescription(choice.sensor) << ")";
+    const lidar::BodyMask& mask = cmd.options.mask;
+    if (mask.empty()) {
+      out << "; no body mask";
+    } else {
+      out << "; body mask: returns nearer than " << FormatDouble(mask.min_range) << " m";
+      if (!mask.sectors.empty()) out << " and at " << lidar::FormatAngleSectors(mask.sectors) << " degrees";
+    }
+    out << "\n" << std::flush;
+  }
 
   lidar::LidarSlam2D slam(cmd.options);
   if (const int rc = Map(cmd, log, n, &slam, out, err); rc != kExitOk) return outputs.Fail(rc);
@@ -281,7 +335,12 @@ namespace {
 class LidarCli : public Command {
  public:
   void Add(CLI::App& app) override;
-  int Run(std::ostream& out, std::ostream& err) override { return RunLidar(cmd_, out, err); }
+  int Run(std::ostream& out, std::ostream& err) override {
+    for (const CLI::Option* o : app_->get_options()) {
+      if (o->count() > 0) cmd_.given.push_back(o->get_name());
+    }
+    return RunLidar(cmd_, out, err);
+  }
 
  private:
   // An option with its default shown in --help.
@@ -381,6 +440,23 @@ void LidarCli::AddMatchingOptions(CLI::App* sub) {
   Option("--weak-window", lo.weak_prediction_linear_window,
          "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
   Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
+  sub->add_option("--min-range", cmd_.options.mask.min_range,
+                  "The robot's body: returns nearer than this are dropped before matching and mapping [m] (0: none; "
+                  "default: the scanner's, lds 0.15, hokuyo 0.1, sick 0)");
+  sub->add_option("--mask-angles", cmd_.mask_angles,
+                  "The robot's body: returns at these angles of the laser are dropped, from:to counter-clockwise in "
+                  "degrees, several separated by commas (e.g. 160:200 for the back)");
+  Option("--sensor", cmd_.sensor,
+         "The scanner's settings for every option not given: auto (by the log's maximum range: up to 16 m lds, "
+         "up to 40 m hokuyo, beyond sick), lds (low-cost 360-degree), sick (SICK LMS-class: the benchmark logs') "
+         "or hokuyo (UTM-30LX-class)");
+  Option("--imu-topic", cmd_.read.imu_topic,
+         "Bags: a sensor_msgs/Imu topic whose yaw rate turns the prediction of scans without odometry (empty: none)");
+  Option("--imu-bias-seconds", cmd_.read.imu_bias_seconds,
+         "The gyro's bias: the mean rate over the IMU's first this many seconds, where the robot stood still (0: "
+         "none taken off)");
+  Option("--imu-rotation-weight", lo.imu_rotation_weight,
+         "Scan-to-scan matching's pull towards the IMU's turn [1/rad]");
   Option("--odometry", cmd_.odometry,
          "Where the odometry comes from: auto, scan-line, interpolated, or none (scan-only: every scan "
          "predicted from the scans before)");

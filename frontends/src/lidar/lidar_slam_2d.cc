@@ -55,6 +55,7 @@ bool LidarSlamOptions::IsValid(std::string* why) const {
   if (!local.IsValid(&inner)) return fail("local matching: " + inner);
   if (!pose_graph.IsValid(&inner)) return fail("pose graph: " + inner);
   if (!self_check.IsValid(&inner)) return fail("self-check: " + inner);
+  if (!mask.IsValid(&inner)) return fail("body mask: " + inner);
   if (!(std::isfinite(kept_translation) && kept_translation > 0 && std::isfinite(kept_rotation_deg) &&
         kept_rotation_deg > 0)) {
     return fail("kept_translation and kept_rotation_deg must be finite and positive");
@@ -90,10 +91,16 @@ std::string LidarSlamReport::Summary(int threads) const {
   if (scan_only > 0) {
     out << scan_only << " scans without odometry: " << scan_to_scan
         << " predicted by scan-to-scan matching, the others by constant velocity (" << widened
-        << " searched again wider); ";
+        << " searched again wider)";
+    if (imu_turns > 0) out << ", " << imu_turns << " turned by the IMU";
+    out << "; ";
   }
   out << untrusted << " scans below the match probability took the prediction";
   if (untrusted_scan_only > 0) out << " (" << untrusted_scan_only << " of them without odometry)";
+  if (masked_beams > 0) {
+    out << "; the body mask made " << masked_beams << " returns no return ("
+        << Fixed(static_cast<double>(masked_beams) / static_cast<double>(n), 1) << " per scan)";
+  }
   out << "\n"
       << "  branch and bound "
       << Fixed(graph.searches > 0 ? 1e3 * graph.search_seconds / static_cast<double>(graph.searches) : 0, 2)
@@ -126,9 +133,17 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
     throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(scans_.size()) + ": " + why);
   }
   const auto t0 = std::chrono::steady_clock::now();
+  // The robot's body masked: a copy only where there is a mask.
+  LaserScan masked_copy;
+  const LaserScan* used = &scan;
+  if (!options_.mask.empty()) {
+    masked_copy = scan;
+    report_.masked_beams += static_cast<long>(ApplyBodyMask(options_.mask, &masked_copy));
+    used = &masked_copy;
+  }
   LocalScanResult r;
   try {
-    r = local_->AddScan(scan);
+    r = local_->AddScan(*used);
   } catch (const std::exception& e) {
     failed_ = e.what();
     throw;
@@ -140,13 +155,14 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
   report_.untrusted_scan_only += r.matched && !r.trusted && r.scan_only;
   report_.scan_only += r.scan_only;
   report_.widened += r.widened;
+  report_.imu_turns += r.imu_turn;
   const auto tg = std::chrono::steady_clock::now();
   graph_->AddScan(r.pose, std::move(r.matching), r.inserted_into);
   report_.graph_seconds += SecondsSince(tg);
   ScanRecord record;
   record.stamp = scan.stamp;
   record.laser_in_robot = scan.laser_in_robot;
-  record.points = ScanToPoints(scan, options_.local.limits);
+  record.points = ScanToPoints(*used, options_.local.limits);
   scans_.push_back(std::move(record));
   report_.total_seconds += SecondsSince(t0);
 }

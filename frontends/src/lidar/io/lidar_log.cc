@@ -33,6 +33,9 @@ bool LidarReadOptions::IsValid(std::string* why) const {
   }
   if (!(flaser_fov > 0) || !(flaser_fov <= 2 * M_PI)) return fail("flaser_fov must be in (0, 2 pi] radians");
   if (scan_topic.empty() || odom_topic.empty()) return fail("empty topic name");
+  if (!(std::isfinite(imu_bias_seconds) && imu_bias_seconds >= 0)) {
+    return fail("imu_bias_seconds must be finite and not negative (0: no bias taken off)");
+  }
   return true;
 }
 
@@ -80,6 +83,10 @@ LidarLog ReadLidarLog(const std::string& path, const LidarReadOptions& options) 
   CheckReadOptions(options);
   LogFormat format = options.format;
   if (format == LogFormat::kAuto) format = DetectLogFormat(path);
+  if (format == LogFormat::kCarmen && !options.imu_topic.empty()) {
+    throw InvalidArgument(path + ": an IMU topic (" + options.imu_topic +
+                          ") is for ROS bags; a CARMEN log has no IMU messages");
+  }
   LidarLog log = format == LogFormat::kRosBag ? ReadRosBag(path, options) : ReadCarmenLog(path, options);
   return log;
 }
@@ -102,6 +109,7 @@ void FinishLog(const LidarReadOptions& options, LidarLog* log) {
                      limits + "; nothing can be mapped");
   }
   AttachOdometry(log->path, options.odometry, log);
+  AttachImuYaw(options.imu_bias_seconds, log);
   log->odometry.Sorted();  // sorted now, so that later const calls change nothing
 }
 

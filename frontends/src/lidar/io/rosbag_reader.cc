@@ -9,12 +9,14 @@
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/registry.h"
 
 #ifdef TETHER_HAVE_ROSBAG
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
 #include <sensor_msgs/LaserScan.h>
 #endif
 
@@ -160,10 +162,17 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
   std::string laser_frame;
   long index = 0;
   try {
-    const std::vector<std::string> topics = {options.scan_topic, options.odom_topic, "/tf_static"};
+    std::vector<std::string> topics = {options.scan_topic, options.odom_topic, "/tf_static"};
+    if (!options.imu_topic.empty()) topics.push_back(options.imu_topic);
     rosbag::View view(bag, rosbag::TopicQuery(topics));
-    bool scan_topic_seen = false;
+    bool scan_topic_seen = false, imu_topic_seen = false;
     for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+      if (!options.imu_topic.empty() && c->topic == options.imu_topic) {
+        imu_topic_seen = true;
+        if (c->datatype != "sensor_msgs/Imu") {
+          throw ParseError(path + ": topic " + options.imu_topic + " holds " + c->datatype + ", not sensor_msgs/Imu");
+        }
+      }
       if (c->topic == options.scan_topic) {
         scan_topic_seen = true;
         if (c->datatype != "sensor_msgs/LaserScan") {
@@ -175,12 +184,13 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
         throw ParseError(path + ": topic " + options.odom_topic + " holds " + c->datatype + ", not nav_msgs/Odometry");
       }
     }
-    if (!scan_topic_seen) {
+    if (!scan_topic_seen || (!options.imu_topic.empty() && !imu_topic_seen)) {
       std::string have;
       rosbag::View all(bag);
       for (const rosbag::ConnectionInfo* c : all.getConnections()) have += " " + c->topic + " (" + c->datatype + ")";
-      throw ParseError(path + ": no topic " + options.scan_topic + "; the bag has" + (have.empty() ? " none" : have) +
-                       "; choose the scan topic");
+      const bool scan = !scan_topic_seen;
+      throw ParseError(path + ": no topic " + (scan ? options.scan_topic : options.imu_topic) + "; the bag has" +
+                       (have.empty() ? " none" : have) + (scan ? "; choose the scan topic" : "; choose the IMU topic"));
     }
     std::vector<std::pair<long, rosbag::MessageInstance>> statics;
     for (const rosbag::MessageInstance& m : view) {
@@ -216,6 +226,17 @@ LidarLog ReadRosBag(const std::string& path, const LidarReadOptions& options) {
         if (why.empty()) why = StampProblem(msg->header.stamp.toSec());
         if (!why.empty()) throw ParseError(MessageWhere(path, index, m.getTopic()) + why);
         log.odometry.Add(msg->header.stamp.toSec(), SE2<double>(p.x, p.y, yaw));
+      } else if (!options.imu_topic.empty() && m.getTopic() == options.imu_topic) {
+        const sensor_msgs::Imu::ConstPtr msg = m.instantiate<sensor_msgs::Imu>();
+        if (!msg) throw ParseError(MessageWhere(path, index, m.getTopic()) + "not a sensor_msgs/Imu");
+        const double stamp = msg->header.stamp.toSec();
+        std::string why = StampProblem(stamp);
+        // A gyro reads a few rad/s at most; beyond 1000 rad/s a message is damaged.
+        if (why.empty() && !(std::abs(msg->angular_velocity.z) <= 1000)) {
+          why = "angular_velocity.z " + FormatDouble(msg->angular_velocity.z) + " rad/s is not finite or beyond 1000";
+        }
+        if (!why.empty()) throw ParseError(MessageWhere(path, index, m.getTopic()) + why);
+        log.imu.samples.push_back(ImuSample{stamp, msg->angular_velocity.z});
       } else {
         statics.emplace_back(index, m);
       }

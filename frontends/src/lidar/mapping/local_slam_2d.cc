@@ -48,10 +48,12 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
     }
   }
   for (double v : {weak_prediction_linear_window, weak_prediction_angular_window, weak_prediction_translation_weight,
-                   scan_to_scan_translation_weight}) {
+                   scan_to_scan_translation_weight, imu_rotation_weight}) {
     if (!(std::isfinite(v) && v >= 0)) {
       if (why != nullptr) {
-        *why = "the weak_prediction_* options and scan_to_scan_translation_weight must be finite and not negative";
+        *why =
+            "the weak_prediction_* options, scan_to_scan_translation_weight and imu_rotation_weight must be finite and "
+            "not negative";
       }
       return false;
     }
@@ -95,11 +97,19 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
       // Constant motion per scan, then the motion from the scan before by scan-to-scan
       // matching from it and from no motion.
       result.predicted = ConstantVelocity();
+      const SE2d& last = trajectory_.back().pose;
+      // The IMU's turn since the scan before, where both have a heading.
+      result.imu_turn = scan.has_imu_yaw && last_has_imu_yaw_;
+      const double turn = result.imu_turn ? scan.imu_yaw - last_imu_yaw_ : 0;
+      ScanToScanOptions s2s = options_.scan_to_scan_options;
+      if (result.imu_turn) {
+        const SE2d motion = last.Inverse() * result.predicted;
+        result.predicted = last * SE2d(motion.x(), motion.y(), turn);
+        s2s.guess_rotation_weight = std::max(s2s.guess_rotation_weight, options_.imu_rotation_weight);
+      }
       if (options_.scan_to_scan && !last_points_.empty() && !points.empty()) {
-        const SE2d& last = trajectory_.back().pose;
-        const ScanToScanMatch moving =
-            MatchScanToScan(last_points_, points, last.Inverse() * result.predicted, options_.scan_to_scan_options);
-        const ScanToScanMatch still = MatchScanToScan(last_points_, points, SE2d(), options_.scan_to_scan_options);
+        const ScanToScanMatch moving = MatchScanToScan(last_points_, points, last.Inverse() * result.predicted, s2s);
+        const ScanToScanMatch still = MatchScanToScan(last_points_, points, SE2d(0, 0, turn), s2s);
         // Constant motion unless no motion pairs clearly more points (10%): along a corridor
         // both pair alike and the scans cannot tell (aces 62-80 s: taking no motion there, local
         // SLAM stalled while the robot drove on).
@@ -120,6 +130,8 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   result.scan_to_scan_seconds = SecondsSince(t0);
   last_odometry_ = scan.odometry;
   last_has_odometry_ = has_odometry;
+  last_imu_yaw_ = scan.imu_yaw;
+  last_has_imu_yaw_ = scan.has_imu_yaw;
   result.pose = result.predicted;
   // A scan-only scan whose prediction is constant velocity alone (no scan-to-scan match).
   const bool weak_prediction = result.scan_only && !result.scan_to_scan;

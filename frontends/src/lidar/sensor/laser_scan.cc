@@ -75,6 +75,10 @@ std::string ScanProblem(const LaserScan& s) {
     const std::string why = PoseProblem(p->x(), p->y(), p->theta());
     if (!why.empty()) return (p == &s.odometry ? "odometry: " : "the laser's pose on the robot: ") + why;
   }
+  if (s.has_imu_yaw && !(std::abs(s.imu_yaw) <= scan_bounds::kMaxHeading)) {
+    return "the IMU's heading " + FormatDouble(s.imu_yaw) + " rad is not finite or beyond " +
+           FormatDouble(scan_bounds::kMaxHeading) + " rad";
+  }
   return "";
 }
 

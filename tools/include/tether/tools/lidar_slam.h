@@ -39,6 +39,13 @@ struct LidarCommand {
   /// A true trajectory (TUM text, as `tether simulate lidar --truth` writes it): the absolute
   /// trajectory error of the result against it is printed (poses matched by stamp).
   std::string ground_truth;
+  /// The class of scanner whose settings (lidar::ForSensor) fill every option the command line
+  /// did not give: auto (chosen from the log's scans, lidar::ChooseSensor), lds, sick or hokuyo.
+  std::string sensor = "auto";
+  /// The flags given on the command line ("--min-range", ...): a preset leaves their values.
+  std::vector<std::string> given;
+  /// The body mask's sectors, "a:b[,c:d]" in degrees (lidar::ParseAngleSectors); empty: none.
+  std::string mask_angles;
   long progress_every = 2000;  ///< scans between progress lines (0: none)
   bool quiet = false;
 };

@@ -28,6 +28,7 @@
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/mapping/local_slam_2d.h"
 #include "tether/frontends/lidar/mapping/pose_graph_2d.h"
+#include "tether/frontends/lidar/sensor/body_mask.h"
 #include "tether/frontends/lidar/sensor/laser_scan.h"
 
 namespace tether {
@@ -37,6 +38,9 @@ struct LidarSlamOptions {
   LocalSlamOptions local;       ///< local SLAM; local.limits also bound the final map's points
   PoseGraphOptions pose_graph;  ///< loop closures and the smoother (threads: the machine's cores)
   SelfCheckOptions self_check;
+  /// The robot's own body: beams shorter than mask.min_range or in mask.sectors are no return
+  /// in every scan, before matching and before any map (body_mask.h). Empty by default.
+  BodyMask mask;
   /// A loop closure counts as kept by the solution where the final poses violate it by less
   /// than this (m, degrees).
   double kept_translation = 0.2;
@@ -63,6 +67,8 @@ struct LidarSlamReport {
   long scan_only = 0;     ///< scans without odometry
   long scan_to_scan = 0;  ///< of those, predicted by scan-to-scan matching (the others: constant velocity)
   long widened = 0;       ///< scan-only scans searched again with the weak-prediction window
+  long imu_turns = 0;     ///< scan-only scans whose prediction turned by the IMU
+  long masked_beams = 0;  ///< valid beams the body mask made no return (LidarSlamOptions::mask)
   /// Matched scans below the match probability: they took the prediction (odometry's or
   /// scan-to-scan's; a scan with only constant velocity keeps its match).
   long untrusted = 0;

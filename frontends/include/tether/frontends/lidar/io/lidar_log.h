@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tether/core/enum_names.h"
+#include "tether/frontends/lidar/sensor/imu_yaw.h"
 #include "tether/frontends/lidar/sensor/laser_scan.h"
 #include "tether/frontends/lidar/sensor/odometry_track.h"
 
@@ -55,9 +56,17 @@ struct LidarReadOptions {
   /// Bags: the topics.
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
+  /// Bags: a sensor_msgs/Imu topic whose yaw rate (angular_velocity.z) gives each scan's
+  /// imu_yaw (imu_yaw.h); empty: none read. A topic not in the bag is an error; so is one given
+  /// for a CARMEN log (it has no IMU messages).
+  std::string imu_topic;
+  /// The gyro's bias: the mean rate over the IMU's first this many seconds where the robot
+  /// stood still then (0: none taken off).
+  double imu_bias_seconds = 1;
 
   /// False (and why) for negative or non-finite limits, a minimum not below the maximum, a
-  /// non-positive FLASER range or field of view, an empty topic.
+  /// non-positive FLASER range or field of view, an empty scan or odometry topic, a negative or
+  /// non-finite imu_bias_seconds.
   bool IsValid(std::string* why) const;
 };
 
@@ -66,6 +75,7 @@ struct LidarLog {
   LogFormat format = LogFormat::kAuto;  ///< the format it was read as
   std::vector<LaserScan> scans;         ///< in the order of the source (not sorted by time)
   OdometryTrack odometry;               ///< every odometry message / ODOM line
+  ImuTrack imu;                         ///< the IMU's messages (LidarReadOptions::imu_topic)
   /// Scans whose odometry was clamped to the first or last odometry message.
   std::size_t clamped_odometry = 0;
 };
@@ -95,8 +105,8 @@ void AttachOdometry(const std::string& path, OdometrySource source, LidarLog* lo
 /// Throws InvalidArgument "lidar reader: <IsValid's why>" (each reader calls it first).
 void CheckReadOptions(const LidarReadOptions& options);
 
-/// Each reader's last step: puts `options.limits` on every scan and attaches the odometry
-/// (AttachOdometry with log->path).
+/// Each reader's last step: puts `options.limits` on every scan, attaches the odometry
+/// (AttachOdometry with log->path) and the IMU's headings (AttachImuYaw).
 void FinishLog(const LidarReadOptions& options, LidarLog* log);
 
 }  // namespace lidar

@@ -1,7 +1,8 @@
 #pragma once
 // ROS 1 bags: sensor_msgs/LaserScan on options.scan_topic, nav_msgs/Odometry on
 // options.odom_topic (its pose as the robot's odometry pose; the yaw of its quaternion), and the
-// robot -> laser transform from /tf_static where one is there. Read with Debian's
+// robot -> laser transform from /tf_static where one is there; sensor_msgs/Imu on
+// options.imu_topic where one is named (its angular_velocity.z, imu_yaw.h). Read with Debian's
 // librosbag-storage-dev; a build without it (TETHER_WITH_ROSBAG=OFF) throws InvalidArgument.
 #include <string>
 

@@ -87,6 +87,14 @@ struct LocalSlamOptions {
   /// RESULTS.md, "LiDAR X"): 5 against 2: aces (800 scans) 0.0777 -> 0.0478 m, Intel (3000)
   /// 0.389 -> 0.149 m, fr079 (1500) 0.0336 -> 0.0353 m; 10 gives the same as 5.
   double scan_to_scan_translation_weight = 5;
+  /// Scan-only scans whose scan and the one before carry an IMU heading (LaserScan::imu_yaw):
+  /// the turn between them is the prediction's rotation (constant motion keeps only its
+  /// translation), the scan-to-scan match starts from it (both guesses) and is pulled towards
+  /// it with this weight (1/rad, in place of scan_to_scan_options.guess_rotation_weight where
+  /// larger: 20 against a pair's 1/m, so a few hundred pairs along walls still correct a
+  /// gyro's drift, while a room without corners keeps the gyro's turn). Scans with odometry
+  /// do not use it.
+  double imu_rotation_weight = 20;
   bool IsValid(std::string* why) const;
 };
 
@@ -106,6 +114,8 @@ struct LocalScanResult {
   bool scan_only = false;
   /// The prediction came from a scan-to-scan match (scan-only scans).
   bool scan_to_scan = false;
+  /// The prediction's rotation came from the IMU (scan-only scans with an IMU heading).
+  bool imu_turn = false;
   /// Searched a second time with the weak-prediction window (scan-only scans).
   bool widened = false;
   bool inserted = false;          ///< inserted into the submaps (the motion filter let it through)
@@ -145,6 +155,8 @@ class LocalSlam2D {
   std::vector<Eigen::Vector2d> last_points_;  ///< the last scan with points, its robot frame
   SE2d last_odometry_;
   bool last_has_odometry_ = false;
+  double last_imu_yaw_ = 0;
+  bool last_has_imu_yaw_ = false;
   bool inserted_any_ = false;
   StampedPose2 last_inserted_;
 };

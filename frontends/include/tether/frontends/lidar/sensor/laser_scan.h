@@ -48,6 +48,11 @@ struct LaserScan {
   SE2<double> laser_in_robot;
   /// Line number in the CARMEN log (1-based), or message index in the bag; for messages.
   long source_index = 0;
+  /// The robot's heading by an IMU's yaw rate integrated up to `stamp` (radians, from the IMU's
+  /// first message, the gyro's bias taken off; imu_yaw.h), where the log has one over the scan's
+  /// time (`has_imu_yaw`). Only differences between scans are used: the turn between them.
+  double imu_yaw = 0;
+  bool has_imu_yaw = false;
 
   /// The angle of beam i.
   double Angle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
