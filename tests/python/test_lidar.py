@@ -93,7 +93,7 @@ def test_bad_scans_raise():
 def test_submaps_and_searches_by_distance():
     options = tether.lidar.LidarSlamOptions()
     assert options.max_submap_travel == pytest.approx(30)
-    assert options.search_every_metres == pytest.approx(2)
+    assert options.search_every_metres == pytest.approx(3)
     options.max_submap_travel = 12.5
     options.search_every_metres = 0
     assert options.max_submap_travel == 12.5 and options.search_every_metres == 0
