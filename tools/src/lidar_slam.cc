@@ -373,6 +373,9 @@ void LidarCli::AddMatchingOptions(CLI::App* sub) {
   Option("--still-angle", lo.still_angle, "Local matching: see --still-distance [rad]");
   Option("--weak-window", lo.weak_prediction_linear_window,
          "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
+  Option("--degenerate-information", lo.scan_to_scan_options.degenerate_information,
+         "Scan-only scans: a direction of translation the scan-to-scan match sees less than this many "
+         "pairs' worth of keeps the predicted motion, there and in the submap match (0: off)");
   Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
   Option("--odometry", cmd_.odometry,
          "Where the odometry comes from: auto, scan-line, interpolated, or none (scan-only: every scan "
