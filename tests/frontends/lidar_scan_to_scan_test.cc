@@ -82,14 +82,18 @@ TEST(DegenerateTranslations, FindsTheDirectionsTheInformationLacks) {
 TEST(ScanToScan, RecoversTheMotionWhereTheScansSeeIt) {
   const std::vector<Segment> walls = testing::RoomWithBoxes();
   const SE2d a(12, 9, 0.3), b = a * SE2d(0.2, -0.05, 0.04);
-  const ScanToScanMatch m = MatchScanToScan(Scan(walls, a), Scan(walls, b), SE2d(0.1, 0, 0));
-  ASSERT_TRUE(m.ok);
-  const SE2d truth = a.Inverse() * b;
-  EXPECT_NEAR(m.motion.x(), truth.x(), 0.005);
-  EXPECT_NEAR(m.motion.y(), truth.y(), 0.005);
-  EXPECT_NEAR(m.motion.theta(), truth.theta(), 0.002);
-  EXPECT_GT(SmallestTranslationInformation(m.information), 20);
-  EXPECT_TRUE(DegenerateTranslations(m.information, 5).isZero());
+  for (double radius : {0.0, 0.2}) {
+    ScanToScanOptions options;
+    options.normal_radius = radius;
+    const ScanToScanMatch m = MatchScanToScan(Scan(walls, a), Scan(walls, b), SE2d(0.1, 0, 0), options);
+    ASSERT_TRUE(m.ok) << radius;
+    const SE2d truth = a.Inverse() * b;
+    EXPECT_NEAR(m.motion.x(), truth.x(), 0.005) << radius;
+    EXPECT_NEAR(m.motion.y(), truth.y(), 0.005) << radius;
+    EXPECT_NEAR(m.motion.theta(), truth.theta(), 0.002) << radius;
+    EXPECT_GT(SmallestTranslationInformation(m.information), 20) << radius;
+    EXPECT_TRUE(DegenerateTranslations(m.information, 5).isZero()) << radius;
+  }
 }
 
 TEST(ScanToScan, FittedLinesDoNotInventInformationAlongANoisyCorridor) {
@@ -102,7 +106,9 @@ TEST(ScanToScan, FittedLinesDoNotInventInformationAlongANoisyCorridor) {
   ScanToScanOptions neighbours;
   neighbours.normal_radius = 0;
   const ScanToScanMatch two = MatchScanToScan(pa, pb, SE2d(0.1, 0, 0), neighbours);
-  const ScanToScanMatch fitted = MatchScanToScan(pa, pb, SE2d(0.1, 0, 0));
+  ScanToScanOptions fit;
+  fit.normal_radius = 0.2;
+  const ScanToScanMatch fitted = MatchScanToScan(pa, pb, SE2d(0.1, 0, 0), fit);
   ASSERT_TRUE(two.ok);
   ASSERT_TRUE(fitted.ok);
   const double seen_two = SmallestTranslationInformation(two.information);
@@ -119,6 +125,7 @@ TEST(ScanToScan, AlongACorridorTheUnseenDirectionKeepsTheGuess) {
   const std::vector<Eigen::Vector2d> pa = Scan(Corridor(), a, 0.005, 3), pb = Scan(Corridor(), b, 0.005, 4);
   const SE2d truth = a.Inverse() * b;
   ScanToScanOptions options;
+  options.normal_radius = 0.2;
   options.degenerate_information = 5;
   // A guess 8 cm short along the corridor (in the first scan's frame, nearly its x) and off
   // across it and in the turn.
@@ -194,9 +201,10 @@ TEST(LocalSlam2DCorridor, WithoutOdometryTheUnseenDirectionKeepsTheMotion) {
   // submap's own scans were taken and local SLAM stalls: the last pose lies metres behind.
   // With it, the motion learnt while the wall behind was in range carries on.
   LocalSlamOptions off;
+  off.scan_to_scan_options.normal_radius = 0.2;
   const double stalled = CorridorDriveError(off, 0.1, 200);
   EXPECT_LT(stalled, -5);
-  LocalSlamOptions on;
+  LocalSlamOptions on = off;
   on.scan_to_scan_options.degenerate_information = 5;
   const double held = CorridorDriveError(on, 0.1, 200);
   EXPECT_LT(std::abs(held), 0.5);

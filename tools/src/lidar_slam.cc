@@ -373,9 +373,13 @@ void LidarCli::AddMatchingOptions(CLI::App* sub) {
   Option("--still-angle", lo.still_angle, "Local matching: see --still-distance [rad]");
   Option("--weak-window", lo.weak_prediction_linear_window,
          "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
+  Option("--line-radius", lo.scan_to_scan_options.normal_radius,
+         "Scan-only scans: scan-to-scan matching fits each point's line to its neighbours within this [m] "
+         "(0: the line through the next point each way)");
   Option("--degenerate-information", lo.scan_to_scan_options.degenerate_information,
          "Scan-only scans: a direction of translation the scan-to-scan match sees less than this many "
-         "pairs' worth of keeps the predicted motion, there and in the submap match (0: off)");
+         "pairs' worth of keeps the predicted motion, there and in the submap match (0: off; needs "
+         "--line-radius)");
   Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
   Option("--odometry", cmd_.odometry,
          "Where the odometry comes from: auto, scan-line, interpolated, or none (scan-only: every scan "

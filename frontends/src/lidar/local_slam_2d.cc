@@ -167,7 +167,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
       // Along what the scan-to-scan match did not see, the submap sees no more (the same
       // points): the match keeps the prediction's translation there, so that neither the
       // submap's preference for its own scans' poses nor its ripples move the pose along a
-      // corridor (ScanToScanOptions::degenerate_information).
+      // corridor (ScanToScanOptions::degenerate_information; off by default).
       refined = SE2d(SO2d(refined.theta()),
                      refined.translation() - degenerate * (refined.translation() - result.predicted.translation()));
     }

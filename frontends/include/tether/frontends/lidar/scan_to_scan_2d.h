@@ -6,17 +6,18 @@
 // submap's hits lie where its own scans' beams ended, so a new scan scores a little higher at
 // the pose those scans were taken from than at its own, and with no odometry to say the robot
 // moved, the match stays behind. Between two scans there is no such bias: each point of the
-// new scan is paired with the line through its nearest point of the scan before (the line
-// fitted to that point's neighbours in beam order within normal_radius), and the motion
-// minimises the robust point-to-line distances, with a weak pull towards the guess so that a
-// corridor (where the motion along it is not seen) keeps the guess's motion along it.
+// new scan is paired with the line through its nearest point of the scan before and that
+// point's neighbours in beam order (or the line fitted to the neighbours within
+// normal_radius), and the motion minimises the robust point-to-line distances, with a weak
+// pull towards the guess so that a corridor (where the motion along it is not seen) keeps the
+// guess's motion along it.
 //
-// The lines are fitted over 0.2 m, not drawn through the next point each way: near the robot
-// those lie 1-3 cm apart, and a range noise of 1 cm tilts such a line by tens of degrees, so
-// that the pairs of a corridor's walls seem to see along it (aces without odometry: 12-27 of
-// 150 pairs' worth against 2-3 with fitted lines) and the match settles wherever the noise
-// puts it. The pairs' normal equations (`information`) then say what a match saw, and
-// DegenerateTranslations what it did not (benchmarks/RESULTS.md, "LiDAR XI").
+// Near the robot the next points each way lie 1-3 cm apart, and a range noise of 1 cm tilts the
+// line through them by tens of degrees: the pairs of a corridor's walls seem to see along it
+// (aces without odometry: 12-27 of 150 pairs' worth, against 2-3 with lines fitted over 0.2 m).
+// The pairs' normal equations (`information`) say what a match saw, and DegenerateTranslations
+// what it did not; both mean something only with fitted lines (benchmarks/RESULTS.md,
+// "LiDAR XI").
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -33,9 +34,12 @@ struct ScanToScanOptions {
   double final_pair_distance = 0.2;
   /// Neighbours in beam order farther apart than this do not make a line (m).
   double max_neighbour_gap = 0.3;
-  /// A point's line: fitted to its neighbours in beam order within this distance (m); 0: the
-  /// line through the next point each way.
-  double normal_radius = 0.2;
+  /// A point's line: fitted to its neighbours in beam order within this distance (m); 0 (the
+  /// default): the line through the next point each way. Without odometry, 0.2 against 0:
+  /// aces 1.40 m against 1.66 m, the simulated office 0.011 m against 0.021 m, Intel 0.0160 m
+  /// against 0.0161 m, fr079 0.0319 m both, but Intel with a low-cost scanner 0.0456 m against
+  /// 0.0416 m (benchmarks/RESULTS.md, "LiDAR XI"); with odometry the match is not used.
+  double normal_radius = 0;
   /// Huber on the point-to-line distance (m).
   double huber = 0.03;
   /// The pull towards the guess: weights (1/m, 1/rad) on the motion's difference from it,
@@ -45,7 +49,8 @@ struct ScanToScanOptions {
   /// Degeneracy (pairs): a direction of translation whose information from the pairs (the
   /// rotation marginalised; each pair adds at most its normal's square) is below this keeps
   /// the guess's motion exactly (a stiff pull along it), and local SLAM keeps the prediction's
-  /// translation along it in the submap match too. 0: off (the default). In a simulated
+  /// translation along it in the submap match too. 0: off (the default); it needs fitted lines
+  /// (normal_radius), or the noise hides every degenerate direction. In a simulated
   /// featureless corridor 5 holds a scan-only run to 0.24 m over 14 m where without it local
   /// SLAM stalls (14 m behind); on aces it also carries the pose on where the robot stops in a
   /// corridor, and the short relations get worse (benchmarks/RESULTS.md, "LiDAR XI").
