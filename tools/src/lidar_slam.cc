@@ -349,6 +349,7 @@ class LidarCli : public Command {
     app_->add_option(name, value, help)->capture_default_str();
   }
   void AddMatchingOptions(CLI::App* sub);
+  void AddSensorOptions(CLI::App* sub);
   LidarCommand cmd_;
 };
 
@@ -399,7 +400,7 @@ void LidarCli::Add(CLI::App& app) {
   AddMatchingOptions(sub);
 }
 
-// Loop-closure search, local matching, reading and the checks.
+// Loop-closure search and local matching.
 void LidarCli::AddMatchingOptions(CLI::App* sub) {
   lidar::LocalSlamOptions& lo = cmd_.options.local;
   lidar::PoseGraphOptions& po = cmd_.options.pose_graph;
@@ -439,6 +440,19 @@ void LidarCli::AddMatchingOptions(CLI::App* sub) {
   Option("--still-angle", lo.still_angle, "Local matching: see --still-distance [rad]");
   Option("--weak-window", lo.weak_prediction_linear_window,
          "Scan-only scans (no odometry): a weak first match is searched again +- this far [m]");
+  Option("--line-radius", lo.scan_to_scan_options.normal_radius,
+         "Scan-only scans: scan-to-scan matching fits each point's line to its neighbours within this [m] "
+         "(0: the line through the next point each way)");
+  Option("--degenerate-information", lo.scan_to_scan_options.degenerate_information,
+         "Scan-only scans: a direction of translation the scan-to-scan match sees less than this many "
+         "pairs' worth of keeps the predicted motion, there and in the submap match (0: off; needs "
+         "--line-radius)");
+  AddSensorOptions(sub);
+}
+
+// The scanner, its mounting and body, the IMU, reading the log and the checks.
+void LidarCli::AddSensorOptions(CLI::App* sub) {
+  lidar::LocalSlamOptions& lo = cmd_.options.local;
   Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
   sub->add_option("--min-range", cmd_.options.mask.min_range,
                   "The robot's body: returns nearer than this are dropped before matching and mapping [m] (0: none; "

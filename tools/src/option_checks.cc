@@ -97,6 +97,8 @@ const OptionRange kRanges[] = {
     {"lidar", "--still-distance", 0, 100},
     {"lidar", "--still-angle", 0, kPi},
     {"lidar", "--weak-window", 0, 100},
+    {"lidar", "--line-radius", 0, 100},
+    {"lidar", "--degenerate-information", 0, 1e6},
     {"lidar", "--max-range", 0, 1000},
     {"lidar", "--min-range", 0, 1000},
     {"lidar", "--imu-bias-seconds", 0, 1e6},

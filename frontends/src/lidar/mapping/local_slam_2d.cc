@@ -89,6 +89,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
   for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
   auto t0 = std::chrono::steady_clock::now();
+  Eigen::Matrix2d degenerate = Eigen::Matrix2d::Zero();
   if (trajectory_.empty()) {
     result.predicted = has_odometry ? scan.odometry : SE2d();
   } else {
@@ -118,6 +119,9 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
         if (m.ok) {
           result.predicted = last * m.motion;
           result.scan_to_scan = true;
+          // What the match did not see, in the map frame (from the previous scan's).
+          const Eigen::Matrix2d r = last.rotation().matrix();
+          degenerate = r * m.degenerate * r.transpose();
         }
       }
     } else if (last_has_odometry_) {
@@ -168,9 +172,17 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     t0 = std::chrono::steady_clock::now();
     // The refinement's regularisers pull towards the prediction, or, where the prediction was
     // too weak to search around, towards the wide search's best.
-    const SE2d refined =
+    SE2d refined =
         RefineScanPose(target->grid(), start, result.widened ? start : result.predicted, matching, options_.refiner)
             .pose;
+    if (!degenerate.isZero()) {
+      // Along what the scan-to-scan match did not see, the submap sees no more (the same
+      // points): the match keeps the prediction's translation there, so that neither the
+      // submap's preference for its own scans' poses nor its ripples move the pose along a
+      // corridor (ScanToScanOptions::degenerate_information; off by default).
+      refined = SE2d(SO2d(refined.theta()),
+                     refined.translation() - degenerate * (refined.translation() - result.predicted.translation()));
+    }
     result.refine_seconds = SecondsSince(t0);
     result.matched = true;
     result.match_probability =

@@ -25,6 +25,11 @@ bool ScanToScanOptions::IsValid(std::string* why) const {
         std::isfinite(guess_rotation_weight) && guess_rotation_weight >= 0)) {
     return fail("the guess weights must be finite and not negative");
   }
+  if (!(std::isfinite(normal_radius) && normal_radius >= 0))
+    return fail("normal_radius must be finite and not negative");
+  if (!(std::isfinite(degenerate_information) && degenerate_information >= 0)) {
+    return fail("degenerate_information must be finite and not negative");
+  }
   if (min_pairs < 3) return fail("min_pairs must be at least 3");
   return true;
 }
@@ -35,16 +40,34 @@ namespace {
 // neighbour in beam order lies near enough), hashed by cells of the pair distance.
 class LineTargets {
  public:
-  LineTargets(const std::vector<Eigen::Vector2d>& points, double max_gap, double cell)
+  LineTargets(const std::vector<Eigen::Vector2d>& points, double max_gap, double radius, double cell)
       : points_(points), normals_(points.size(), Eigen::Vector2d::Zero()), cell_(cell) {
     const std::size_t n = points.size();
     for (std::size_t i = 0; i < n; ++i) {
-      const bool has_before = i > 0 && (points[i - 1] - points[i]).norm() <= max_gap;
-      const bool has_after = i + 1 < n && (points[i + 1] - points[i]).norm() <= max_gap;
-      if (!has_before && !has_after) continue;
-      const Eigen::Vector2d a = has_before ? points[i - 1] : points[i];
-      const Eigen::Vector2d b = has_after ? points[i + 1] : points[i];
-      const Eigen::Vector2d d = b - a;
+      // The run of neighbours in beam order around i, each step within max_gap, within radius
+      // of point i (at least the next one each way).
+      std::size_t lo = i, hi = i;
+      while (lo > 0 && (points[lo - 1] - points[lo]).norm() <= max_gap &&
+             (lo == i || (points[lo - 1] - points[i]).norm() <= radius)) {
+        --lo;
+      }
+      while (hi + 1 < n && (points[hi + 1] - points[hi]).norm() <= max_gap &&
+             (hi == i || (points[hi + 1] - points[i]).norm() <= radius)) {
+        ++hi;
+      }
+      if (lo == hi) continue;
+      Eigen::Vector2d d;
+      if (hi - lo == 1 || radius == 0) {
+        d = points[hi] - points[lo];
+      } else {
+        Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+        for (std::size_t k = lo; k <= hi; ++k) mean += points[k];
+        mean /= static_cast<double>(hi - lo + 1);
+        Eigen::Matrix2d c = Eigen::Matrix2d::Zero();
+        for (std::size_t k = lo; k <= hi; ++k) c += (points[k] - mean) * (points[k] - mean).transpose();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> e(c);
+        d = e.eigenvectors().col(1);
+      }
       if (d.norm() < 1e-9) continue;
       normals_[i] = Eigen::Vector2d(-d.y(), d.x()).normalized();
       cells_[Key(points[i])].push_back(static_cast<int>(i));
@@ -93,6 +116,20 @@ class LineTargets {
 
 }  // namespace
 
+Eigen::Matrix2d DegenerateTranslations(const Eigen::Matrix3d& information, double min_information) {
+  Eigen::Matrix2d t = information.topLeftCorner<2, 2>();
+  // The rotation marginalised out: what the pairs say about the translation whatever the turn.
+  if (information(2, 2) > 0)
+    t -= information.topRightCorner<2, 1>() * information.bottomLeftCorner<1, 2>() / information(2, 2);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> e(0.5 * (t + t.transpose()));
+  Eigen::Matrix2d projector = Eigen::Matrix2d::Zero();
+  for (int i = 0; i < 2; ++i) {
+    if (!(e.eigenvalues()[i] >= min_information))
+      projector += e.eigenvectors().col(i) * e.eigenvectors().col(i).transpose();
+  }
+  return projector;
+}
+
 ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
                                 const std::vector<Eigen::Vector2d>& current, const SE2d& guess,
                                 const ScanToScanOptions& options) {
@@ -101,7 +138,7 @@ ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
   ScanToScanMatch result;
   result.motion = guess;
   if (!guess.translation().allFinite() || !std::isfinite(guess.theta())) return result;
-  const LineTargets targets(previous, options.max_neighbour_gap, options.max_pair_distance);
+  const LineTargets targets(previous, options.max_neighbour_gap, options.normal_radius, options.max_pair_distance);
   SE2d t = guess;
   for (int it = 0; it < options.max_iterations; ++it) {
     const double reach = it < options.max_iterations / 2 ? options.max_pair_distance : options.final_pair_distance;
@@ -129,6 +166,7 @@ ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
     result.iterations = it + 1;
     if (pairs < options.min_pairs) return result;
     result.rms = std::sqrt(squared / pairs);
+    result.information = h;
     // The pull towards the guess (in the parameters x, y, theta).
     const Eigen::Vector3d prior(options.guess_translation_weight, options.guess_translation_weight,
                                 options.guess_rotation_weight);
@@ -136,6 +174,13 @@ ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
     for (int a = 0; a < 3; ++a) {
       h(a, a) += prior[a] * prior[a];
       g[a] += prior[a] * prior[a] * off[a];
+    }
+    // Translations the pairs do not see keep the guess's: a stiff pull along them.
+    if (options.degenerate_information > 0) {
+      result.degenerate = DegenerateTranslations(result.information, options.degenerate_information);
+      constexpr double kStiff = 1e6;
+      h.topLeftCorner<2, 2>() += kStiff * result.degenerate;
+      g.head<2>() += kStiff * result.degenerate * off.head<2>();
     }
     const Eigen::Vector3d step = -h.ldlt().solve(g);
     if (!step.allFinite()) return result;
