@@ -14,12 +14,12 @@
 #include <vector>
 
 #include "testing/lidar_files.h"
+#include "testing/synthetic_room.h"
 #include "testing/write_bag.h"
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/io/rosbag_reader.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
-#include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {
 namespace lidar {
@@ -170,30 +170,10 @@ class RosBagImuTest : public testing::LidarFilesTest {
     LidarFilesTest::SetUp();
     if (!RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
     if (!testing::kCanWriteBags) GTEST_SKIP() << testing::kNoBagWriting;
-    std::vector<WallSegment> room;
-    for (int i = 0; i < 180; ++i) {
-      const double a = 2 * M_PI * i / 180, b = 2 * M_PI * (i + 1) / 180;
-      room.push_back({{2.5 * std::cos(a), 2.5 * std::sin(a)}, {2.5 * std::cos(b), 2.5 * std::sin(b)}});
-    }
-    for (int k = 0; k < 40; ++k) {
-      const double heading = 0.4 * std::clamp(k - 10, 0, 15);
-      truth_.push_back(heading);
-      LaserScan s;
-      s.stamp = 20 + 0.1 * k;
-      s.angle_min = -M_PI;
-      s.angle_increment = 2 * M_PI / 360;
-      s.range_min = 0.05;
-      s.range_max = 6;
-      for (int i = 0; i < 360; ++i) {
-        const double a = heading + s.Angle(static_cast<std::size_t>(i));
-        s.ranges.push_back(static_cast<float>(CastRay(room, Eigen::Vector2d::Zero(), {std::cos(a), std::sin(a)})));
-      }
-      scans_.push_back(std::move(s));
-    }
-    for (int k = 0; k <= 800; ++k) {
-      const double t = 20 + 0.005 * k;
-      imu_.push_back({t, (t > 21 + 1e-9 && t <= 22.5 + 1e-9 ? 4.0 : 0.0) + 0.01});
-    }
+    const testing::RoundRoomTurn turn = testing::TurnInARoundRoom();
+    truth_ = turn.truth;
+    scans_ = turn.scans;
+    imu_ = turn.imu;
   }
   std::vector<double> truth_;
   std::vector<LaserScan> scans_;

@@ -419,45 +419,15 @@ TEST(ImuYawTest, AHeadingOutOfBoundsIsRefused) {
   EXPECT_EQ(ScanProblem(s), "");
 }
 
-// A round room, 5 m across, walls of 180 sides: from its centre a scan looks the same at every
-// heading, so neither scan-to-scan matching nor the submap can see a turn. The robot stands 1 s, turns
-// 0.4 rad a scan (a fast turn at 10 Hz) for 15 scans, then stands again.
-std::vector<Segment> RoundRoom() {
-  std::vector<Segment> walls;
-  const int sides = 180;
-  for (int i = 0; i < sides; ++i) {
-    const double a = 2 * M_PI * i / sides, b = 2 * M_PI * (i + 1) / sides;
-    walls.push_back({{2.5 * std::cos(a), 2.5 * std::sin(a)}, {2.5 * std::cos(b), 2.5 * std::sin(b)}});
-  }
-  return walls;
-}
-
+// The robot turns fast at the centre of a round room (testing::TurnInARoundRoom): every heading
+// looks the same there, so neither scan-to-scan matching nor the submap can see the turn.
 TEST(ImuYawTest, TheGyroKeepsTheHeadingWhereTheScansCannot) {
-  const std::vector<Segment> room = RoundRoom();
-  std::vector<LaserScan> scans;
-  std::vector<double> truth;
-  for (int k = 0; k < 40; ++k) {
-    const double heading = 0.4 * std::clamp(k - 10, 0, 15);
-    truth.push_back(heading);
-    LaserScan s;
-    s.stamp = 20 + 0.1 * k;
-    s.angle_min = -M_PI;
-    s.angle_increment = 2 * M_PI / 360;
-    s.range_max = 6;
-    // At the centre: off it, the nearest wall would show the heading.
-    for (double r : testing::RayCastScan(room, SE2d(0, 0, heading), 360, s.angle_min, s.angle_increment)) {
-      s.ranges.push_back(static_cast<float>(r));
-    }
-    scans.push_back(std::move(s));
-  }
+  const testing::RoundRoomTurn turn = testing::TurnInARoundRoom();
+  const std::vector<LaserScan>& scans = turn.scans;
+  const std::vector<double>& truth = turn.truth;
   LidarLog log;
   log.scans = scans;
-  // A gyro at 200 Hz, 0.01 rad/s high, over the run.
-  for (int k = 0; k <= 4 * 200; ++k) {
-    const double t = 20 + 0.005 * k;
-    const double rate = t > 21 + 1e-9 && t <= 22.5 + 1e-9 ? 4.0 : 0.0;  // 0.4 rad in 0.1 s
-    log.imu.samples.push_back({t, rate + 0.01});
-  }
+  log.imu.samples = turn.imu;
   AttachImuYaw(1, &log);
   ASSERT_TRUE(log.imu.bias_estimated);
   LidarSlamReport report;
