@@ -47,5 +47,29 @@ std::string PngBytesRgb(int width, int height, const std::vector<std::uint8_t>& 
 /// The map_server YAML naming `image_file` (written as given: relative to the YAML's folder).
 std::string MapYaml(const OccupancyImage& image, const std::string& image_file);
 
+/// A map as map_server reads it: the image and how its pixels are told apart.
+struct MapFile {
+  OccupancyImage image;
+  /// A pixel v is p = (255 - v) / 255 (v / 255 where `negate`): occupied above occupied_thresh,
+  /// free below free_thresh, unknown between.
+  double occupied_thresh = 0.65;
+  double free_thresh = 0.196;
+  bool negate = false;
+  std::string image_path;  ///< the image file as opened (relative names resolved against the YAML's folder)
+};
+
+/// The pixels of a PGM (binary P5 or plain P2, maxval 1..255, '#' comments in the header);
+/// resolution and origin are left 0. Throws ParseError "name: what" on anything else (16-bit
+/// images, a header that does not parse, fewer pixels than the header says, an image above
+/// 2^28 pixels).
+OccupancyImage ParsePgm(const std::string& bytes, const std::string& name);
+
+/// Reads a map_server map: the YAML (`image`, `resolution`, `origin: [x, y, yaw]`, `negate`,
+/// `occupied_thresh`, `free_thresh`; other keys such as `mode` ignored) and the PGM it names.
+/// Throws IoError where a file cannot be opened and ParseError "file:line: what" on a missing
+/// or malformed key, a non-positive or non-finite resolution, thresholds outside
+/// 0 <= free < occupied <= 1, or a rotated origin (yaw other than 0: not supported).
+MapFile ReadMapYaml(const std::string& yaml_path);
+
 }  // namespace lidar
 }  // namespace tether
