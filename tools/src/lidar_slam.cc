@@ -4,12 +4,10 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
-#include <filesystem>
 #include <ostream>
 #include <sstream>
 
 #include "tether/core/error.h"
-#include "tether/core/output_file.h"
 #include "tether/core/registry.h"
 #include "tether/core/timing.h"
 #include "tether/core/trajectory_error.h"
@@ -19,6 +17,7 @@
 #include "tether/frontends/lidar/sensor/sensor_preset.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
+#include "tether/tools/folder_outputs.h"
 
 namespace tether {
 
@@ -69,8 +68,6 @@ std::string Describe(const lidar::LidarLog& log, const lidar::ScanStatistics& st
 }  // namespace
 
 namespace {
-
-namespace fs = std::filesystem;
 
 // The flags of the option fields the options' IsValid names in its messages.
 constexpr std::pair<const char*, const char*> kFieldFlags[] = {
@@ -174,43 +171,6 @@ bool ResolveLidarOptions(LidarCommand* cmd, std::ostream& err) {
   return true;
 }
 
-// The output folder (made where missing) and its files, checked before anything is read. A
-// failed run removes a folder it made (still empty then: the files are committed at the end).
-struct LidarOutputs {
-  explicit LidarOutputs(std::string folder) : dir(std::move(folder)) {}
-  int Fail(int code) const {
-    std::error_code ignored;
-    if (made && fs::is_empty(dir, ignored)) fs::remove(dir, ignored);
-    return code;
-  }
-  std::string dir;
-  bool made = false;
-  OutputSet set;
-  std::vector<OutputFile*> files;  // in LidarSlam2D::OutputNames() order
-};
-
-int PrepareLidarOutputs(const LidarCommand& cmd, LidarOutputs* o, std::ostream& err) {
-  std::error_code ec;
-  o->made = !fs::exists(o->dir, ec);
-  fs::create_directories(o->dir, ec);
-  if (ec || !fs::is_directory(o->dir)) {
-    err << "tether lidar: cannot make the output folder '" << o->dir << "' (" << ec.message()
-        << "); give a folder that can be written\n";
-    return kExitWriteFailed;
-  }
-  const int rc = CheckOutputs(
-      "lidar", o->set,
-      [&] {
-        o->set.AddInput(cmd.log);
-        if (!cmd.ground_truth.empty()) o->set.AddInput(cmd.ground_truth, "ground truth");
-        for (const lidar::LidarOutput& f : lidar::LidarSlam2D::OutputNames()) {
-          o->files.push_back(&o->set.Add((fs::path(o->dir) / f.name).string(), f.what));
-        }
-      },
-      err);
-  return rc == kExitOk ? rc : o->Fail(rc);
-}
-
 // The log (with --laser-offset applied) and the truth; kExitOk, or the exit code after saying
 // why.
 int ReadLidarInputs(const LidarCommand& cmd, lidar::LidarLog* log, std::vector<lidar::StampedPose2>* truth,
@@ -258,30 +218,14 @@ int Map(const LidarCommand& cmd, const lidar::LidarLog& log, long n, lidar::Lida
   return kExitOk;
 }
 
-// Stages the run's files and commits them all or none; kExitOk or kExitWriteFailed.
-int WriteLidarOutputs(const lidar::LidarSlam2D& slam, LidarOutputs* o, std::ostream& err) {
-  try {
-    const std::vector<lidar::LidarOutput> written = slam.Outputs();
-    for (std::size_t i = 0; i < written.size(); ++i) o->files[i]->Stage(written[i].bytes);
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "; nothing was written\n";
-    return kExitWriteFailed;
-  }
-  try {
-    o->set.CommitAll();  // all or nothing; its message says what became of the files
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitWriteFailed;
-  }
-  return kExitOk;
-}
-
 }  // namespace
 
 int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   if (!ResolveLidarOptions(&cmd, err)) return kExitUsage;
-  LidarOutputs outputs(cmd.output_dir);
-  if (const int rc = PrepareLidarOutputs(cmd, &outputs, err); rc != kExitOk) return rc;
+  FolderOutputs outputs(cmd.output_dir);
+  std::vector<std::pair<std::string, std::string>> inputs = {{cmd.log, ""}};
+  if (!cmd.ground_truth.empty()) inputs.emplace_back(cmd.ground_truth, "ground truth");
+  if (const int rc = outputs.Prepare("lidar", inputs, lidar::LidarSlam2D::OutputNames(), err); rc != kExitOk) return rc;
   lidar::LidarLog log;
   std::vector<lidar::StampedPose2> truth;
   if (const int rc = ReadLidarInputs(cmd, &log, &truth, err); rc != kExitOk) return outputs.Fail(rc);
@@ -316,17 +260,14 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
 
   lidar::LidarSlam2D slam(cmd.options);
   if (const int rc = Map(cmd, log, n, &slam, out, err); rc != kExitOk) return outputs.Fail(rc);
-  if (const int rc = WriteLidarOutputs(slam, &outputs, err); rc != kExitOk) return outputs.Fail(rc);
+  if (const int rc = outputs.Write(slam.Outputs(), err); rc != kExitOk) return outputs.Fail(rc);
   out << slam.report().Summary(cmd.options.pose_graph.threads);
   if (!cmd.ground_truth.empty()) {
     const TrajectoryError ate = lidar::StampedTrajectoryError(slam.Trajectory(), truth);
     out << "against " << cmd.ground_truth << ": absolute trajectory error (rigid alignment) " << FormatMetres(ate.rmse)
         << " RMSE, max " << FormatMetres(ate.max) << " over " << ate.poses << " poses\n";
   }
-  out << "wrote " << cmd.output_dir << "/{";
-  const std::vector<lidar::LidarOutput> names = lidar::LidarSlam2D::OutputNames();
-  for (std::size_t i = 0; i < names.size(); ++i) out << (i > 0 ? ", " : "") << names[i].name;
-  out << "}\n";
+  out << "wrote " << FolderOutputs::List(cmd.output_dir, lidar::LidarSlam2D::OutputNames()) << "\n";
   return kExitOk;
 }
 

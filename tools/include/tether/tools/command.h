@@ -74,5 +74,6 @@ std::unique_ptr<Command> MakeEkfDemoCommand();
 std::unique_ptr<Command> MakeLidarCommand();
 std::unique_ptr<Command> MakeLidarEvalCommand();
 std::unique_ptr<Command> MakeLidarDegradeCommand();
+std::unique_ptr<Command> MakeMclCommand();
 
 }  // namespace tether
