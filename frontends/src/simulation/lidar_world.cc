@@ -126,31 +126,6 @@ class Path {
 
 }  // namespace
 
-double CastRay(const std::vector<WallSegment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d) {
-  double best = INFINITY;
-  for (const WallSegment& s : walls) {
-    // origin + t d = a + u (b - a)
-    const Eigen::Vector2d e = s.b - s.a, w = s.a - origin;
-    const double den = -d.x() * e.y() + d.y() * e.x();
-    if (std::abs(den) < 1e-12) continue;
-    const double t = (-w.x() * e.y() + w.y() * e.x()) / den;
-    const double u = (d.x() * w.y() - d.y() * w.x()) / den;
-    if (t > 1e-9 && u >= 0 && u <= 1) best = std::min(best, t);
-  }
-  return best;
-}
-
-double DistanceToWalls(const std::vector<WallSegment>& walls, const Eigen::Vector2d& p) {
-  double best = INFINITY;
-  for (const WallSegment& s : walls) {
-    const Eigen::Vector2d e = s.b - s.a;
-    const double n = e.squaredNorm();
-    const double u = n > 0 ? std::clamp((p - s.a).dot(e) / n, 0.0, 1.0) : 0.0;
-    best = std::min(best, (s.a + u * e - p).norm());
-  }
-  return best;
-}
-
 bool LidarSimOptions::IsValid(std::string* why) const {
   const auto positive = [](double v) { return v > 0 && std::isfinite(v); };
   const auto noise = [](double v) { return v >= 0 && std::isfinite(v); };

@@ -32,21 +32,10 @@
 #include <vector>
 
 #include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/simulation/walls.h"
 
 namespace tether {
 namespace lidar {
-
-/// A wall from a to b (metres, world frame).
-struct WallSegment {
-  Eigen::Vector2d a, b;
-};
-
-/// The distance from `origin` along the unit direction `d` to the nearest wall (infinity where
-/// none is hit).
-double CastRay(const std::vector<WallSegment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d);
-
-/// The distance from `p` to the nearest wall.
-double DistanceToWalls(const std::vector<WallSegment>& walls, const Eigen::Vector2d& p);
 
 struct LidarSimOptions {
   int scans = 3000;                         ///< scans (at `rate`)
