@@ -8,7 +8,9 @@
 #include "testing/cli.h"
 #include "testing/lidar_files.h"
 #include "tether/frontends/lidar/io/carmen_reader.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/io/tum_trajectory.h"
+#include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {
 namespace {
@@ -96,6 +98,46 @@ TEST_F(SimulateLidarTest, Errors) {
   EXPECT_FALSE(std::ifstream(P("x.log")).good());
   // The other worlds are as they were.
   EXPECT_EQ(Tether("simulate manhattan --poses 20 -o " + P("m.g2o")).code, 0);
+}
+
+// --world maze: the maze's run, the same as SimulateLidar's; --map-out: the world's map beside it.
+using MazeSimulateLidarTest = SimulateLidarTest;
+
+TEST_F(MazeSimulateLidarTest, WritesTheMazeRunAndTheMap) {
+  CliRun r = Tether("simulate lidar --world maze --scans 120 --beams 90 --seed 4 -o " + P("m.log") + " --truth " +
+                    P("m.tum") + " --map-out " + P("m.yaml"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("the maze world (8 x 8 cells of 2 m), seed 4, 120 scans of 90 beams"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("wrote the world's map " + P("m.yaml") + " and " + P("m.pgm")), std::string::npos)
+      << r.output;
+  lidar::LidarSimOptions o;
+  o.world = lidar::LidarWorld::kMaze;
+  o.scans = 120;
+  o.beams = 90;
+  o.seed = 4;
+  const lidar::SimulatedLidar sim = lidar::SimulateLidar(o);
+  const std::vector<lidar::StampedPose2> truth = lidar::ReadTumFile(P("m.tum"));
+  ASSERT_EQ(truth.size(), 120u);
+  for (std::size_t k = 0; k < 120; ++k) {
+    EXPECT_LT((truth[k].pose.translation() - sim.truth[k].pose.translation()).norm(), 1e-6) << k;
+  }
+  const lidar::OccupancyImage map = lidar::RasterizeWalls(sim.walls, 0.05);
+  EXPECT_TRUE(Read("m.pgm") == lidar::PgmBytes(map));
+  EXPECT_EQ(Read("m.yaml"), lidar::MapYaml(map, "m.pgm"));
+  // The office's map at another resolution; a map path that is not YAML is refused.
+  ASSERT_EQ(
+      Tether("simulate lidar --scans 5 -o " + P("o.log") + " --map-out " + P("o.yml") + " --map-resolution 0.1").code,
+      0);
+  EXPECT_NE(Read("o.yml").find("resolution: 0.1"), std::string::npos);
+  EXPECT_NE(Read("o.pgm").find("\n421 321\n"), std::string::npos);  // 40 m x 30 m at 0.1 m, 10 pixels round
+  r = Tether("simulate lidar --scans 5 -o " + P("x.log") + " --map-out " + P("x.pgm"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_FALSE(std::ifstream(P("x.log")).good());
+  r = Tether("simulate lidar --scans 5 --world castle -o " + P("x.log"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  r = Tether("simulate manhattan -o " + P("x.g2o") + " --world maze");
+  EXPECT_EQ(r.code, 2) << r.output;
 }
 
 }  // namespace

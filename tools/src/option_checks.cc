@@ -28,6 +28,7 @@ const OptionRange kRanges[] = {
     {"simulate", "--poses", 1, 1e8},
     {"simulate", "--scans", 1, 1e7},
     {"simulate", "--beams", 2, 1 << 20},
+    {"simulate", "--map-resolution", 1e-3, 100},
     // check-plugin
     {"check-plugin", "--trials", 1, 1e7},
     {"check-plugin", "--tolerance", 0, 1},

@@ -84,11 +84,18 @@ class SimulateCli : public Command {
     sub->add_option("--beams", lidar_.beams, "lidar: beams over 360 degrees (default 360)");
     sub->add_flag("--no-odometry", lidar_.no_odometry, "lidar: scans without odometry");
     sub->add_option("--preset", lidar_.preset, "lidar: lds (6 m, 0.02 m noise, 5% of the beams dropped, 5 Hz)");
+    world_ =
+        AddEnumOption(sub, "--world", &lidar_.world, "lidar: the office (40 m x 30 m) or a maze (8 x 8 cells of 2 m)");
+    AddPath(sub, "--map-out", &lidar_.map_out, "lidar: write the world's map to this .yaml and the .pgm beside it");
+    map_resolution_ = sub->add_option("--map-resolution", lidar_.map_resolution, "lidar: the map's metres a pixel")
+                          ->capture_default_str();
     sub->add_flag("-q,--quiet", quiet_, "Print nothing but errors");
   }
   int Run(std::ostream& out, std::ostream& err) override {
     std::ostream none(nullptr);  // -q: the report goes nowhere
     std::ostream& report = quiet_ ? none : out;
+    lidar_.world_given = world_->count() > 0;
+    lidar_.map_resolution_given = map_resolution_->count() > 0;
     if (sim_.world == "lidar" || lidar_.Given()) return RunSimulateLidar(sim_, lidar_, report, err);
     return RunSimulate(sim_, report, err);
   }
@@ -96,6 +103,8 @@ class SimulateCli : public Command {
  private:
   SimulateCommand sim_;
   SimulateLidarCommand lidar_;
+  CLI::Option* world_ = nullptr;
+  CLI::Option* map_resolution_ = nullptr;
   bool quiet_ = false;
 };
 

@@ -126,31 +126,6 @@ class Path {
 
 }  // namespace
 
-double CastRay(const std::vector<WallSegment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d) {
-  double best = INFINITY;
-  for (const WallSegment& s : walls) {
-    // origin + t d = a + u (b - a)
-    const Eigen::Vector2d e = s.b - s.a, w = s.a - origin;
-    const double den = -d.x() * e.y() + d.y() * e.x();
-    if (std::abs(den) < 1e-12) continue;
-    const double t = (-w.x() * e.y() + w.y() * e.x()) / den;
-    const double u = (d.x() * w.y() - d.y() * w.x()) / den;
-    if (t > 1e-9 && u >= 0 && u <= 1) best = std::min(best, t);
-  }
-  return best;
-}
-
-double DistanceToWalls(const std::vector<WallSegment>& walls, const Eigen::Vector2d& p) {
-  double best = INFINITY;
-  for (const WallSegment& s : walls) {
-    const Eigen::Vector2d e = s.b - s.a;
-    const double n = e.squaredNorm();
-    const double u = n > 0 ? std::clamp((p - s.a).dot(e) / n, 0.0, 1.0) : 0.0;
-    best = std::min(best, (s.a + u * e - p).norm());
-  }
-  return best;
-}
-
 bool LidarSimOptions::IsValid(std::string* why) const {
   const auto positive = [](double v) { return v > 0 && std::isfinite(v); };
   const auto noise = [](double v) { return v >= 0 && std::isfinite(v); };
@@ -164,6 +139,7 @@ bool LidarSimOptions::IsValid(std::string* why) const {
     return Fail(why, "noise standard deviations must be finite and not negative");
   }
   if (!std::isfinite(start_time)) return Fail(why, "start_time must be finite");
+  if (world == LidarWorld::kMaze && !maze.IsValid(why)) return false;
   return true;
 }
 
@@ -207,18 +183,13 @@ std::vector<WallSegment> OfficeWorld(std::uint64_t seed) {
   return w;
 }
 
-SimulatedLidar SimulateLidar(const LidarSimOptions& o) {
-  std::string why;
-  if (!o.IsValid(&why)) throw InvalidArgument("lidar simulation: " + why);
-  SimulatedLidar sim;
-  sim.walls = OfficeWorld(o.seed);
-  sim.log.path = "simulated";
-  sim.log.format = LogFormat::kCarmen;
-  Path path(o.seed);
-  RandomStream range_noise(o.seed, kRangeStream), odometry_noise(o.seed, kOdometryStream);
+namespace {
 
-  // The robot's true poses: towards each waypoint in turn, turning at most max_turn a scan and
-  // moving on the spot where the heading is more than 0.35 rad off after the turn.
+// The robot's true poses: from path.Start() towards each of path.Next() in turn, turning at
+// most max_turn a scan and moving on the spot where the heading is more than 0.35 rad off
+// after the turn.
+template <class Waypoints>
+std::vector<SE2<double>> Drive(const LidarSimOptions& o, Waypoints& path, double* distance) {
   Eigen::Vector2d position = path.Start();
   Eigen::Vector2d target = path.Next();
   if ((target - position).norm() < 1e-9) target = path.Next();
@@ -238,19 +209,25 @@ SimulatedLidar SimulateLidar(const LidarSimOptions& o) {
     heading = WrapAngle(heading + turn);
     const double forward = left > 0.35 ? 0.0 : std::min(to.norm(), o.step) * std::cos(left);
     position += forward * Eigen::Vector2d(std::cos(heading), std::sin(heading));
-    sim.distance += forward;
+    *distance += forward;
     poses.emplace_back(position.x(), position.y(), heading);
   }
-  sim.laps = path.laps();
-  sim.rooms_visited = path.rooms_visited();
+  return poses;
+}
 
+// The scans at the true poses (ray cast on sim->walls, with range noise), the truth and the
+// drifting odometry, into sim.
+void Record(const LidarSimOptions& o, const std::vector<SE2<double>>& poses, SimulatedLidar* sim) {
+  RandomStream range_noise(o.seed, kRangeStream), odometry_noise(o.seed, kOdometryStream);
+  sim->log.path = "simulated";
+  sim->log.format = LogFormat::kCarmen;
   const bool full = o.fov >= 2 * kPi - 1e-12;
   const double angle_min = full ? -kPi : -o.fov / 2;
   const double increment = full ? 2 * kPi / o.beams : o.fov / (o.beams - 1);
   SE2<double> odometry = poses[0];
   for (std::size_t k = 0; k < poses.size(); ++k) {
     const double stamp = o.start_time + static_cast<double>(k) / o.rate;
-    sim.truth.push_back({stamp, poses[k]});
+    sim->truth.push_back({stamp, poses[k]});
     if (k > 0) {
       const SE2<double> step = poses[k - 1].Inverse() * poses[k];
       const double d = step.translation().norm();
@@ -270,7 +247,7 @@ SimulatedLidar SimulateLidar(const LidarSimOptions& o) {
     s.ranges.resize(static_cast<std::size_t>(o.beams));
     for (int i = 0; i < o.beams; ++i) {
       const double a = poses[k].theta() + s.Angle(static_cast<std::size_t>(i));
-      double r = CastRay(sim.walls, poses[k].translation(), Eigen::Vector2d(std::cos(a), std::sin(a)));
+      double r = CastRay(sim->walls, poses[k].translation(), Eigen::Vector2d(std::cos(a), std::sin(a)));
       const double e = range_noise.Normal();  // drawn for every beam: the stream does not depend on the walls
       r = std::isfinite(r) ? std::max(0.0, r + o.range_noise * e) : o.max_range;
       s.ranges[static_cast<std::size_t>(i)] = static_cast<float>(std::min(r, o.max_range));
@@ -278,11 +255,35 @@ SimulatedLidar SimulateLidar(const LidarSimOptions& o) {
     if (o.odometry) {
       s.odometry = odometry;
       s.odometry_origin = OdometryOrigin::kScanLine;
-      sim.log.odometry.Add(stamp, odometry);
+      sim->log.odometry.Add(stamp, odometry);
     }
     s.source_index = static_cast<long>(k);
-    sim.log.scans.push_back(std::move(s));
+    sim->log.scans.push_back(std::move(s));
   }
+}
+
+}  // namespace
+
+SimulatedLidar SimulateLidar(const LidarSimOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidArgument("lidar simulation: " + why);
+  SimulatedLidar sim;
+  std::vector<SE2<double>> poses;
+  if (o.world == LidarWorld::kMaze) {
+    const Maze maze = MakeMaze(o.seed, o.maze);
+    sim.walls = maze.Walls();
+    MazeTour tour(maze, o.seed);
+    poses = Drive(o, tour, &sim.distance);
+    sim.tours = tour.tours();
+    sim.cells_visited = tour.cells_visited();
+  } else {
+    sim.walls = OfficeWorld(o.seed);
+    Path path(o.seed);
+    poses = Drive(o, path, &sim.distance);
+    sim.laps = path.laps();
+    sim.rooms_visited = path.rooms_visited();
+  }
+  Record(o, poses, &sim);
   return sim;
 }
 

@@ -22,6 +22,10 @@
 // middle and back out), until the scans run out. The robot moves up to `step` metres and turns
 // up to `max_turn` radians between scans, slowing to turn on the spot where it must turn more.
 //
+// The maze (world = LidarWorld::kMaze, maze_world.h): MazeWorld(seed, maze), the robot from
+// cell 0's centre along the cells' centre lines on a MazeTour (to the nearest unvisited cell
+// again and again, a new tour once all are visited), with the same motion, scanner and odometry.
+//
 // Odometry: the true motion between scans (in the robot's frame: forward, sideways, turn) with
 // Gaussian noise of standard deviation translation_noise x distance (forward and sideways) and
 // rotation_noise x |turn| + rotation_per_metre x distance (turn), composed from the first true
@@ -31,24 +35,26 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/enum_names.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/simulation/maze_world.h"
+#include "tether/frontends/simulation/walls.h"
 
 namespace tether {
 namespace lidar {
 
-/// A wall from a to b (metres, world frame).
-struct WallSegment {
-  Eigen::Vector2d a, b;
+/// The world the robot drives through.
+enum class LidarWorld {
+  kOffice,  ///< OfficeWorld (below), the path above
+  kMaze,    ///< MazeWorld (maze_world.h), driven by a MazeTour from cell 0
 };
-
-/// The distance from `origin` along the unit direction `d` to the nearest wall (infinity where
-/// none is hit).
-double CastRay(const std::vector<WallSegment>& walls, const Eigen::Vector2d& origin, const Eigen::Vector2d& d);
-
-/// The distance from `p` to the nearest wall.
-double DistanceToWalls(const std::vector<WallSegment>& walls, const Eigen::Vector2d& p);
+inline constexpr EnumName<LidarWorld> kLidarWorldNames[] = {{LidarWorld::kOffice, "office"},
+                                                            {LidarWorld::kMaze, "maze"}};
+constexpr const auto& EnumNames(LidarWorld) { return kLidarWorldNames; }
 
 struct LidarSimOptions {
+  LidarWorld world = LidarWorld::kOffice;   ///< the office or the maze
+  MazeOptions maze;                         ///< the maze's size (world kMaze)
   int scans = 3000;                         ///< scans (at `rate`)
   double rate = 10;                         ///< scans per second
   double step = 0.1;                        ///< metres between scans at full speed
@@ -62,10 +68,10 @@ struct LidarSimOptions {
   double rotation_per_metre = 0.01;         ///< odometry: radians of noise per metre travelled
   bool odometry = true;                     ///< false: the scans carry no odometry (OdometryOrigin::kNone)
   double start_time = 1000;                 ///< the first scan's stamp (seconds)
-  std::uint64_t seed = 1;                   ///< the world's boxes, the path, the range and odometry noise
+  std::uint64_t seed = 1;                   ///< the office's boxes or the maze, the path, the range and odometry noise
 
   /// False (and why) for fewer than 2 scans or beams, a non-positive rate, step, turn, field of
-  /// view (or one above 2 pi) or range, a negative noise.
+  /// view (or one above 2 pi) or range, a negative noise, a maze that is not valid (world kMaze).
   bool IsValid(std::string* why) const;
 };
 
@@ -77,9 +83,11 @@ struct SimulatedLidar {
   LidarLog log;
   /// The robot's true pose at each scan's stamp, in the world frame.
   std::vector<StampedPose2> truth;
-  double distance = 0;  ///< metres travelled
-  int rooms_visited = 0;
-  int laps = 0;  ///< corridor laps begun
+  double distance = 0;    ///< metres travelled
+  int rooms_visited = 0;  ///< the office's rooms entered
+  int laps = 0;           ///< the office's corridor laps begun
+  int tours = 0;          ///< the maze's tours begun (MazeTour)
+  int cells_visited = 0;  ///< the maze's distinct cells made waypoints
 };
 
 /// The world's walls for a seed (the boxes move with it; the rooms and corridors do not).
