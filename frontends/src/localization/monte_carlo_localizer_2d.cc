@@ -231,7 +231,8 @@ double MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vec
   for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t * n / threads, (t + 1) * n / threads);
   work(0, n / threads);
   for (std::thread& t : pool) t.join();
-  return static_cast<double>(beams.angles.size());
+  return beam ? static_cast<double>(beams.angles.size())
+              : static_cast<double>(std::count(beams.hit.begin(), beams.hit.end(), true));
 }
 
 void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
@@ -250,13 +251,20 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
     }
   }
   std::vector<double> ll;
-  Likelihoods(scan, &ll);
+  const double scored = Likelihoods(scan, &ll);
+  // The recovery filters see each particle's likelihood per beam (with the product: the
+  // geometric mean of its beams' probabilities), so how many beams a scan has does not swing
+  // them; with the sum of cubes, the weight itself.
+  const BeamCombination combination = options_.model == MeasurementModelType::kBeam
+                                          ? options_.beam.combination
+                                          : options_.likelihood_field.combination;
+  const double per_beam = combination == BeamCombination::kProduct && scored > 0 ? 1.0 / scored : 1.0;
   // w_avg over the particles (acmcl: those not re-drawn), in logs.
   double log_sum = kNegInf;
   std::size_t counted = 0;
   for (std::size_t i = 0; i < ll.size(); ++i) {
     if (options_.method == MclMethod::kAcmcl && redrawn_[i]) continue;
-    log_sum = LogAdd(log_sum, ll[i]);
+    log_sum = LogAdd(log_sum, per_beam * ll[i]);
     ++counted;
   }
   last_step_ = MclStep();
