@@ -167,6 +167,8 @@ void MclCli::AddFilterOptions() {
   Option("--max-particles", f.kld.max_particles, "KLD sampling's largest count");
   Option("--update-min-d", f.update_min_translation, "Update once the robot moved this far [m]");
   Option("--update-min-a", f.update_min_rotation, "... or turned this much [rad]");
+  Option("--min-effective", f.min_effective_fraction,
+         "Temper a scan's likelihoods so that at least this share of the particles stays effective (0: never)");
   Option("--threads", f.threads, "Threads weighting the particles (0: every core; the result does not depend on it)");
   Option("--seed", f.seed, "The random stream's seed");
 }

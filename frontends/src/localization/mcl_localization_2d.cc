@@ -180,17 +180,19 @@ LocalizationError CompareWithReference(const std::vector<lidar::StampedPose2>& e
                                        const std::vector<lidar::StampedPose2>& reference, double converged_metres,
                                        double converged_radians, double tolerance) {
   LocalizationError e;
-  std::vector<lidar::StampedPose2> sorted = reference;
-  std::sort(sorted.begin(), sorted.end(),
-            [](const lidar::StampedPose2& a, const lidar::StampedPose2& b) { return a.stamp < b.stamp; });
+  // Both in log order: matched in order, so that scans sharing a stamp (logs whose stamps
+  // bunch) meet their own reference pose.
   std::vector<std::pair<double, double>> errors;  // position, heading
   std::vector<double> stamps;
+  std::size_t j = 0;
   for (const lidar::StampedPose2& p : estimate) {
-    auto it = std::lower_bound(sorted.begin(), sorted.end(), p.stamp - tolerance,
-                               [](const lidar::StampedPose2& a, double t) { return a.stamp < t; });
-    if (it == sorted.end() || it->stamp > p.stamp + tolerance) continue;
-    const double d = (p.pose.translation() - it->pose.translation()).norm();
-    const double h = std::abs(std::remainder(p.pose.theta() - it->pose.theta(), 2 * 3.14159265358979323846));
+    std::size_t k = j;
+    while (k < reference.size() && reference[k].stamp < p.stamp - tolerance) ++k;
+    if (k == reference.size() || reference[k].stamp > p.stamp + tolerance) continue;
+    j = k + 1;
+    const double d = (p.pose.translation() - reference[k].pose.translation()).norm();
+    const double h =
+        std::abs(std::remainder(p.pose.theta() - reference[k].pose.theta(), 2 * 3.14159265358979323846));
     errors.emplace_back(d, h);
     stamps.push_back(p.stamp);
   }

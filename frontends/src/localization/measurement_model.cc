@@ -58,15 +58,23 @@ LikelihoodField::LikelihoodField(const OccupancyMap2D& map, const LikelihoodFiel
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("LikelihoodField: " + why);
   if (!Positive(range_max)) throw InvalidArgument("LikelihoodField: range_max must be positive");
-  score_.resize(map.distances().size());
-  for (std::size_t k = 0; k < score_.size(); ++k) score_[k] = static_cast<float>(BeamScore(map.distances()[k]));
-  outside_ = static_cast<float>(BeamScore(options.max_distance));
+  cells_.resize(map.distances().size());
+  for (std::size_t k = 0; k < cells_.size(); ++k) {
+    cells_[k] = {static_cast<float>(BeamScore(map.distances()[k])),
+                 static_cast<float>(BeamProbability(map.distances()[k]))};
+  }
+  outside_ = {static_cast<float>(BeamScore(options.max_distance)),
+              static_cast<float>(BeamProbability(options.max_distance))};
+}
+
+double LikelihoodField::BeamProbability(double distance) const {
+  const double d = std::min(distance, options_.max_distance);
+  return options_.z_hit * std::exp(-d * d / (2 * options_.sigma_hit * options_.sigma_hit)) +
+         options_.z_rand / range_max_;
 }
 
 double LikelihoodField::BeamScore(double distance) const {
-  const double d = std::min(distance, options_.max_distance);
-  const double p =
-      options_.z_hit * std::exp(-d * d / (2 * options_.sigma_hit * options_.sigma_hit)) + options_.z_rand / range_max_;
+  const double p = BeamProbability(distance);
   return options_.combination == BeamCombination::kProduct ? std::log(p) : p * p * p;
 }
 
@@ -77,8 +85,8 @@ double LikelihoodField::LogLikelihood(const SE2d& pose, const ScanBeams& beams) 
   return out;
 }
 
-void LikelihoodField::LogLikelihoods(const double* poses, std::size_t count, const ScanBeams& beams,
-                                     double* out) const {
+void LikelihoodField::LogLikelihoods(const double* poses, std::size_t count, const ScanBeams& beams, double* out,
+                                     double* mean_probability) const {
   // The end points in the robot's frame, in cells.
   const std::size_t n = beams.angles.size();
   std::vector<float> ex, ey;
@@ -91,7 +99,7 @@ void LikelihoodField::LogLikelihoods(const double* poses, std::size_t count, con
     ey.push_back(static_cast<float>((beams.laser.y() + beams.ranges[b] * std::sin(beams.angles[b])) * s));
   }
   const std::size_t m = ex.size();
-  const float* score = score_.data();
+  const Cell* cells = cells_.data();
   const std::size_t w = static_cast<std::size_t>(geometry_.width);
   const float fw = static_cast<float>(geometry_.width), fh = static_cast<float>(geometry_.height);
   for (std::size_t k = 0; k < count; ++k) {
@@ -99,14 +107,17 @@ void LikelihoodField::LogLikelihoods(const double* poses, std::size_t count, con
     const float cx = static_cast<float>((pose[0] - geometry_.origin.x()) * s);
     const float cy = static_cast<float>((pose[1] - geometry_.origin.y()) * s);
     const float c = static_cast<float>(std::cos(pose[2])), sn = static_cast<float>(std::sin(pose[2]));
-    float sum = 0;
+    float sum = 0, p = 0;
     for (std::size_t b = 0; b < m; ++b) {
       const float fx = cx + c * ex[b] - sn * ey[b];
       const float fy = cy + sn * ex[b] + c * ey[b];
       // Inside the map the coordinates are not negative, so truncation is the floor.
       const bool inside = fx >= 0 && fy >= 0 && fx < fw && fy < fh;
-      sum += inside ? score[static_cast<std::size_t>(fy) * w + static_cast<std::size_t>(fx)] : outside_;
+      const Cell& cell = inside ? cells[static_cast<std::size_t>(fy) * w + static_cast<std::size_t>(fx)] : outside_;
+      sum += cell.score;
+      p += cell.p;
     }
+    if (mean_probability) mean_probability[k] = m > 0 ? static_cast<double>(p) / static_cast<double>(m) : 0.0;
     out[k] = options_.combination == BeamCombination::kProduct ? static_cast<double>(sum)
                                                                : Combine(options_.combination, 0, sum);
   }
@@ -175,15 +186,17 @@ double BeamModel::BeamProbability(double z, double expected, double range_max) c
   return p;
 }
 
-double BeamModel::LogLikelihood(const SE2d& pose, const ScanBeams& beams) const {
+double BeamModel::LogLikelihood(const SE2d& pose, const ScanBeams& beams, double* mean_probability) const {
   const Eigen::Vector2d laser = pose * beams.laser;
-  double log_sum = 0, cube_sum = 0;
+  double log_sum = 0, cube_sum = 0, sum = 0;
   for (std::size_t b = 0; b < beams.angles.size(); ++b) {
     const double expected = CastRay(laser, pose.theta() + beams.angles[b], beams.range_max);
     const double p = BeamProbability(beams.ranges[b], expected, beams.range_max);
     log_sum += std::log(p);
     cube_sum += p * p * p;
+    sum += p;
   }
+  if (mean_probability) mean_probability[0] = beams.angles.empty() ? 0.0 : sum / static_cast<double>(beams.angles.size());
   return Combine(options_.combination, log_sum, cube_sum);
 }
 

@@ -112,6 +112,9 @@ bool MclOptions::IsValid(std::string* why) const {
     return Fail(why, "the cluster bins must be positive");
   }
   if (threads < 0) return Fail(why, "threads must be 0 (every core) or more");
+  if (!(min_effective_fraction >= 0 && min_effective_fraction <= 1)) {
+    return Fail(why, "min_effective_fraction must lie in [0, 1]");
+  }
   return true;
 }
 
@@ -203,7 +206,8 @@ void MonteCarloLocalizer2D::Predict(const SE2d& odometry_from, const SE2d& odome
   }
 }
 
-double MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vector<double>* out) {
+void MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vector<double>* out,
+                                        std::vector<double>* mean_p) {
   const bool beam = options_.model == MeasurementModelType::kBeam;
   const ScanBeams beams = SelectBeams(scan, options_.max_beams, beam, options_.range_cap);
   if (!beam && (!field_ || field_->range_max() != beams.range_max)) {
@@ -217,11 +221,15 @@ double MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vec
     poses[3 * i + 2] = particles_[i].theta;
   }
   out->assign(n, 0.0);
+  mean_p->assign(n, 0.0);
   const auto work = [&](std::size_t begin, std::size_t end) {
     if (beam) {
-      for (std::size_t i = begin; i < end; ++i) (*out)[i] = beam_model_->LogLikelihood(particles_[i].pose(), beams);
+      for (std::size_t i = begin; i < end; ++i) {
+        (*out)[i] = beam_model_->LogLikelihood(particles_[i].pose(), beams, &(*mean_p)[i]);
+      }
     } else {
-      field_->LogLikelihoods(poses.data() + 3 * begin, end - begin, beams, out->data() + begin);
+      field_->LogLikelihoods(poses.data() + 3 * begin, end - begin, beams, out->data() + begin,
+                             mean_p->data() + begin);
     }
   };
   std::size_t threads = options_.threads > 0 ? static_cast<std::size_t>(options_.threads)
@@ -231,8 +239,6 @@ double MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vec
   for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t * n / threads, (t + 1) * n / threads);
   work(0, n / threads);
   for (std::thread& t : pool) t.join();
-  return beam ? static_cast<double>(beams.angles.size())
-              : static_cast<double>(std::count(beams.hit.begin(), beams.hit.end(), true));
 }
 
 void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
@@ -251,20 +257,17 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
     }
   }
   std::vector<double> ll;
-  const double scored = Likelihoods(scan, &ll);
-  // The recovery filters see each particle's likelihood per beam (with the product: the
-  // geometric mean of its beams' probabilities), so how many beams a scan has does not swing
-  // them; with the sum of cubes, the weight itself.
-  const BeamCombination combination = options_.model == MeasurementModelType::kBeam
-                                          ? options_.beam.combination
-                                          : options_.likelihood_field.combination;
-  const double per_beam = combination == BeamCombination::kProduct && scored > 0 ? 1.0 / scored : 1.0;
-  // w_avg over the particles (acmcl: those not re-drawn), in logs.
+  std::vector<double> mean_p;
+  Likelihoods(scan, &ll, &mean_p);
+  // w_avg over the particles (acmcl: those not re-drawn), in logs. The recovery filters see
+  // each particle's mean beam probability: a scan's beams that hit what the map does not hold
+  // (people, open doors) lower it by their share, where they would swing the product of the
+  // beams by orders of magnitude from one scan to the next.
   double log_sum = kNegInf;
   std::size_t counted = 0;
   for (std::size_t i = 0; i < ll.size(); ++i) {
     if (options_.method == MclMethod::kAcmcl && redrawn_[i]) continue;
-    log_sum = LogAdd(log_sum, per_beam * ll[i]);
+    log_sum = LogAdd(log_sum, std::log(std::max(mean_p[i], 1e-300)));
     ++counted;
   }
   last_step_ = MclStep();
@@ -274,16 +277,40 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
       UpdateRecoveryFilters(last_step_.w_avg);
     }
   }
-  // The new weights: the old ones times the likelihoods, normalised (shifted by the largest log).
-  double top = kNegInf;
+  // The new weights: the old ones times the likelihoods raised to the tempering exponent,
+  // normalised (shifted by the largest log).
+  std::vector<double> prior(ll.size());
   for (std::size_t i = 0; i < ll.size(); ++i) {
-    if (particles_[i].weight > 0) top = std::max(top, ll[i] + std::log(particles_[i].weight));
+    prior[i] = particles_[i].weight > 0 ? std::log(particles_[i].weight) : kNegInf;
   }
+  const auto weigh = [&](double beta) {
+    double top = kNegInf;
+    for (std::size_t i = 0; i < ll.size(); ++i) top = std::max(top, prior[i] + beta * ll[i]);
+    double sum = 0, squares = 0;
+    for (std::size_t i = 0; i < ll.size(); ++i) {
+      const double w = prior[i] == kNegInf ? 0.0 : std::exp(prior[i] + beta * ll[i] - top);
+      particles_[i].weight = w;
+      sum += w;
+      squares += w * w;
+    }
+    return squares > 0 ? sum * sum / squares : 0.0;  // the effective sample size
+  };
+  double beta = 1;
+  const double wanted = options_.min_effective_fraction * static_cast<double>(ll.size());
+  if (weigh(1.0) < wanted) {
+    // The largest exponent that keeps the effective sample size at the wanted share (the size
+    // falls as the exponent grows), by bisection on a log scale.
+    double lo = 1e-4, hi = 1;
+    for (int k = 0; k < 30; ++k) {
+      const double mid = std::sqrt(lo * hi);
+      (weigh(mid) >= wanted ? lo : hi) = mid;
+    }
+    beta = lo;
+    weigh(beta);
+  }
+  last_step_.tempering = beta;
   double sum = 0;
-  for (std::size_t i = 0; i < ll.size(); ++i) {
-    particles_[i].weight = particles_[i].weight > 0 ? std::exp(ll[i] + std::log(particles_[i].weight) - top) : 0;
-    sum += particles_[i].weight;
-  }
+  for (const Particle& p : particles_) sum += p.weight;
   for (Particle& p : particles_) p.weight = sum > 0 ? p.weight / sum : 1.0 / static_cast<double>(particles_.size());
   last_step_.redrawn = static_cast<int>(std::count(redrawn_.begin(), redrawn_.end(), true));
   last_step_.w_slow = log_w_slow_;
@@ -292,7 +319,7 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
 
 void MonteCarloLocalizer2D::UpdateRecoveryFilters(double log_w_avg) {
   const auto filter = [log_w_avg](double log_w, double alpha) {
-    if (log_w == kNegInf) return std::log(alpha) + log_w_avg;
+    if (log_w == kNegInf) return log_w_avg;  // the first update starts both filters at its average
     return LogAdd(std::log1p(-alpha) + log_w, std::log(alpha) + log_w_avg);
   };
   log_w_slow_ = filter(log_w_slow_, options_.alpha_slow);

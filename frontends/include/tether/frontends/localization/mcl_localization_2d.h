@@ -65,7 +65,9 @@ struct MclStepRecord {
 
 /// A localisation's pose stream against a reference (the mapping run's trajectory, or the
 /// truth), pose by pose where the stamps agree within `tolerance` seconds. The estimate and the
-/// reference share the map's frame: no alignment.
+/// reference share the map's frame: no alignment. Both in the log's order: each pose meets the
+/// next reference pose (after the last one matched) whose stamp agrees, so scans that share a
+/// stamp meet their own.
 struct LocalizationError {
   long matched = 0;               ///< poses with a reference
   double mean_error = 0;          ///< m, over every matched pose

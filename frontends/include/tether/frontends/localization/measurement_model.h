@@ -69,9 +69,13 @@ class LikelihoodField {
   /// point outside the map scores as max_distance).
   double LogLikelihood(const SE2d& pose, const ScanBeams& beams) const;
   /// The same for many poses (x, y, theta each), written to `out`; the end points are put in
-  /// cells once for all of them.
-  void LogLikelihoods(const double* poses, std::size_t count, const ScanBeams& beams, double* out) const;
-  /// A beam's score where its end point lies at `distance` from the nearest occupied cell.
+  /// cells once for all of them. Where `mean_probability` is given, each pose's mean beam
+  /// probability p (over its beams) goes there.
+  void LogLikelihoods(const double* poses, std::size_t count, const ScanBeams& beams, double* out,
+                      double* mean_probability = nullptr) const;
+  /// A beam's p where its end point lies at `distance` from the nearest occupied cell ...
+  double BeamProbability(double distance) const;
+  /// ... and its score: log p (product) or p^3 (sum of cubes).
   double BeamScore(double distance) const;
   double range_max() const { return range_max_; }
   const LikelihoodFieldOptions& options() const { return options_; }
@@ -80,8 +84,12 @@ class LikelihoodField {
   GridGeometry geometry_;
   LikelihoodFieldOptions options_;
   double range_max_;
-  std::vector<float> score_;  // per cell: log p (product) or p^3 (sum of cubes)
-  float outside_;             // the score of an end point outside the map
+  struct Cell {
+    float score;  // log p (product) or p^3 (sum of cubes)
+    float p;
+  };
+  std::vector<Cell> cells_;  // per cell: a lookup reads both from one cache line
+  Cell outside_;             // an end point outside the map
 };
 
 struct BeamModelOptions {
@@ -96,8 +104,9 @@ class BeamModel {
  public:
   /// Throws InvalidArgument for invalid options. The map must outlive the model.
   BeamModel(const OccupancyMap2D& map, const BeamModelOptions& options);
-  /// The scan's log-likelihood from robot pose `pose`, a ray cast for every beam.
-  double LogLikelihood(const SE2d& pose, const ScanBeams& beams) const;
+  /// The scan's log-likelihood from robot pose `pose`, a ray cast for every beam (and, where
+  /// given, the mean beam probability).
+  double LogLikelihood(const SE2d& pose, const ScanBeams& beams, double* mean_probability = nullptr) const;
   /// The range along the ray from `origin` in direction `angle` (world frame) to the first
   /// occupied cell, at most `range_max` (the map's edge counts as no hit).
   double CastRay(const Eigen::Vector2d& origin, double angle, double range_max) const;

@@ -16,8 +16,12 @@
 // - Update: (cmcl, acmcl) a particle that landed in, or whose motion crossed, the costmap's
 //   invalid zone (occupied, unknown, or closer to an obstacle than the robot's radius) is
 //   re-drawn uniformly over the valid cells, and marked; then every particle is weighted by the
-//   measurement model (measurement_model.h). (amcl, acmcl) The average likelihood w_avg of
-//   the particles — for acmcl, of those not re-drawn — drives two exponential filters,
+//   measurement model (measurement_model.h). (amcl, acmcl) The average w_avg over the
+//   particles — for acmcl, those not re-drawn — of each one's likelihood per beam (the mean of
+//   its beams' probabilities, so that a scan's count of beams and its few beams on what the
+//   map does not hold do not swing it by orders of magnitude) drives two exponential filters
+//   (both start at the first update's average: from 0, as in the textbook, w_slow would stay
+//   below w_fast, and no kidnap be seen, for the first 1 / alpha_slow updates),
 //   w_slow += alpha_slow (w_avg - w_slow) and w_fast += alpha_fast (w_avg - w_fast).
 // - Resample: low-variance resampling (or, with KLD sampling, draws until the count the
 //   spread of the new set needs); (amcl, acmcl) each new particle is instead a random pose
@@ -90,6 +94,13 @@ struct MclOptions {
   double update_min_rotation = 0.1;
   double cluster_xy = 0.5;     ///< metres: bins of the estimate's clusters and of KLD sampling
   double cluster_theta = 0.2;  ///< radians
+  /// Tempering: where the scan's likelihoods would leave fewer than this share of the particles'
+  /// effective sample size ((sum w)^2 / sum w^2), they are raised to the largest power below 1
+  /// that keeps it (a scan of many beams taken as independent is far sharper than the map and
+  /// the pose's spread warrant; without this a spread-out set collapses onto the first
+  /// particle near a look-alike place). 0: never tempered. 0.1 by the measurements in
+  /// benchmarks/RESULTS.md ("Monte Carlo localisation on the benchmark logs").
+  double min_effective_fraction = 0.1;
   int threads = 0;             ///< threads weighting the particles (0: every core)
   std::uint64_t seed = 1;
 
@@ -121,6 +132,7 @@ struct MclStep {
   int particles = 0;              ///< the count after the step
   double w_avg = 0;               ///< log of the average likelihood of the update
   double w_slow = 0, w_fast = 0;  ///< logs of the filters after the update
+  double tempering = 1;           ///< the power the update raised the likelihoods to
   PoseEstimate estimate;          ///< the robot's pose at this scan
 };
 
@@ -183,7 +195,7 @@ class MonteCarloLocalizer2D {
 
  private:
   Particle RandomParticle();
-  double Likelihoods(const lidar::LaserScan& scan, std::vector<double>* log_likelihood);
+  void Likelihoods(const lidar::LaserScan& scan, std::vector<double>* log_likelihood, std::vector<double>* mean_p);
 
   std::shared_ptr<const OccupancyMap2D> map_;
   MclOptions options_;
