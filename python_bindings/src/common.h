@@ -14,10 +14,14 @@
 #include <utility>
 
 #include "tether/core/error.h"
+#include "tether/core/se2.h"
 #include "tether/core/values.h"
 #include "tether/core/variable.h"
 
 namespace tether {
+namespace lidar {
+struct LaserScan;
+}
 namespace python {
 
 namespace py = pybind11;
@@ -134,6 +138,16 @@ auto Reads(R (C::*f)(A...) const, const char* type) {
   };
 }
 
+/// A pose (x, y, theta) from an SE2, a tuple, list or array of three numbers; throws
+/// InvalidArgument naming `what` for anything else or a pose lidar::PoseProblem refuses.
+SE2d PoseFromTuple(const py::handle& h, const char* what);
+/// A scan from arrays (lidar.cc): ranges (N,) [m], beam i at angle_min + i angle_increment, the
+/// stamp, the range limits, the odometry pose (None: none) and the laser's pose on the robot
+/// (None: the robot's centre). Throws InvalidArgument for what cannot make a scan.
+lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
+                          double range_min, double range_max, const py::object& odometry,
+                          const py::object& laser_offset);
+
 void BindErrors(py::module_& m);
 void BindGeometry(py::module_& m);
 void BindGraph(py::module_& m);
@@ -142,6 +156,7 @@ void BindSolve(py::module_& m);
 void BindFrontends(py::module_& m);
 void BindLidar(py::module_& m);
 void BindEvaluation(py::module_& m);
+void BindLocalization(py::module_& m);
 
 }  // namespace python
 }  // namespace tether

@@ -19,15 +19,35 @@ namespace {
 using lidar::LidarSlam2D;
 using lidar::LidarSlamOptions;
 
+lidar::SensorClass SensorNamed(const std::string& name) {
+  lidar::SensorClass c;
+  if (!FromString(name, &c)) {
+    throw InvalidArgument("unknown sensor class '" + name + "'; use " + EnumNameList<lidar::SensorClass>());
+  }
+  return c;
+}
+
+}  // namespace
+
 SE2d PoseFromTuple(const py::handle& h, const char* what) {
-  const std::vector<double> v = h.cast<std::vector<double>>();
+  std::vector<double> v;
+  try {
+    if (py::isinstance<SE2d>(h)) {
+      const SE2d& p = h.cast<const SE2d&>();
+      v = {p.x(), p.y(), p.theta()};
+    } else {
+      v = h.cast<std::vector<double>>();
+    }
+  } catch (const py::cast_error&) {
+    throw InvalidArgument(std::string(what) + " must be (x, y, theta), got a " +
+                          std::string(py::str(h.get_type().attr("__name__"))));
+  }
   if (v.size() != 3) throw InvalidArgument(std::string(what) + " must be (x, y, theta)");
   const std::string why = lidar::PoseProblem(v[0], v[1], v[2]);
   if (!why.empty()) throw InvalidArgument(std::string(what) + ": " + why);
   return SE2d(v[0], v[1], v[2]);
 }
 
-// A scan from arrays: ranges (N,), the angles of the first beam and the step, the stamp.
 lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
                           double range_min, double range_max, const py::object& odometry,
                           const py::object& laser_offset) {
@@ -60,16 +80,6 @@ lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double an
   if (!laser_offset.is_none()) s.laser_in_robot = PoseFromTuple(laser_offset, "laser_offset");
   return s;
 }
-
-lidar::SensorClass SensorNamed(const std::string& name) {
-  lidar::SensorClass c;
-  if (!FromString(name, &c)) {
-    throw InvalidArgument("unknown sensor class '" + name + "'; use " + EnumNameList<lidar::SensorClass>());
-  }
-  return c;
-}
-
-}  // namespace
 
 void BindLidar(py::module_& m) {
   py::module_ li = m.def_submodule("lidar", "2D LiDAR SLAM: LidarSlam2D (the library class behind `tether lidar`)");

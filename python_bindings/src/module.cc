@@ -195,9 +195,10 @@ void BindErrors(py::module_& m) {
   t.plugin = NewException(m, "PluginError", py::make_tuple(t.error), "A plugin could not be loaded.");
   t.rank = NewException(m, "RankDeficientError", py::make_tuple(t.error),
                         "Marginals of a graph whose information matrix is singular.");
-  t.in_use = NewException(m, "InUseError", py::make_tuple(t.error),
-                          "The object is in use by a running call (optimize, a smoother's update or finish) in "
-                          "another thread or in that call's own callback; see docs/python.md, 'Threads'.");
+  t.in_use =
+      NewException(m, "InUseError", py::make_tuple(t.error),
+                   "The object is in use by a running call (optimize, a smoother's update or finish, MCL's update) in "
+                   "another thread or in that call's own callback; see docs/python.md, 'Threads'.");
   py::register_exception_translator([](std::exception_ptr p) {
     const ErrorTypes& t = Types();
     try {
@@ -238,4 +239,5 @@ PYBIND11_MODULE(tether, m) {
   tp::BindFrontends(m);
   tp::BindLidar(m);
   tp::BindEvaluation(m);
+  tp::BindLocalization(m);
 }

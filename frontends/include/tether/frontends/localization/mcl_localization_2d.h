@@ -1,7 +1,7 @@
 #pragma once
 // Monte Carlo localisation of a whole log as one object, the front-end `tether mcl` and
-// Python's `tether.MclLocalization2D` drive: scans (with their odometry) in; the pose stream,
-// a report and the files out.
+// Python's `tether.localization.MclLocalization2D` drive: scans (with their odometry) in; the
+// pose stream, a report and the files out.
 //
 //   auto map = std::make_shared<const OccupancyMap2D>(OccupancyMap2D::Read("map.yaml"));
 //   MclLocalization2D run(map, options);   // MclRunOptions: the filter's options and the start
