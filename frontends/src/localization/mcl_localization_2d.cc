@@ -191,8 +191,7 @@ LocalizationError CompareWithReference(const std::vector<lidar::StampedPose2>& e
     if (k == reference.size() || reference[k].stamp > p.stamp + tolerance) continue;
     j = k + 1;
     const double d = (p.pose.translation() - reference[k].pose.translation()).norm();
-    const double h =
-        std::abs(std::remainder(p.pose.theta() - reference[k].pose.theta(), 2 * 3.14159265358979323846));
+    const double h = std::abs(std::remainder(p.pose.theta() - reference[k].pose.theta(), 2 * 3.14159265358979323846));
     errors.emplace_back(d, h);
     stamps.push_back(p.stamp);
   }

@@ -58,10 +58,22 @@ LikelihoodField::LikelihoodField(const OccupancyMap2D& map, const LikelihoodFiel
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("LikelihoodField: " + why);
   if (!Positive(range_max)) throw InvalidArgument("LikelihoodField: range_max must be positive");
-  cells_.resize(map.distances().size());
+  // Squared distances in whole cells take few values below max_distance: each one scored once.
+  const double cells_max = options.max_distance / map.resolution();
+  const std::uint32_t limit = static_cast<std::uint32_t>(std::min(cells_max * cells_max + 1, 4194304.0));
+  std::vector<Cell> table(static_cast<std::size_t>(limit) + 1);
+  for (std::uint32_t q = 0; q <= limit; ++q) {
+    const double d = std::sqrt(static_cast<double>(q)) * map.resolution();
+    table[q] = {static_cast<float>(BeamScore(d)), static_cast<float>(BeamProbability(d))};
+  }
+  const std::vector<std::uint32_t>& squared = map.squared_cell_distances();
+  cells_.resize(squared.size());
   for (std::size_t k = 0; k < cells_.size(); ++k) {
-    cells_[k] = {static_cast<float>(BeamScore(map.distances()[k])),
-                 static_cast<float>(BeamProbability(map.distances()[k]))};
+    // Beyond the table (a grid far finer than max_distance, where the table stops at 2^22
+    // entries), scored directly.
+    cells_[k] = squared[k] < limit ? table[squared[k]]
+                                   : Cell{static_cast<float>(BeamScore(map.distances()[k])),
+                                          static_cast<float>(BeamProbability(map.distances()[k]))};
   }
   outside_ = {static_cast<float>(BeamScore(options.max_distance)),
               static_cast<float>(BeamProbability(options.max_distance))};
@@ -196,7 +208,8 @@ double BeamModel::LogLikelihood(const SE2d& pose, const ScanBeams& beams, double
     cube_sum += p * p * p;
     sum += p;
   }
-  if (mean_probability) mean_probability[0] = beams.angles.empty() ? 0.0 : sum / static_cast<double>(beams.angles.size());
+  if (mean_probability)
+    mean_probability[0] = beams.angles.empty() ? 0.0 : sum / static_cast<double>(beams.angles.size());
   return Combine(options_.combination, log_sum, cube_sum);
 }
 

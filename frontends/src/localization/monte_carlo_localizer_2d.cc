@@ -228,8 +228,7 @@ void MonteCarloLocalizer2D::Likelihoods(const lidar::LaserScan& scan, std::vecto
         (*out)[i] = beam_model_->LogLikelihood(particles_[i].pose(), beams, &(*mean_p)[i]);
       }
     } else {
-      field_->LogLikelihoods(poses.data() + 3 * begin, end - begin, beams, out->data() + begin,
-                             mean_p->data() + begin);
+      field_->LogLikelihoods(poses.data() + 3 * begin, end - begin, beams, out->data() + begin, mean_p->data() + begin);
     }
   };
   std::size_t threads = options_.threads > 0 ? static_cast<std::size_t>(options_.threads)

@@ -58,20 +58,23 @@ void Envelope1D(const float* f, int n, float* d, int* v, float* z) {
 std::vector<float> SquaredDistanceTransform(int width, int height, const std::vector<bool>& seed) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
   const std::size_t w = static_cast<std::size_t>(width), h = static_cast<std::size_t>(height);
+  // Along the columns the nearest seed of binary input is a distance in cells: two sweeps over
+  // the rows (row after row, so memory is read in order), down and up.
   std::vector<float> d(w * h);
-  for (std::size_t k = 0; k < d.size(); ++k) d[k] = seed[k] ? 0.0f : kInf;
-  const int n = std::max(width, height);
-  std::vector<float> f(static_cast<std::size_t>(n)), out(static_cast<std::size_t>(n)),
-      z(static_cast<std::size_t>(n) + 1);
-  std::vector<int> v(static_cast<std::size_t>(n));
-  for (std::size_t i = 0; i < w; ++i) {  // along each column
-    for (std::size_t j = 0; j < h; ++j) f[j] = d[j * w + i];
-    Envelope1D(f.data(), height, out.data(), v.data(), z.data());
-    for (std::size_t j = 0; j < h; ++j) d[j * w + i] = out[j];
+  for (std::size_t i = 0; i < w; ++i) d[i] = seed[i] ? 0.0f : kInf;
+  for (std::size_t j = 1; j < h; ++j) {
+    for (std::size_t i = 0; i < w; ++i) d[j * w + i] = seed[j * w + i] ? 0.0f : d[(j - 1) * w + i] + 1.0f;
   }
-  for (std::size_t j = 0; j < h; ++j) {  // then along each row
+  for (std::size_t j = h - 1; j-- > 0;) {
+    for (std::size_t i = 0; i < w; ++i) d[j * w + i] = std::min(d[j * w + i], d[(j + 1) * w + i] + 1.0f);
+  }
+  for (float& v : d) v = v * v;
+  // Then along each row: the lower envelope of the parabolas.
+  std::vector<float> out(w), z(w + 1);
+  std::vector<int> v(w);
+  for (std::size_t j = 0; j < h; ++j) {
     Envelope1D(&d[j * w], width, out.data(), v.data(), z.data());
-    std::copy(out.begin(), out.begin() + width, d.begin() + static_cast<std::ptrdiff_t>(j * w));
+    std::copy(out.begin(), out.end(), d.begin() + static_cast<std::ptrdiff_t>(j * w));
   }
   return d;
 }
@@ -111,7 +114,12 @@ OccupancyMap2D::OccupancyMap2D(const lidar::OccupancyImage& image, double occupi
     }
   }
   distance_ = SquaredDistanceTransform(image.width, image.height, occupied);
-  for (float& d : distance_) d = std::sqrt(d) * static_cast<float>(image.resolution);
+  squared_cells_.resize(distance_.size());
+  for (std::size_t k = 0; k < distance_.size(); ++k) {
+    const float d2 = distance_[k];
+    squared_cells_[k] = d2 < 4e9f ? static_cast<std::uint32_t>(d2) : std::numeric_limits<std::uint32_t>::max();
+    distance_[k] = std::sqrt(d2) * static_cast<float>(image.resolution);
+  }
 }
 
 OccupancyMap2D OccupancyMap2D::Read(const std::string& yaml_path) {

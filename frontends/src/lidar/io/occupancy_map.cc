@@ -170,9 +170,10 @@ long PgmNumber(const std::string& b, std::size_t* at, const std::string& name, c
 std::string ReadWhole(const std::string& path, const char* what) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path + ": cannot open the " + std::string(what));
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
   if (in.bad()) throw IoError(path + ": cannot read the " + std::string(what));
-  return bytes;
+  return bytes.str();
 }
 
 double YamlNumber(const std::string& v, const std::string& where, const std::string& key) {

@@ -67,6 +67,9 @@ class OccupancyMap2D {
   /// (infinity in a map without an occupied cell).
   float Distance(int i, int j) const { return distance_[Index(i, j)]; }
   const std::vector<float>& distances() const { return distance_; }
+  /// The same distances as whole squared cells (the transform is exact on the cell lattice);
+  /// the largest uint32 where there is no occupied cell.
+  const std::vector<std::uint32_t>& squared_cell_distances() const { return squared_cells_; }
   /// The indices (j * width + i) of the free cells.
   const std::vector<std::uint32_t>& free_cells() const { return free_cells_; }
   std::size_t occupied_count() const { return occupied_count_; }
@@ -75,6 +78,7 @@ class OccupancyMap2D {
   GridGeometry geometry_;
   std::vector<CellState> state_;
   std::vector<float> distance_;
+  std::vector<std::uint32_t> squared_cells_;
   std::vector<std::uint32_t> free_cells_;
   std::size_t occupied_count_ = 0;
 };
