@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
   for (auto make : {tether::MakeOptimizeCommand, tether::MakeSimulateCommand, tether::MakePluginsCommand,
                     tether::MakeCheckPluginCommand, tether::MakeBenchCommand, tether::MakeReplayCommand,
                     tether::MakeEkfDemoCommand, tether::MakeLidarCommand, tether::MakeLidarEvalCommand,
-                    tether::MakeLidarDegradeCommand, tether::MakeMclCommand}) {
+                    tether::MakeLidarDegradeCommand, tether::MakeMclCommand, tether::MakeMclDemoCommand}) {
     commands.push_back(make());
   }
   CLI::App app{"tether: factor-graph optimisation for SLAM"};

@@ -75,5 +75,6 @@ std::unique_ptr<Command> MakeLidarCommand();
 std::unique_ptr<Command> MakeLidarEvalCommand();
 std::unique_ptr<Command> MakeLidarDegradeCommand();
 std::unique_ptr<Command> MakeMclCommand();
+std::unique_ptr<Command> MakeMclDemoCommand();
 
 }  // namespace tether
