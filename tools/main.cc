@@ -17,10 +17,11 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
 
   std::vector<std::unique_ptr<tether::Command>> commands;
-  for (auto make : {tether::MakeOptimizeCommand, tether::MakeSimulateCommand, tether::MakePluginsCommand,
-                    tether::MakeCheckPluginCommand, tether::MakeBenchCommand, tether::MakeReplayCommand,
-                    tether::MakeEkfDemoCommand, tether::MakeLidarCommand, tether::MakeLidarEvalCommand,
-                    tether::MakeLidarDegradeCommand, tether::MakeMclCommand, tether::MakeMclBenchCommand}) {
+  for (auto make :
+       {tether::MakeOptimizeCommand, tether::MakeSimulateCommand, tether::MakePluginsCommand,
+        tether::MakeCheckPluginCommand, tether::MakeBenchCommand, tether::MakeReplayCommand, tether::MakeEkfDemoCommand,
+        tether::MakeLidarCommand, tether::MakeLidarEvalCommand, tether::MakeLidarDegradeCommand, tether::MakeMclCommand,
+        tether::MakeMclDemoCommand, tether::MakeMclBenchCommand}) {
     commands.push_back(make());
   }
   CLI::App app{"tether: factor-graph optimisation for SLAM"};

@@ -75,6 +75,7 @@ std::unique_ptr<Command> MakeLidarCommand();
 std::unique_ptr<Command> MakeLidarEvalCommand();
 std::unique_ptr<Command> MakeLidarDegradeCommand();
 std::unique_ptr<Command> MakeMclCommand();
+std::unique_ptr<Command> MakeMclDemoCommand();
 std::unique_ptr<Command> MakeMclBenchCommand();
 
 }  // namespace tether
