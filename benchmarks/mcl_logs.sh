@@ -34,7 +34,7 @@ for log in $LOGS; do
     [ "$log" = fr079 ] && odometry="--odometry none"
     "$TETHER" lidar "$clf" -o "$map" -q $odometry > "$OUT/map-$log.txt"
   fi
-  first=$(grep -v '^#' "$map/trajectory.tum" | head -1)
+  first=$(awk '!/^#/{print; exit}' "$map/trajectory.tum")
   pose=$(echo "$first" | awk '{printf "%s,%s,%.9f", $2, $3, 2*atan2($7, $8)}')
   echo "== $log: tracking, $TRACK_PARTICLES particles"
   "$TETHER" mcl "$clf" --map "$map/map.yaml" -o "$OUT/track-$log" -q --initial-pose="$pose" \

@@ -123,8 +123,8 @@ void MclDemoCli::Add(CLI::App& app) {
   Option("--hold", o.converge_hold, "Converged: within 0.5 m and 10 degrees for this many updates in a row");
   app_->add_flag_function(
       "--filters-from-zero", [this](std::int64_t) { cmd_.options.settled_filters = false; },
-      "Augmented MCL's w_slow and w_fast start from 0 as the filter starts them (default: settled at the first "
-      "update's average likelihood, as after a long localised run)");
+      "Augmented MCL's w_slow and w_fast start from 0 as the textbook starts them (default: at the first "
+      "update's average, as the filter starts them)");
   Option("--threads", o.threads, "Runs in parallel (0: every core; the figures do not depend on it)");
   AddPath(app_, "-o,--output", &cmd_.output, "Also write the tables (markdown) here");
   app_->add_flag("-q,--quiet", cmd_.quiet, "Only the tables");

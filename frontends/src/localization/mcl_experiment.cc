@@ -173,10 +173,11 @@ KidnapRun RunKidnap(const KidnapScenario& s, const MclOptions& filter, const Mcl
     }
     if (k > 0) mcl.Predict(s.scans[k - 1].odometry, s.scans[k].odometry);
     mcl.Update(s.scans[k]);
-    if (k == 0 && o.settled_filters && std::isfinite(mcl.log_w_fast())) {
-      // The first update set w_fast to alpha_fast w_avg: both filters to w_avg.
-      const double log_w_avg = mcl.log_w_fast() - std::log(f.alpha_fast);
-      mcl.SetRecoveryFilters(log_w_avg, log_w_avg);
+    if (k == 0 && !o.settled_filters && std::isfinite(mcl.log_w_fast())) {
+      // The filter starts both at the first update's w_avg; from 0, as in the textbook, one
+      // update leaves alpha times it.
+      const double log_w_avg = mcl.log_w_fast();
+      mcl.SetRecoveryFilters(std::log(f.alpha_slow) + log_w_avg, std::log(f.alpha_fast) + log_w_avg);
     }
     if (after) count(mcl.redrawn(), s.truth[k]);
     const PoseEstimate e = mcl.Estimate();

@@ -59,9 +59,9 @@ struct MclExperimentOptions {
   int converge_hold = 10;                       ///< updates in a row within both
   double near_radius = 0.5;                     ///< metres: a re-drawn particle "near" the truth
   double near_angle = 0.17453292519943295;      ///< radians: ... and its heading (pose variant)
-  /// The recovery filters (amcl, acmcl) start settled: w_slow and w_fast both set to the first
-  /// update's average likelihood, as after a long localised run. False: they start as the
-  /// filter starts them (from 0), and by the kidnap w_slow has reached only
+  /// The recovery filters (amcl, acmcl) start settled: w_slow and w_fast both at the first
+  /// update's average, as the filter starts them. False: from 0, as in the textbook, and by the
+  /// kidnap w_slow has reached only
   /// 1 - (1 - alpha_slow)^kidnap_step of the average (10% at step 100), so a kidnap must cut
   /// the average likelihood tenfold before a random particle is injected.
   bool settled_filters = true;
