@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes every graph reader, the CARMEN laser-log reader (with the log writer and degrader
-# behind it), the TUM and relations readers and the bag record check, with libFuzzer under
+# behind it), the TUM and relations readers, the bag record check and the map image (PGM)
+# reader with the localisation map behind it, with libFuzzer under
 # AddressSanitizer and UndefinedBehaviorSanitizer.
 #
 #   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
@@ -77,6 +78,8 @@ printf '\003FLASER 3 1 2 81.9 0.1 0 0 0 0 0 10 h 1\nROBOTLASER1 0 -1.5 1.5 0.75 
 # first lines, a tiny bag and the head of a real one.
 printf '\000# timestamp x y z qx qy qz qw\n1.5 1 2 0 0 0 0.1 0.995\n2.5 1.2 2 0 0 0 0.2 0.98\n' > "$work/corpus/lidar_text/seed_tum"
 printf '\x011.5 2.5 0.2 0 0 0 0 0.1\n' > "$work/corpus/lidar_text/seed_relations"
+printf '\003P5\n4 3\n255\n\000\376\376\315\376\376\376\376\000\000\376\376' > "$work/corpus/lidar_text/seed_pgm"
+printf '\003P2\n# a map\n3 2\n15\n0 15 7\n15 15 0\n' > "$work/corpus/lidar_text/seed_pgm_plain"
 if [ -d "$datasets/lidar" ]; then
   while IFS= read -r f; do
     { printf '\001'; head -n 30 "$f"; } > "$work/corpus/lidar_text/seed_$(basename "$f")"

@@ -1,5 +1,6 @@
 // `tether mcl`: Monte Carlo localisation of a laser log in a saved map
 // (frontends/localization/mcl_localization_2d.h); this file only binds the flags and prints.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <ostream>
@@ -73,7 +74,7 @@ void PrintReference(const MclCommand& cmd, const localization::MclLocalization2D
     out << "not converged: the last estimate is more than 0.5 m or 10 degrees from the reference\n";
   } else {
     out << "converged (within 0.5 m and 10 degrees from then on) at pose " << e.converged_index + 1 << ", "
-        << FormatFixed(e.converged_stamp - run.Trajectory().front().stamp, 1)
+        << FormatFixed(std::max(0.0, e.converged_stamp - run.Trajectory().front().stamp), 1)
         << " s into the run; from there: position error mean " << FormatFixed(e.mean_error_converged, 4)
         << " m, heading error mean " << FormatFixed(e.mean_heading_error_converged * 180 / M_PI, 2) << " deg\n";
   }
