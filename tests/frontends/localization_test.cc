@@ -478,7 +478,9 @@ RunResult RunRoom(MclOptions o, bool global, int kidnap_at = -1, int threads = 1
       ++counted;
     }
     r.final_error = e;
-    if (getenv("MCL_DEBUG") && k % 10 == 0) printf("%zu err %.3f inj %d upd %d temp %.4f slow %.3f fast %.3f\n", k, e, step.injected, step.updated, step.tempering, step.w_slow, step.w_fast);
+    if (getenv("MCL_DEBUG") && k % 10 == 0)
+      printf("%zu err %.3f inj %d upd %d temp %.4f slow %.3f fast %.3f\n", k, e, step.injected, step.updated,
+             step.tempering, step.w_slow, step.w_fast);
     r.final_heading_error = std::abs(std::remainder(step.estimate.pose.theta() - truth[k].theta(), 2 * kPi));
     r.redrawn += step.redrawn;
     r.injected += step.injected;
@@ -535,6 +537,30 @@ TEST(MonteCarloLocalizerTest, RecoversFromAKidnapWhereMclCannot) {
   const RunResult acmcl = RunRoom(o, false, 200);
   EXPECT_LT(acmcl.final_error, 0.15);
   EXPECT_GT(acmcl.redrawn, 0);
+}
+
+TEST(MonteCarloLocalizerTest, AutoUsesTheCostmapOnlyUntilLocalised) {
+  MclOptions o;
+  o.method = MclMethod::kAuto;
+  o.particles = 1000;
+  const RunResult tracked = RunRoom(o, false);
+  o.method = MclMethod::kAcmcl;
+  const RunResult always = RunRoom(o, false);
+  // Localised from the first scan: Augmented MCL, but for the rare update whose weighted set
+  // spreads out.
+  EXPECT_LT(tracked.redrawn * 10, always.redrawn);
+  EXPECT_LT(tracked.mean_error, 0.07);
+  o.method = MclMethod::kAuto;
+  o.particles = 2000;
+  const RunResult found = RunRoom(o, true);
+  EXPECT_GT(found.redrawn, 0);  // spread over the room: ACMCL
+  EXPECT_LT(found.final_error, 0.15);
+  // The rule itself: a tight set is localised, a spread one not.
+  MonteCarloLocalizer2D mcl(RoomMap(), o);
+  mcl.InitializeGaussian(SE2d(3, 3, 0), Eigen::Vector3d(0.01, 0.01, 0.001).asDiagonal());
+  EXPECT_TRUE(mcl.Localised());
+  mcl.InitializeGlobal();
+  EXPECT_FALSE(mcl.Localised());
 }
 
 TEST(MonteCarloLocalizerTest, TheSameForASeedAndAnyThreadCount) {

@@ -44,7 +44,7 @@ TEST_F(MclCliTest, TracksTheSimulatedRobotInItsWorldsMap) {
   const CliRun r = Tether("mcl " + P("m.log") + " --map " + P("m.yaml") + " -o " + P("out") +
                           " --particles 500 --initial-pose=" + FirstPose() + " --reference " + P("m.tum"));
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("600 scans; method amcl, 500 particles, from the initial pose"), std::string::npos)
+  EXPECT_NE(r.output.find("600 scans; method auto, 500 particles, from the initial pose"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("converged (within 0.5 m and 10 degrees from then on) at pose 1,"), std::string::npos)
       << r.output;

@@ -151,7 +151,8 @@ void MclCli::Add(CLI::App& app) {
 void MclCli::AddFilterOptions() {
   localization::MclOptions& f = cmd_.options.filter;
   AddEnumOption(app_, "--method", &f.method,
-                "mcl (plain), amcl (Augmented MCL: random particles), cmcl (costmap), acmcl (both)");
+                "mcl (plain), amcl (Augmented MCL: random particles), cmcl (costmap), acmcl (both), auto (acmcl until "
+                "localised, then amcl)");
   AddEnumOption(app_, "--model", &f.model, "The measurement model");
   Option("--particles", f.particles, "Particles (the first count with --kld)");
   Option("--max-beams", f.max_beams, "Beams scored per scan (0: all)");

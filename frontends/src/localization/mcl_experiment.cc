@@ -330,6 +330,8 @@ const char* MethodLabel(MclMethod m) {
       return "Costmap MCL";
     case MclMethod::kAcmcl:
       return "ACMCL";
+    case MclMethod::kAuto:
+      return "auto (ACMCL until localised)";
   }
   return "";
 }

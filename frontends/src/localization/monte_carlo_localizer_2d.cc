@@ -112,6 +112,9 @@ bool MclOptions::IsValid(std::string* why) const {
     return Fail(why, "the cluster bins must be positive");
   }
   if (threads < 0) return Fail(why, "threads must be 0 (every core) or more");
+  if (!(localised_weight >= 0 && localised_weight <= 1) || !(localised_spread >= 0)) {
+    return Fail(why, "localised_weight must lie in [0, 1] and localised_spread be 0 or more");
+  }
   if (!(min_effective_fraction >= 0 && min_effective_fraction <= 1)) {
     return Fail(why, "min_effective_fraction must lie in [0, 1]");
   }
@@ -130,7 +133,8 @@ MonteCarloLocalizer2D::MonteCarloLocalizer2D(std::shared_ptr<const OccupancyMap2
   if (map_->free_cells().empty()) {
     throw InvalidArgument("MonteCarloLocalizer2D: the map has no free cell to put particles in");
   }
-  if (options.method == MclMethod::kCostmap || options.method == MclMethod::kAcmcl) {
+  if (options.method == MclMethod::kCostmap || options.method == MclMethod::kAcmcl ||
+      options.method == MclMethod::kAuto) {
     costmap_ = std::make_unique<Costmap2D>(*map_, options.robot_radius);
     if (costmap_->valid_cells().empty()) {
       throw InvalidArgument("MonteCarloLocalizer2D: no free cell lies " + std::to_string(options.robot_radius) +
@@ -191,6 +195,7 @@ void MonteCarloLocalizer2D::SetParticles(const std::vector<Particle>& particles)
   for (const Particle& p : particles_) before_motion_.push_back(p.pose());
   redrawn_.assign(particles_.size(), false);
   injected_.assign(particles_.size(), false);
+  localised_ = options_.method == MclMethod::kAuto && Localised();
 }
 
 void MonteCarloLocalizer2D::Predict(const SE2d& odometry_from, const SE2d& odometry_to) {
@@ -244,7 +249,7 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
   const std::string problem = lidar::ScanProblem(scan);
   if (!problem.empty()) throw InvalidArgument("MonteCarloLocalizer2D::Update: " + problem);
   redrawn_.assign(particles_.size(), false);
-  if (costmap_) {
+  if (costmap_ && (options_.method != MclMethod::kAuto || !localised_)) {
     for (std::size_t i = 0; i < particles_.size(); ++i) {
       const Eigen::Vector2d from = i < before_motion_.size() ? before_motion_[i].translation()
                                                              : Eigen::Vector2d(particles_[i].x, particles_[i].y);
@@ -265,14 +270,15 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
   double log_sum = kNegInf;
   std::size_t counted = 0;
   for (std::size_t i = 0; i < ll.size(); ++i) {
-    if (options_.method == MclMethod::kAcmcl && redrawn_[i]) continue;
+    if ((options_.method == MclMethod::kAcmcl || options_.method == MclMethod::kAuto) && redrawn_[i]) continue;
     log_sum = LogAdd(log_sum, std::log(std::max(mean_p[i], 1e-300)));
     ++counted;
   }
   last_step_ = MclStep();
   if (counted > 0) {
     last_step_.w_avg = log_sum - std::log(static_cast<double>(counted));
-    if (options_.method == MclMethod::kAugmented || options_.method == MclMethod::kAcmcl) {
+    if (options_.method == MclMethod::kAugmented || options_.method == MclMethod::kAcmcl ||
+        options_.method == MclMethod::kAuto) {
       UpdateRecoveryFilters(last_step_.w_avg);
     }
   }
@@ -312,6 +318,8 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
   for (const Particle& p : particles_) sum += p.weight;
   for (Particle& p : particles_) p.weight = sum > 0 ? p.weight / sum : 1.0 / static_cast<double>(particles_.size());
   last_step_.redrawn = static_cast<int>(std::count(redrawn_.begin(), redrawn_.end(), true));
+  // auto: judged on the weighted set, before the resampling injects its random particles.
+  if (options_.method == MclMethod::kAuto) localised_ = Localised();
   last_step_.w_slow = log_w_slow_;
   last_step_.w_fast = log_w_fast_;
 }
@@ -331,7 +339,10 @@ void MonteCarloLocalizer2D::SetRecoveryFilters(double log_w_slow, double log_w_f
 }
 
 double MonteCarloLocalizer2D::InjectionProbability() const {
-  if (options_.method != MclMethod::kAugmented && options_.method != MclMethod::kAcmcl) return 0;
+  if (options_.method != MclMethod::kAugmented && options_.method != MclMethod::kAcmcl &&
+      options_.method != MclMethod::kAuto) {
+    return 0;
+  }
   if (log_w_slow_ == kNegInf) return 0;
   return std::max(0.0, 1.0 - std::exp(log_w_fast_ - log_w_slow_));
 }
@@ -375,6 +386,12 @@ void MonteCarloLocalizer2D::Resample() {
   before_motion_.clear();
   for (const Particle& p : particles_) before_motion_.push_back(p.pose());
   last_step_.injected = static_cast<int>(std::count(injected_.begin(), injected_.end(), true));
+}
+
+bool MonteCarloLocalizer2D::Localised() const {
+  const PoseEstimate e = Estimate();
+  return e.cluster_weight >= options_.localised_weight &&
+         std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)) <= options_.localised_spread;
 }
 
 PoseEstimate MonteCarloLocalizer2D::Estimate() const {

@@ -54,11 +54,17 @@ enum class MclMethod {
   kAugmented,  ///< Augmented MCL: random particles injected by w_slow / w_fast
   kCostmap,    ///< Costmap MCL: particles in or crossing the invalid zone re-drawn
   kAcmcl,      ///< both, the re-drawn particles left out of w_avg
+  /// ACMCL while the filter is not localised (below), Augmented MCL once it is: the costmap's
+  /// re-draws find the robot from a global start and after a kidnap, and stay out of tracking,
+  /// where a map with an obstacle on the robot's own path (a door closed later, a person
+  /// standing) or a narrow door would re-draw the particles at the true pose.
+  kAuto,
 };
 inline constexpr EnumName<MclMethod> kMclMethodNames[] = {{MclMethod::kMcl, "mcl"},
                                                           {MclMethod::kAugmented, "amcl"},
                                                           {MclMethod::kCostmap, "cmcl"},
-                                                          {MclMethod::kAcmcl, "acmcl"}};
+                                                          {MclMethod::kAcmcl, "acmcl"},
+                                                          {MclMethod::kAuto, "auto"}};
 constexpr const auto& EnumNames(MclMethod) { return kMclMethodNames; }
 
 enum class MeasurementModelType { kLikelihoodField, kBeam };
@@ -75,7 +81,7 @@ struct KldOptions {
 };
 
 struct MclOptions {
-  MclMethod method = MclMethod::kAugmented;
+  MclMethod method = MclMethod::kAuto;
   int particles = 1000;  ///< the count (the first count where KLD sampling is on)
   OdometryMotionModel motion;
   MeasurementModelType model = MeasurementModelType::kLikelihoodField;
@@ -92,6 +98,11 @@ struct MclOptions {
   /// odometry.
   double update_min_translation = 0.1;
   double update_min_rotation = 0.1;
+  /// auto: the filter counts as localised where its heaviest cluster holds at least this share
+  /// of the weight and spreads (the square root of its position variances' sum) at most
+  /// localised_spread metres.
+  double localised_weight = 0.9;
+  double localised_spread = 0.5;
   double cluster_xy = 0.5;     ///< metres: bins of the estimate's clusters and of KLD sampling
   double cluster_theta = 0.2;  ///< radians
   /// Tempering: where the scan's likelihoods would leave fewer than this share of the particles'
@@ -101,7 +112,7 @@ struct MclOptions {
   /// particle near a look-alike place). 0: never tempered. 0.1 by the measurements in
   /// benchmarks/RESULTS.md ("Monte Carlo localisation on the benchmark logs").
   double min_effective_fraction = 0.1;
-  int threads = 0;             ///< threads weighting the particles (0: every core)
+  int threads = 0;  ///< threads weighting the particles (0: every core)
   std::uint64_t seed = 1;
 
   /// False (and why) for fewer than 1 particle, invalid model options, alpha_slow not in
@@ -186,6 +197,10 @@ class MonteCarloLocalizer2D {
   /// The logs of w_slow and w_fast (-inf before the first update).
   double log_w_slow() const { return log_w_slow_; }
   double log_w_fast() const { return log_w_fast_; }
+  /// True where the heaviest cluster holds localised_weight of the weight within
+  /// localised_spread (the rule of the auto method, which applies it to the weighted set after
+  /// each update, before the resampling injects random particles, and to a set given).
+  bool Localised() const;
   /// The probability with which the next Resample injects a random particle.
   double InjectionProbability() const;
   /// Sets the filters (logs), for tests and for a caller that restores a state.
@@ -207,6 +222,7 @@ class MonteCarloLocalizer2D {
   std::vector<SE2d> before_motion_;  // each particle's pose before the last Predict
   std::vector<bool> redrawn_, injected_;
   double log_w_slow_, log_w_fast_;
+  bool localised_ = false;  // auto: Localised() after the last update (or of the set given)
   bool has_last_update_ = false;
   SE2d last_update_odometry_;   // the odometry at the last update
   PoseEstimate last_estimate_;  // at the last update
