@@ -394,7 +394,8 @@ void BindModelOptions(py::module_& lo) {
 void BindOptions(py::module_& lo) {
   lo.def(
       "methods", [] { return EnumNameVector<MclMethod>(); },
-      "The methods' names: 'mcl' (plain), 'amcl' (Augmented MCL), 'cmcl' (costmap), 'acmcl' (both)");
+      "The methods' names: 'mcl' (plain), 'amcl' (Augmented MCL), 'cmcl' (costmap), 'acmcl' (both), 'auto' "
+      "(acmcl until localised, then amcl: the default)");
   py::class_<MclOptions>(lo, "MclOptions",
                          "The options of MonteCarloLocalizer2D (frontends/localization/monte_carlo_localizer_2d.h); "
                          "the defaults are `tether mcl`'s. The nested options (motion, likelihood_field, beam, kld) "

@@ -135,10 +135,8 @@ def test_global_localisation_step_by_step(room):
     options = lo.MclOptions()
     options.particles = 10000
     options.threads = 2
-    # A global start in a room this plain needs particles that survive the first scans: ROS
-    # amcl's sum of cubes, and KLD sampling to shed most of them once the pose is found.
-    options.likelihood_field.sigma_hit = 0.2
-    options.likelihood_field.combination = "sum-of-cubes"
+    # The default method (auto: the costmap's re-draws until localised) and its tempered
+    # updates; KLD sampling sheds most of the particles once the pose is found.
     options.kld.enabled = True
     options.kld.min_particles = 500
     options.kld.max_particles = 10000
@@ -247,9 +245,9 @@ def test_invalid_options_raise_with_the_message(room):
     assert not valid and "alpha_slow" in why
     with pytest.raises(tether.InvalidArgument, match="alpha_slow"):
         lo.MonteCarloLocalizer2D(room, options)
-    with pytest.raises(ValueError, match="unknown method 'monte'; use mcl, amcl, cmcl or acmcl"):
+    with pytest.raises(ValueError, match="unknown method 'monte'; use mcl, amcl, cmcl, acmcl or auto"):
         options.method = "monte"
-    assert lo.methods() == ["mcl", "amcl", "cmcl", "acmcl"]
+    assert lo.methods() == ["mcl", "amcl", "cmcl", "acmcl", "auto"]
     options = lo.MclOptions()
     options.particles = 0
     assert "particles" in options.is_valid()[1]
