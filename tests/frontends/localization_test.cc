@@ -207,10 +207,17 @@ TEST(LocalizationMapTest, BadMapFilesAreRefusedNamingTheFileAndLine) {
   EXPECT_NE(yaml_error("image: missing.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n").find("missing.pgm: cannot open"),
             std::string::npos);
   EXPECT_NE(yaml_error("just a line\n").find("bad.yaml:1:"), std::string::npos);
+  EXPECT_NE(yaml_error("image: ok.pgm\nresolution: 1e-300\norigin: [0, 0, 0]\n").find("bad.yaml:2: resolution"),
+            std::string::npos);
+  EXPECT_NE(yaml_error("image: ok.pgm\nresolution: 0.05\norigin: [1e308, 0, 0]\n").find("bad.yaml:3: origin lies"),
+            std::string::npos);
+  EXPECT_NE(yaml_error("image: /dev/zero\nresolution: 0.05\norigin: [0, 0, 0]\n").find("larger than"),
+            std::string::npos);
   EXPECT_THROW(lidar::ParsePgm("P6 1 1 255\n\x01\x02\x03", "c.pgm"), ParseError);
   EXPECT_THROW(lidar::ParsePgm("P5 2 2 255\n\x01", "cut.pgm"), ParseError);
   EXPECT_THROW(lidar::ParsePgm("P5 2 2 65535\n", "deep.pgm"), ParseError);
   EXPECT_THROW(lidar::ParsePgm("P5 100000 100000 255\n", "huge.pgm"), ParseError);
+  EXPECT_THROW(lidar::ParsePgm("P5 1000000000000000000 1000000000000000000 255\n", "huger.pgm"), ParseError);
   EXPECT_THROW(lidar::ParsePgm("P2 1 1 10 11", "above.pgm"), ParseError);
   EXPECT_THROW(lidar::ParsePgm("", "empty.pgm"), ParseError);
 }
@@ -584,6 +591,8 @@ TEST(MonteCarloLocalizerTest, OptionsAreCheckedWithReasons) {
   MclOptions o;
   EXPECT_TRUE(o.IsValid(&why)) << why;
   o.particles = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  o.particles = kMaxParticles + 1;
   EXPECT_FALSE(o.IsValid(&why));
   o = MclOptions();
   o.alpha_slow = 0.2;

@@ -43,9 +43,11 @@ struct Bins {
     return (static_cast<std::uint64_t>(ix + (1LL << 21)) << 42) | (static_cast<std::uint64_t>(iy + (1LL << 21)) << 21) |
            static_cast<std::uint64_t>(it);
   }
+  // Bins beyond 2^20 from the origin share the last one (a key holds 21 bits a coordinate).
+  static long long Clamp(double v) { return static_cast<long long>(std::max(-1048576.0, std::min(1048575.0, v))); }
   void Cell(double x, double y, double t, long long* ix, long long* iy, long long* it) const {
-    *ix = static_cast<long long>(std::floor(x / xy));
-    *iy = static_cast<long long>(std::floor(y / xy));
+    *ix = Clamp(std::floor(x / xy));
+    *iy = Clamp(std::floor(y / xy));
     *it = std::min<long long>(theta_bins - 1, static_cast<long long>(std::floor((Wrap(t) + kPi) / theta)));
   }
 };
@@ -88,7 +90,9 @@ std::vector<int> LowVarianceResample(const std::vector<double>& weights, int cou
 
 bool MclOptions::IsValid(std::string* why) const {
   std::string w;
-  if (particles < 1) return Fail(why, "particles must be at least 1");
+  if (particles < 1 || particles > kMaxParticles) {
+    return Fail(why, "particles must lie in 1.." + std::to_string(kMaxParticles));
+  }
   if (!motion.IsValid(&w) || !likelihood_field.IsValid(&w) || !beam.IsValid(&w)) return Fail(why, w);
   if (max_beams < 0) return Fail(why, "max_beams must be 0 (every beam) or more");
   if (!(range_cap >= 0) || !std::isfinite(range_cap)) return Fail(why, "range_cap must be 0 (none) or more");
@@ -98,8 +102,8 @@ bool MclOptions::IsValid(std::string* why) const {
   if (!(kld.epsilon > 0 && kld.epsilon < 1 && kld.delta > 0 && kld.delta < 1)) {
     return Fail(why, "KLD sampling's epsilon and delta must lie in (0, 1)");
   }
-  if (kld.min_particles < 1 || kld.max_particles < kld.min_particles) {
-    return Fail(why, "KLD sampling needs 1 <= min_particles <= max_particles");
+  if (kld.min_particles < 1 || kld.max_particles < kld.min_particles || kld.max_particles > kMaxParticles) {
+    return Fail(why, "KLD sampling needs 1 <= min_particles <= max_particles <= " + std::to_string(kMaxParticles));
   }
   if (kld.enabled && (particles < kld.min_particles || particles > kld.max_particles)) {
     return Fail(why, "with KLD sampling the first particle count must lie in [min_particles, max_particles]");

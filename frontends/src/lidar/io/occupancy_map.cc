@@ -167,13 +167,23 @@ long PgmNumber(const std::string& b, std::size_t* at, const std::string& name, c
   return v;
 }
 
-std::string ReadWhole(const std::string& path, const char* what) {
+// The file's bytes, at most `limit` of them: a larger file (or an endless one: /dev/zero) is
+// refused.
+std::string ReadWhole(const std::string& path, const char* what, std::size_t limit) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path + ": cannot open the " + std::string(what));
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
+  std::string bytes;
+  std::vector<char> chunk(1 << 20);
+  while (in) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    bytes.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
+    if (bytes.size() > limit) {
+      throw ParseError(path + ": the " + std::string(what) + " is larger than " + std::to_string(limit >> 20) +
+                       " MB: not a map (a map image holds at most 2^28 pixels)");
+    }
+  }
   if (in.bad()) throw IoError(path + ": cannot read the " + std::string(what));
-  return bytes.str();
+  return bytes;
 }
 
 double YamlNumber(const std::string& v, const std::string& where, const std::string& key) {
@@ -210,7 +220,7 @@ OccupancyImage ParsePgm(const std::string& bytes, const std::string& name) {
   const long width = PgmNumber(bytes, &at, name, "width");
   const long height = PgmNumber(bytes, &at, name, "height");
   const long maxval = PgmNumber(bytes, &at, name, "maxval");
-  if (width < 1 || height < 1 || width * height > (1L << 28)) {
+  if (width < 1 || height < 1 || width > (1L << 28) || height > (1L << 28) || width * height > (1L << 28)) {
     throw ParseError(name + ": a PGM of " + std::to_string(width) + " x " + std::to_string(height) +
                      " pixels (a map needs 1 to 2^28 pixels)");
   }
@@ -245,7 +255,7 @@ OccupancyImage ParsePgm(const std::string& bytes, const std::string& name) {
 }
 
 MapFile ReadMapYaml(const std::string& yaml_path) {
-  std::istringstream text(ReadWhole(yaml_path, "map YAML"));
+  std::istringstream text(ReadWhole(yaml_path, "map YAML", 1 << 20));
   MapFile map;
   std::string image, line;
   bool has_resolution = false, has_origin = false;
@@ -261,7 +271,10 @@ MapFile ReadMapYaml(const std::string& yaml_path) {
       image = value;
     } else if (key == "resolution") {
       map.image.resolution = YamlNumber(value, where, key);
-      if (map.image.resolution <= 0) throw ParseError(where + "resolution must be positive (metres per pixel)");
+      if (!(map.image.resolution >= 1e-4 && map.image.resolution <= 1e3)) {
+        throw ParseError(where + "resolution " + FormatDouble(map.image.resolution) +
+                         " (metres per pixel) is not between 0.0001 and 1000");
+      }
       has_resolution = true;
     } else if (key == "origin") {
       if (value.size() < 2 || value.front() != '[' || value.back() != ']') {
@@ -272,8 +285,12 @@ MapFile ReadMapYaml(const std::string& yaml_path) {
       for (std::string part; std::getline(parts, part, ',');) xyz.push_back(YamlNumber(Trim(part), where, key));
       if (xyz.size() != 3)
         throw ParseError(where + "origin has " + std::to_string(xyz.size()) + " numbers, not [x, y, yaw]");
-      if (xyz[2] != 0)
+      if (xyz[2] != 0) {
         throw ParseError(where + "origin's yaw is not 0: rotated maps are not supported; rotate the image");
+      }
+      if (std::abs(xyz[0]) > 1e7 || std::abs(xyz[1]) > 1e7) {
+        throw ParseError(where + "origin lies more than 10000 km from 0: not a map's origin");
+      }
       map.image.origin = Eigen::Vector2d(xyz[0], xyz[1]);
       has_origin = true;
     } else if (key == "negate") {
@@ -296,7 +313,7 @@ MapFile ReadMapYaml(const std::string& yaml_path) {
   map.image_path = image[0] == '/' || slash == std::string::npos ? image : yaml_path.substr(0, slash + 1) + image;
   const double resolution = map.image.resolution;
   const Eigen::Vector2d origin = map.image.origin;
-  map.image = ParsePgm(ReadWhole(map.image_path, "map image"), map.image_path);
+  map.image = ParsePgm(ReadWhole(map.image_path, "map image", (std::size_t{1} << 30) + (1 << 20)), map.image_path);
   map.image.resolution = resolution;
   map.image.origin = origin;
   return map;

@@ -80,6 +80,9 @@ struct KldOptions {
   int max_particles = 5000;  ///< ... nor rises above this
 };
 
+/// The most particles a filter takes (100 bytes each with their scratch: 1 GB).
+constexpr int kMaxParticles = 10000000;
+
 struct MclOptions {
   MclMethod method = MclMethod::kAuto;
   int particles = 1000;  ///< the count (the first count where KLD sampling is on)
@@ -115,7 +118,7 @@ struct MclOptions {
   int threads = 0;  ///< threads weighting the particles (0: every core)
   std::uint64_t seed = 1;
 
-  /// False (and why) for fewer than 1 particle, invalid model options, alpha_slow not in
+  /// False (and why) for fewer than 1 particle or more than kMaxParticles, invalid model options, alpha_slow not in
   /// (0, alpha_fast), alpha_fast above 1, a KLD setting out of range (epsilon, delta in (0, 1),
   /// 1 <= min <= max), a negative radius, update thresholds or thread count, non-positive
   /// cluster bins.

@@ -67,7 +67,7 @@ OccupancyImage ParsePgm(const std::string& bytes, const std::string& name);
 /// Reads a map_server map: the YAML (`image`, `resolution`, `origin: [x, y, yaw]`, `negate`,
 /// `occupied_thresh`, `free_thresh`; other keys such as `mode` ignored) and the PGM it names.
 /// Throws IoError where a file cannot be opened and ParseError "file:line: what" on a missing
-/// or malformed key, a non-positive or non-finite resolution, thresholds outside
+/// or malformed key, a resolution outside [0.0001, 1000] m, an origin beyond 1e7 m, thresholds outside
 /// 0 <= free < occupied <= 1, or a rotated origin (yaw other than 0: not supported).
 MapFile ReadMapYaml(const std::string& yaml_path);
 
