@@ -93,10 +93,12 @@ double RandomReadsPerSecond(std::size_t bytes, std::uint64_t seed) {
   return 4.0 * static_cast<double>(index.size()) / seconds;
 }
 
-// Seconds per Update (weighting only) and per full step, with `threads`.
+// Seconds per Update (Augmented MCL's: the weighting and the recovery filters) and per full
+// step (predict, update, estimate, resample), with `threads`.
 std::pair<double, double> TimeUpdates(const std::shared_ptr<const OccupancyMap2D>& map, const MclBenchCommand& cmd,
                                       const lidar::LaserScan& scan, const SE2d& pose, bool global, int threads) {
   MclOptions o;
+  o.method = localization::MclMethod::kAugmented;  // the weighting alone: no costmap, no clustering in Update
   o.particles = cmd.particles;
   o.max_beams = cmd.beams;
   o.threads = threads;
