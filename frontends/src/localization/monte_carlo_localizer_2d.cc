@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 #include <thread>
-#include <unordered_map>
 
 #include "tether/core/error.h"
 
@@ -50,6 +49,61 @@ struct Bins {
     *iy = Clamp(std::floor(y / xy));
     *it = std::min<long long>(theta_bins - 1, static_cast<long long>(std::floor((Wrap(t) + kPi) / theta)));
   }
+};
+
+// Bin keys to bin numbers for the clusters and KLD sampling: open addressing with linear
+// probing in a power-of-two table kept at least twice the entries (std::unordered_map's node
+// per entry took most of an update of particles spread over a map). No key is all ones
+// (Bins::Key keeps every field below its top).
+class BinIndex {
+ public:
+  explicit BinIndex(std::size_t expected) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * expected) capacity <<= 1;
+    Reset(capacity);
+  }
+  /// The value of `key`, set to `value` where it was absent; second: it was.
+  std::pair<int, bool> Insert(std::uint64_t key, int value) {
+    if (2 * (count_ + 1) > keys_.size()) Grow();
+    for (std::size_t k = Slot(key);; k = (k + 1) & mask_) {
+      if (keys_[k] == key) return {values_[k], false};
+      if (keys_[k] == kEmpty) {
+        keys_[k] = key;
+        values_[k] = value;
+        ++count_;
+        return {value, true};
+      }
+    }
+  }
+  /// The value of `key`; -1 where absent.
+  int Find(std::uint64_t key) const {
+    for (std::size_t k = Slot(key);; k = (k + 1) & mask_) {
+      if (keys_[k] == key) return values_[k];
+      if (keys_[k] == kEmpty) return -1;
+    }
+  }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t Slot(std::uint64_t key) const { return static_cast<std::size_t>(RandomStream::Mix(key)) & mask_; }
+  void Reset(std::size_t capacity) {
+    keys_.assign(capacity, kEmpty);
+    values_.assign(capacity, -1);
+    mask_ = capacity - 1;
+    count_ = 0;
+  }
+  void Grow() {
+    const std::vector<std::uint64_t> keys = std::move(keys_);
+    const std::vector<int> values = std::move(values_);
+    Reset(2 * keys.size());
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      if (keys[k] != kEmpty) Insert(keys[k], values[k]);
+    }
+  }
+  std::vector<std::uint64_t> keys_;
+  std::vector<int> values_;
+  std::size_t mask_ = 0;
+  std::size_t count_ = 0;
 };
 
 }  // namespace
@@ -369,7 +423,8 @@ void MonteCarloLocalizer2D::Resample() {
     double c = 0;
     for (std::size_t i = 0; i < weights.size(); ++i) cumulative[i] = (c += weights[i]);
     const Bins bins(options_.cluster_xy, options_.cluster_theta);
-    std::unordered_map<std::uint64_t, char> filled;
+    BinIndex filled(particles_.size());
+    int bins_filled = 0;
     const KldOptions& k = options_.kld;
     while (static_cast<int>(next.size()) < k.max_particles) {
       const double u = random_.Uniform() * c;
@@ -378,8 +433,8 @@ void MonteCarloLocalizer2D::Resample() {
           static_cast<std::size_t>(std::upper_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin()))));
       long long ix, iy, it;
       bins.Cell(next.back().x, next.back().y, next.back().theta, &ix, &iy, &it);
-      filled.emplace(bins.Key(ix, iy, it), 0);
-      const double needed = KldSampleCount(static_cast<int>(filled.size()), k.epsilon, k.delta);
+      if (filled.Insert(bins.Key(ix, iy, it), 0).second) ++bins_filled;
+      const double needed = KldSampleCount(bins_filled, k.epsilon, k.delta);
       if (static_cast<int>(next.size()) >= k.min_particles && static_cast<double>(next.size()) >= needed) break;
     }
   }
@@ -407,16 +462,16 @@ PoseEstimate MonteCarloLocalizer2D::Estimate() const {
     double weight = 0;
     int cluster = -1;
   };
-  std::unordered_map<std::uint64_t, int> index;
+  BinIndex index(particles_.size());
   std::vector<Bin> cells;
   std::vector<int> bin_of(particles_.size());
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     Bin b;
     bins.Cell(particles_[i].x, particles_[i].y, particles_[i].theta, &b.ix, &b.iy, &b.it);
-    const auto it = index.emplace(bins.Key(b.ix, b.iy, b.it), static_cast<int>(cells.size()));
+    const std::pair<int, bool> it = index.Insert(bins.Key(b.ix, b.iy, b.it), static_cast<int>(cells.size()));
     if (it.second) cells.push_back(b);
-    bin_of[i] = it.first->second;
-    cells[static_cast<std::size_t>(it.first->second)].weight += particles_[i].weight;
+    bin_of[i] = it.first;
+    cells[static_cast<std::size_t>(it.first)].weight += particles_[i].weight;
   }
   // Connected bins (26 neighbours, the heading's bins wrapping round) form the clusters.
   std::vector<double> cluster_weight;
@@ -433,10 +488,10 @@ PoseEstimate MonteCarloLocalizer2D::Estimate() const {
       for (int dx = -1; dx <= 1; ++dx)
         for (int dy = -1; dy <= 1; ++dy)
           for (int dt = -1; dt <= 1; ++dt) {
-            const auto found = index.find(bins.Key(b.ix + dx, b.iy + dy, b.it + dt));
-            if (found == index.end() || cells[static_cast<std::size_t>(found->second)].cluster >= 0) continue;
-            cells[static_cast<std::size_t>(found->second)].cluster = id;
-            stack.push_back(static_cast<std::size_t>(found->second));
+            const int found = index.Find(bins.Key(b.ix + dx, b.iy + dy, b.it + dt));
+            if (found < 0 || cells[static_cast<std::size_t>(found)].cluster >= 0) continue;
+            cells[static_cast<std::size_t>(found)].cluster = id;
+            stack.push_back(static_cast<std::size_t>(found));
           }
     }
   }
