@@ -1,12 +1,13 @@
 #pragma once
 // Shared test helpers for the LiDAR front-end's readers: a per-test temporary folder, text and
-// gzip files written into it, the message of the error a call throws, and the datasets' paths.
+// gzip files written into it and read back, the message of the error a call throws, and the datasets' paths.
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <zlib.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 namespace tether {
@@ -29,6 +30,12 @@ class LidarFilesTest : public ::testing::Test {
   std::string Write(const std::string& name, const std::string& text) const {
     std::ofstream(P(name), std::ios::binary) << text;
     return P(name);
+  }
+  /// The bytes of the folder's file `name` ("" where it cannot be read).
+  std::string Read(const std::string& name) const {
+    std::ifstream in(P(name), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return bytes;
   }
   /// Writes `text` gzip-compressed.
   std::string WriteGz(const std::string& name, const std::string& text) const {

@@ -33,12 +33,6 @@ class LidarDegradeTest : public testing::LidarFilesTest {
     }
     Write("in.clf", s.str());
   }
-  std::string Read(const std::string& name) const {
-    std::ifstream in(P(name), std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
 };
 
 TEST_F(LidarDegradeTest, PresetAndSeedGiveTheSameBytes) {

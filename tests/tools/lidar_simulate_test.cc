@@ -18,15 +18,7 @@ namespace {
 using testing::CliRun;
 using testing::Tether;
 
-class SimulateLidarTest : public testing::LidarFilesTest {
- protected:
-  std::string Read(const std::string& name) const {
-    std::ifstream in(P(name), std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
-};
+using SimulateLidarTest = testing::LidarFilesTest;
 
 TEST_F(SimulateLidarTest, WritesTheLogAndItsTruthTheSameForASeed) {
   const std::string args = "simulate lidar --scans 200 --beams 180 --seed 5";

@@ -20,12 +20,6 @@ using testing::Tether;
 
 class MclCliTest : public testing::LidarFilesTest {
  protected:
-  std::string Read(const std::string& name) const {
-    std::ifstream in(P(name), std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
   // The maze run (600 scans, 0.1 m a scan, drifting odometry), its truth and map.
   void SimulateMaze(const std::string& extra = "") {
     const CliRun r = Tether("simulate lidar --world maze --scans 600 --beams 180 --seed 3 -o " + P("m.log") +
