@@ -377,7 +377,10 @@ void MonteCarloLocalizer2D::Update(const lidar::LaserScan& scan) {
   for (Particle& p : particles_) p.weight = sum > 0 ? p.weight / sum : 1.0 / static_cast<double>(particles_.size());
   last_step_.redrawn = static_cast<int>(std::count(redrawn_.begin(), redrawn_.end(), true));
   // auto: judged on the weighted set, before the resampling injects its random particles.
-  if (options_.method == MclMethod::kAuto) localised_ = Localised();
+  if (options_.method == MclMethod::kAuto) {
+    update_estimate_ = Estimate();
+    localised_ = Localised(update_estimate_);
+  }
   last_step_.w_slow = log_w_slow_;
   last_step_.w_fast = log_w_fast_;
 }
@@ -447,8 +450,9 @@ void MonteCarloLocalizer2D::Resample() {
   last_step_.injected = static_cast<int>(std::count(injected_.begin(), injected_.end(), true));
 }
 
-bool MonteCarloLocalizer2D::Localised() const {
-  const PoseEstimate e = Estimate();
+bool MonteCarloLocalizer2D::Localised() const { return Localised(Estimate()); }
+
+bool MonteCarloLocalizer2D::Localised(const PoseEstimate& e) const {
   return e.cluster_weight >= options_.localised_weight &&
          std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)) <= options_.localised_spread;
 }
@@ -540,7 +544,8 @@ MclStep MonteCarloLocalizer2D::AddScan(const lidar::LaserScan& scan) {
     Predict(last_update_odometry_, scan.odometry);
   }
   Update(scan);
-  last_estimate_ = Estimate();
+  // auto's rule clustered the same weighted set in the update: its estimate serves.
+  last_estimate_ = options_.method == MclMethod::kAuto ? update_estimate_ : Estimate();
   Resample();
   has_last_update_ = true;
   last_update_odometry_ = scan.odometry;

@@ -213,6 +213,7 @@ class MonteCarloLocalizer2D {
 
  private:
   Particle RandomParticle();
+  bool Localised(const PoseEstimate& e) const;
   void Likelihoods(const lidar::LaserScan& scan, std::vector<double>* log_likelihood, std::vector<double>* mean_p);
 
   std::shared_ptr<const OccupancyMap2D> map_;
@@ -227,8 +228,9 @@ class MonteCarloLocalizer2D {
   double log_w_slow_, log_w_fast_;
   bool localised_ = false;  // auto: Localised() after the last update (or of the set given)
   bool has_last_update_ = false;
-  SE2d last_update_odometry_;   // the odometry at the last update
-  PoseEstimate last_estimate_;  // at the last update
+  SE2d last_update_odometry_;     // the odometry at the last update
+  PoseEstimate last_estimate_;    // at the last update
+  PoseEstimate update_estimate_;  // auto: the estimate of the weighted set the last Update left
   MclStep last_step_;
 };
 
