@@ -220,6 +220,29 @@ TEST(FastCorrelativeScanMatcherTest, ACallsRotations) {
   EXPECT_THROW(matcher.MatchChecked(guess, points, 0.5, 0.3, 0.035, 0, 0.5, INFINITY), InvalidArgument);
 }
 
+// A global search (a kidnap): the whole room from its centre, every rotation. The truth turned
+// by nearly half a turn from the guess is found, and a best at the guess's rotation +- pi is
+// not on an edge: the rotations go all the way round.
+TEST(FastCorrelativeScanMatcherTest, AGlobalSearchGoesAllTheWayRound) {
+  const ProbabilityGrid grid = RoomGrid(0.05);
+  const FastCorrelativeScanMatcher2D matcher(grid, RoomWindow(0.5));
+  for (const double turn : {3.0, -2.9, M_PI}) {
+    const SE2d truth(kRoomTruth.x(), kRoomTruth.y(), turn);
+    const std::vector<Eigen::Vector2d> points = RoomScan(truth);
+    const SE2d centre(5, 4, 0);
+    const FastMatch m = matcher.MatchChecked(centre, points, 0.6, 0.3, 0.035, 0.9, 5.2, M_PI);
+    ASSERT_TRUE(m.found) << turn;
+    EXPECT_FALSE(m.on_edge) << turn;
+    EXPECT_FALSE(m.ambiguous) << turn;  // the box in the corner tells the room's ends apart
+    EXPECT_LT((m.pose.translation() - truth.translation()).norm(), 1.5 * 0.05) << turn;
+    // The rotations step from the guess's: the truth lies between two of them.
+    EXPECT_LT(std::abs(WrapAngle(m.pose.theta() - truth.theta())), 1.5 * m.angular_step) << turn;
+  }
+  // All the way round: the rotations cover the circle once (to within a step).
+  const FastMatch m = matcher.MatchChecked(SE2d(5, 4, 0), RoomScan(kRoomTruth), 0.6, 0.3, 0.035, 0, 5.2, M_PI);
+  EXPECT_NEAR(m.rotations * m.angular_step, 2 * M_PI, 2 * m.angular_step);
+}
+
 TEST(FastCorrelativeScanMatcherTest, EveryDepthGivesTheSameAnswer) {
   const ProbabilityGrid grid = RoomGrid(0.1);
   const SE2d truth(7.0, 3.0, -2.0);

@@ -369,6 +369,54 @@ TEST_F(DegradeTest, OdometryDriftPerturbsEachStepAndAccumulates) {
   for (const LaserScan& s : DegradeLog(log, o).scans) EXPECT_EQ(s.odometry_origin, OdometryOrigin::kNone);
 }
 
+TEST_F(DegradeTest, AKidnapCutsScansAndCarriesTheOdometry) {
+  // 40 scans at 10 Hz from 1000.025 s; the cut: [1000.025 + 1.0, + 1.5 s): scans 10..24 go.
+  const LidarLog log = MakeLog(40);
+  DegradeOptions o;
+  o.kidnap_at = 1.0;
+  o.kidnap_seconds = 1.5;
+  o.kidnap_offset = SE2<double>(0.5, -0.25, 0.3);
+  std::size_t at = 0;
+  const LidarLog cut = DegradeLog(log, o, &at);
+  ASSERT_EQ(cut.scans.size(), 25u);
+  EXPECT_EQ(at, 10u);
+  EXPECT_EQ(cut.scans[9].source_index, 10);
+  EXPECT_EQ(cut.scans[10].source_index, 26);
+  // The stamps keep their gap; the odometry after the cut continues from the scan before it,
+  // moved by the offset, and then follows the logged motion.
+  EXPECT_DOUBLE_EQ(cut.scans[10].stamp, log.scans[25].stamp);
+  const SE2<double> jump = cut.scans[9].odometry.Inverse() * cut.scans[10].odometry;
+  EXPECT_NEAR(jump.x(), 0.5, 1e-12);
+  EXPECT_NEAR(jump.y(), -0.25, 1e-12);
+  EXPECT_NEAR(jump.theta(), 0.3, 1e-12);
+  for (std::size_t k = 11; k < cut.scans.size(); ++k) {
+    const SE2<double> step = cut.scans[k - 1].odometry.Inverse() * cut.scans[k].odometry;
+    const SE2<double> logged = log.scans[k + 14].odometry.Inverse() * log.scans[k + 15].odometry;
+    EXPECT_NEAR(step.x(), logged.x(), 1e-9) << k;
+    EXPECT_NEAR(step.y(), logged.y(), 1e-9) << k;
+    EXPECT_NEAR(step.theta(), logged.theta(), 1e-9) << k;
+  }
+  EXPECT_EQ(cut.odometry.size(), 0u);  // the messages would be the logged odometry's
+  // Closing the gap: the stamps run on at 10 Hz across the cut.
+  o.kidnap_close_gap = true;
+  const LidarLog closed = DegradeLog(log, o, &at);
+  EXPECT_NEAR(closed.scans[10].stamp - closed.scans[9].stamp, 0.1, 1e-9);
+  EXPECT_NEAR(closed.scans[10].logger_stamp - closed.scans[9].logger_stamp, 0.1, 1e-9);
+  EXPECT_EQ(closed.odometry.size(), 0u);
+  // Keeping the odometry: as logged; with the gap open, the messages too.
+  o.kidnap_keep_odometry = true;
+  o.kidnap_offset = SE2<double>();
+  EXPECT_EQ(DegradeLog(log, o, &at).scans[10].odometry.x(), log.scans[25].odometry.x());
+  o.kidnap_close_gap = false;
+  const LidarLog kept = DegradeLog(log, o, &at);
+  EXPECT_EQ(kept.scans[10].odometry.x(), log.scans[25].odometry.x());
+  EXPECT_GT(kept.odometry.size(), 0u);
+  // A cut past the last scan: none after it.
+  o.kidnap_at = 100;
+  EXPECT_EQ(DegradeLog(log, o, &at).scans.size(), 40u);
+  EXPECT_EQ(at, 40u);
+}
+
 TEST_F(DegradeTest, PresetAndUnusableOptions) {
   DegradeOptions o;
   o.seed = 5;
@@ -395,6 +443,9 @@ TEST_F(DegradeTest, PresetAndUnusableOptions) {
       {[](DegradeOptions* d) { d->drop_fraction = 1.5; }, "drop_fraction must be in [0, 1]"},
       {[](DegradeOptions* d) { d->error_share = -0.1; }, "error_share must be in [0, 1]"},
       {[](DegradeOptions* d) { d->keep_every = 0; }, "keep_every must be at least 1"},
+      {[](DegradeOptions* d) { d->kidnap_seconds = -1; }, "kidnap_at and kidnap_seconds must be finite"},
+      {[](DegradeOptions* d) { d->kidnap_at = NAN; }, "kidnap_at and kidnap_seconds must be finite"},
+      {[](DegradeOptions* d) { d->kidnap_offset = SE2<double>(INFINITY, 0, 0); }, "kidnap_offset must be finite"},
       {[](DegradeOptions* d) { d->first_scan = 4; }, "the first scan kept (4) is beyond the log's 4 scans"},
   };
   for (const auto& c : cases) {

@@ -594,3 +594,102 @@ TEST(PoseGraph2DTest, RefusesInvalidRivalOptions) {
 }  // namespace
 }  // namespace lidar
 }  // namespace tether
+
+namespace tether {
+namespace lidar {
+namespace {
+
+// A kidnap: the first lap as trajectory 0; then the robot is carried a quarter lap on and
+// local SLAM starts afresh (its own frame: the first scan of the new trajectory at the
+// origin, turned). The new trajectory is held out of the smoother until the global search
+// finds it in the first lap's submaps; then it is moved there, and after Finish both laps lie
+// on the truth in the first trajectory's frame.
+TEST(PoseGraph2DTest, ANewTrajectoryJoinsTheMapByAGlobalSearch) {
+  const Trip run = Drive();
+  PoseGraphOptions po = TestOptions(true, 0);
+  po.global_search_every_n_scans = 8;
+  SubmapOptions so;
+  so.scans_per_submap = 30;
+  auto submaps = std::make_unique<ActiveSubmaps2D>(so);
+  PoseGraph2D graph(po);
+  const std::size_t cut = 126, resume = 160;
+  const SE2d new_frame = SE2d(-3, 40, 2.0) * run.truth[resume].Inverse();  // truth -> the new local frame
+  std::vector<std::size_t> used;                                           // the trip's scan of each graph scan
+  for (std::size_t k = 0; k < run.truth.size(); ++k) {
+    if (k >= cut && k < resume) continue;
+    if (k == resume) {
+      graph.StartTrajectory(submaps->FinishActive());
+      submaps = std::make_unique<ActiveSubmaps2D>(so);
+    }
+    const SE2d pose = k < cut ? run.truth[k] : new_frame * run.truth[k];
+    std::vector<Eigen::Vector2d> in_map;
+    for (const Eigen::Vector2d& p : run.points[k]) in_map.push_back(pose * p);
+    graph.AddScan(pose, run.points[k], submaps->InsertScan(pose, pose.translation(), in_map));
+    used.push_back(k);
+    if (k == resume) {
+      // Held out, placed where the last scan before ended: not yet where it belongs.
+      EXPECT_EQ(graph.trajectory_count(), 2);
+      EXPECT_EQ(graph.TrajectoryJoinedAt(1), -1);
+      const int last = graph.scan_count() - 1;
+      EXPECT_EQ(graph.ScanPose(last).x(), graph.ScanPose(last - 1).x());
+      EXPECT_EQ(graph.ScanPose(last).theta(), graph.ScanPose(last - 1).theta());
+    }
+  }
+  graph.Finish();
+  EXPECT_EQ(graph.TrajectoryFirstScan(1), static_cast<int>(cut));
+  ASSERT_GE(graph.TrajectoryJoinedAt(1), static_cast<int>(cut) + 1);
+  EXPECT_GT(graph.stats().global_searches, 0);
+  double worst = 0;
+  for (int i = 0; i < graph.scan_count(); ++i) {
+    worst = std::max(
+        worst, (graph.ScanPose(i).translation() - run.truth[used[static_cast<std::size_t>(i)]].translation()).norm());
+  }
+  EXPECT_LT(worst, 0.05);
+  // Closures of the second trajectory reach the first's submaps.
+  int cross = 0;
+  for (const LoopClosure& c : graph.loop_closures())
+    cross += c.scan >= static_cast<int>(cut) && c.submap < graph.TrajectoryFirstSubmap(1);
+  EXPECT_GE(cross, 2);
+}
+
+// A trajectory that never sees the map again stays out of it: placed to its right, held by a
+// prior, its own shape kept.
+TEST(PoseGraph2DTest, ATrajectoryNeverJoinedIsPlacedBesideTheMap) {
+  const Trip run = Drive();
+  PoseGraphOptions po = TestOptions(false, 0);  // no searches at all: nothing can join it
+  SubmapOptions so;
+  so.scans_per_submap = 30;
+  auto submaps = std::make_unique<ActiveSubmaps2D>(so);
+  PoseGraph2D graph(po);
+  for (std::size_t k = 0; k < 120; ++k) {
+    if (k == 60) {
+      graph.StartTrajectory(submaps->FinishActive());
+      submaps = std::make_unique<ActiveSubmaps2D>(so);
+    }
+    const SE2d& pose = run.truth[k];
+    std::vector<Eigen::Vector2d> in_map;
+    for (const Eigen::Vector2d& p : run.points[k]) in_map.push_back(pose * p);
+    graph.AddScan(pose, run.points[k], submaps->InsertScan(pose, pose.translation(), in_map));
+  }
+  graph.Finish();
+  EXPECT_EQ(graph.TrajectoryJoinedAt(1), -1);
+  double right = -1e9, left = 1e9;
+  for (int i = 0; i < 60; ++i) right = std::max(right, graph.ScanPose(i).x());
+  for (int i = 60; i < 120; ++i) left = std::min(left, graph.ScanPose(i).x());
+  EXPECT_NEAR(left - right, 5, 1e-6);
+  for (int i = 61; i < 120; ++i) {
+    const SE2d a = graph.ScanPose(i - 1).Inverse() * graph.ScanPose(i);
+    const SE2d b = run.truth[static_cast<std::size_t>(i - 1)].Inverse() * run.truth[static_cast<std::size_t>(i)];
+    EXPECT_LT((a.translation() - b.translation()).norm(), 1e-6) << i;
+  }
+  // Submaps given to StartTrajectory must be the ending trajectory's and finished.
+  SubmapOptions other;
+  ActiveSubmaps2D fresh(other);
+  const InsertedSubmaps unfinished = fresh.InsertScan(SE2d(), Eigen::Vector2d::Zero(), run.points[0]);
+  PoseGraph2D g2(po);
+  EXPECT_THROW(g2.StartTrajectory(unfinished), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace lidar
+}  // namespace tether

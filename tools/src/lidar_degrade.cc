@@ -6,6 +6,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/core/registry.h"
 #include "tether/frontends/lidar/io/degrade_log.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/tools/command.h"
@@ -14,6 +15,34 @@
 namespace tether {
 
 namespace {
+
+// The kidnap's options (--kidnap, --kidnap-offset, --kidnap-close-gap, --kidnap-keep-odometry).
+bool KidnapOptions(const LidarDegradeCommand& cmd, lidar::DegradeOptions* o, std::ostream& err) {
+  const char* usage = "tether lidar-degrade: ";
+  if (cmd.kidnap.empty()) {
+    if (!cmd.kidnap_offset.empty() || cmd.kidnap_close_gap || cmd.kidnap_keep_odometry) {
+      err << usage << "--kidnap-offset, --kidnap-close-gap and --kidnap-keep-odometry need --kidnap AT,SECONDS\n";
+      return false;
+    }
+    return true;
+  }
+  if (cmd.kidnap.size() != 2 || !(cmd.kidnap[1] > 0)) {
+    err << usage << "--kidnap takes two numbers AT,SECONDS, the cut's length above 0\n";
+    return false;
+  }
+  o->kidnap_at = cmd.kidnap[0];
+  o->kidnap_seconds = cmd.kidnap[1];
+  o->kidnap_close_gap = cmd.kidnap_close_gap;
+  o->kidnap_keep_odometry = cmd.kidnap_keep_odometry;
+  if (!cmd.kidnap_offset.empty()) {
+    if (cmd.kidnap_offset.size() != 3 || cmd.kidnap_keep_odometry) {
+      err << usage << "--kidnap-offset takes three numbers X,Y,THETA, and not with --kidnap-keep-odometry\n";
+      return false;
+    }
+    o->kidnap_offset = SE2<double>(cmd.kidnap_offset[0], cmd.kidnap_offset[1], cmd.kidnap_offset[2]);
+  }
+  return true;
+}
 
 // The options the command asks for: the preset's, then each option given.
 bool Options(const LidarDegradeCommand& cmd, lidar::DegradeOptions* o, std::ostream& err) {
@@ -45,9 +74,11 @@ bool Options(const LidarDegradeCommand& cmd, lidar::DegradeOptions* o, std::ostr
       return false;
     }
   }
+  if (!KidnapOptions(cmd, o, err)) return false;
   std::string why;
   if (!o->IsValid(&why)) {
-    err << usage << why << " (--beams, --max-range, --noise, --drop, --error-share, --keep-every, --odometry-drift)\n";
+    err << usage << why
+        << " (--beams, --max-range, --noise, --drop, --error-share, --keep-every, --odometry-drift, --kidnap)\n";
     return false;
   }
   return true;
@@ -70,6 +101,14 @@ std::string Describe(const LidarDegradeCommand& cmd, const lidar::DegradeOptions
   if (o.DriftsOdometry()) {
     s << " with drift " << o.odometry_translation_noise << ", " << o.odometry_rotation_noise << ", "
       << o.odometry_rotation_per_metre << " rad/m";
+  }
+  if (o.Kidnaps()) {
+    s << ", kidnap: " << o.kidnap_seconds << " s cut from " << o.kidnap_at << " s, "
+      << (o.kidnap_close_gap ? "stamps closed over the gap" : "a gap in the stamps") << ", odometry "
+      << (o.kidnap_keep_odometry
+              ? "as logged"
+              : "carried (offset " + FormatDouble(o.kidnap_offset.x()) + ", " + FormatDouble(o.kidnap_offset.y()) +
+                    ", " + FormatDouble(o.kidnap_offset.theta()) + ")");
   }
   s << ", seed " << o.seed;
   return s.str();
@@ -104,7 +143,8 @@ int RunLidarDegrade(const LidarDegradeCommand& cmd, std::ostream& out, std::ostr
     for (const lidar::LaserScan& s : log.scans) beams += s.ranges.size();
     out << "read " << cmd.input << ": " << log.scans.size() << " scans (" << lidar::ToString(log.format) << ", "
         << beams / log.scans.size() << " beams on average), " << log.odometry.size() << " odometry messages\n";
-    const lidar::LidarLog degraded = lidar::DegradeLog(log, options);
+    std::size_t kidnap_scan = 0;
+    const lidar::LidarLog degraded = lidar::DegradeLog(log, options, &kidnap_scan);
     const std::string what = Describe(cmd, options);
     const bool with_odometry = !options.drop_odometry;
     bool offset_lost = false;
@@ -127,6 +167,14 @@ int RunLidarDegrade(const LidarDegradeCommand& cmd, std::ostream& out, std::ostr
         << (with_odometry ? std::to_string(degraded.odometry.size()) + " odometry messages" : "no odometry") << ", "
         << (total > 0 ? 100.0 * static_cast<double>(valid) / static_cast<double>(total) : 0.0) << "% valid beams\n"
         << what << "\n";
+    if (options.Kidnaps()) {
+      if (kidnap_scan < degraded.scans.size()) {
+        out << "kidnap at scan " << kidnap_scan + 1 << " (t = " << FormatFixed(degraded.scans[kidnap_scan].stamp, 3)
+            << " s): the first scan after the cut\n";
+      } else {
+        out << "kidnap: no scan comes after the cut\n";
+      }
+    }
     if (offset_lost) {
       err << "note: RAWLASER1 lines carry no laser pose: the laser's pose on the robot of the scans without odometry "
              "is not kept (the written scans are the laser's; lidar-eval's --pose-offset scores them as the robot's)\n";
@@ -180,6 +228,17 @@ void LidarDegradeCli::Add(CLI::App& app) {
                   "T,R,RPM: each odometry step perturbed (sigma T x length per axis, R x turn + RPM x length "
                   "[rad]) and chained again; for logs whose poses are a reference (docs/lidar.md)")
       ->delimiter(',');
+  sub->add_option("--kidnap", cmd_.kidnap,
+                  "AT,SECONDS: cut out the scans and odometry of SECONDS from AT seconds after the first scan, the "
+                  "robot carried (its odometry after the cut continues from before it)")
+      ->delimiter(',');
+  sub->add_option("--kidnap-offset", cmd_.kidnap_offset,
+                  "X,Y,THETA: the carried odometry jumps by this pose at the cut [m, m, rad]")
+      ->delimiter(',');
+  sub->add_flag("--kidnap-close-gap", cmd_.kidnap_close_gap,
+                "Move the stamps after the cut back by its length: no gap in time");
+  sub->add_flag("--kidnap-keep-odometry", cmd_.kidnap_keep_odometry,
+                "Keep the logged odometry across the cut (it saw the move: a gap in the scans only)");
   sub->add_option("--odometry", cmd_.odometry, "Reading: auto, scan-line, interpolated or none")->capture_default_str();
   sub->add_option("--scan-topic", cmd_.scan_topic, "Bags: the sensor_msgs/LaserScan topic")->capture_default_str();
   sub->add_option("--odom-topic", cmd_.odom_topic, "Bags: the nav_msgs/Odometry topic")->capture_default_str();

@@ -98,6 +98,9 @@ constexpr std::pair<const char*, const char*> kFieldFlags[] = {
     {"min_range", "--min-range"},
     {"imu_bias_seconds", "--imu-bias-seconds"},
     {"imu_rotation_weight", "--imu-rotation-weight"},
+    {"kidnap filter_size", "--kidnap-filter"},
+    {"kidnap threshold", "--kidnap-threshold"},
+    {"kidnap max_overlap", "--kidnap-max-overlap"},
 };
 
 // The options a sensor preset sets, each with the flag that sets it too: where that flag was
@@ -290,6 +293,7 @@ class LidarCli : public Command {
     app_->add_option(name, value, help)->capture_default_str();
   }
   void AddMatchingOptions(CLI::App* sub);
+  void AddKidnapOptions(CLI::App* sub);
   void AddSensorOptions(CLI::App* sub);
   LidarCommand cmd_;
 };
@@ -388,7 +392,22 @@ void LidarCli::AddMatchingOptions(CLI::App* sub) {
          "Scan-only scans: a direction of translation the scan-to-scan match sees less than this many "
          "pairs' worth of keeps the predicted motion, there and in the submap match (0: off; needs "
          "--line-radius)");
+  AddKidnapOptions(sub);
   AddSensorOptions(sub);
+}
+
+// Kidnap detection (lidar::KidnapOptions).
+void LidarCli::AddKidnapOptions(CLI::App* sub) {
+  lidar::KidnapOptions& k = cmd_.options.local.kidnap;
+  sub->add_flag_function(
+      "--no-kidnap", [&k](std::int64_t) { k.detect = false; },
+      "Do not act on a kidnap: the detector's signals are still written (kidnap.csv, kidnap.svg)");
+  Option("--kidnap-filter", k.filter_size, "Kidnap detection: the match costs averaged (f_size)");
+  Option("--kidnap-threshold", k.threshold,
+         "Kidnap detection: the filtered match cost's rise over the last filtered value before it");
+  Option("--kidnap-max-overlap", k.max_overlap,
+         "Kidnap detection's independent signal: a scan breaks with the scan before where fewer of its points "
+         "than this share lie near that scan's");
 }
 
 // The scanner, its mounting and body, the IMU, reading the log and the checks.

@@ -12,6 +12,7 @@
 #include "tether/core/timing.h"
 #include "tether/factors/between_se2.h"
 #include "tether/factors/builtin.h"
+#include "tether/frontends/lidar/eval/kidnap_report.h"
 #include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/frontends/lidar/mapping/probability_grid_inserter.h"
@@ -63,6 +64,38 @@ bool LidarSlamOptions::IsValid(std::string* why) const {
   return true;
 }
 
+std::string LidarSlamReport::KidnapSummary() const {
+  std::ostringstream out;
+  for (std::size_t t = 1; t < trajectories.size(); ++t) {
+    const TrajectoryReport& r = trajectories[t];
+    out << "kidnap detected at scan " << r.first_scan + 1 << " (t = " << Fixed(r.first_stamp - first_stamp, 2)
+        << " s): trajectory " << t << " starts there; ";
+    if (r.joined_scan >= 0) {
+      out << "joined the map at scan " << r.joined_scan + 1 << " (" << r.joined_scan - r.first_scan << " scans, "
+          << Fixed(r.joined_stamp - r.first_stamp, 1) << " s after the kidnap)\n";
+    } else {
+      out << "never joined the map: placed beside it\n";
+    }
+  }
+  if (trajectories.size() <= 1) {
+    out << "no kidnap detected (the filtered match cost rose at most " << Fixed(max_kidnap_ratio, 3) << " times";
+    if (max_kidnap_ratio_scan >= 0) out << ", at scan " << max_kidnap_ratio_scan + 1;
+    out << "; threshold " << Fixed(kidnap_threshold, 3) << ")\n";
+  }
+  const auto list = [&out](const std::vector<long>& scans) {
+    for (std::size_t i = 0; i < scans.size() && i < 8; ++i) out << (i > 0 ? ", " : " ") << scans[i] + 1;
+    if (scans.size() > 8) out << ", ...";
+  };
+  out << "  the two signals alone: the cost rule (Algorithm 13) at " << cost_rises.size() << " scan"
+      << (cost_rises.size() == 1 ? "" : "s");
+  list(cost_rises);
+  out << "; a break with the scan before (under " << Fixed(100 * max_overlap, 0) << "% of its points near) at "
+      << breaks.size() << " scan" << (breaks.size() == 1 ? "" : "s");
+  list(breaks);
+  out << "\n";
+  return out.str();
+}
+
 std::string LidarSlamReport::Summary(int threads) const {
   std::ostringstream out;
   const long n = std::max(scans, 1L);
@@ -84,6 +117,7 @@ std::string LidarSlamReport::Summary(int threads) const {
     }
     out << "\n";
   }
+  out << KidnapSummary();
   out << "time " << Fixed(total_seconds, 2) << " s for " << Fixed(logged_seconds, 1) << " s of log: real-time factor "
       << Fixed(logged_seconds / std::max(total_seconds, 1e-9), 1) << "\n"
       << "  local matching " << Fixed(1e3 * matching_seconds / static_cast<double>(n), 3) << " ms per scan, insertion "
@@ -118,7 +152,10 @@ std::string LidarSlamReport::Summary(int threads) const {
 LidarSlam2D::LidarSlam2D(const LidarSlamOptions& options)
     : options_(Checked(options)),
       local_(std::make_unique<LocalSlam2D>(options_.local)),
-      graph_(std::make_unique<PoseGraph2D>(options_.pose_graph)) {}
+      graph_(std::make_unique<PoseGraph2D>(options_.pose_graph)) {
+  report_.kidnap_threshold = options_.local.kidnap.threshold;
+  report_.max_overlap = options_.local.kidnap.max_overlap;
+}
 
 LidarSlam2D::~LidarSlam2D() = default;
 
@@ -142,12 +179,48 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
     used = &masked_copy;
   }
   LocalScanResult r;
+  LocalScanResult detection;  // the scan's result where it was kidnapped: its signals
   try {
     r = local_->AddScan(*used);
+    if (r.kidnapped) {
+      // The trajectory ends; the scan starts a new one with a new local SLAM.
+      detection = std::move(r);
+      graph_->StartTrajectory(local_->FinishTrajectory());
+      local_ = std::make_unique<LocalSlam2D>(options_.local);
+      r = local_->AddScan(*used);
+      report_.trajectories.push_back(TrajectoryReport{static_cast<long>(scans_.size()), scan.stamp, -1, 0});
+    }
   } catch (const std::exception& e) {
     failed_ = e.what();
     throw;
   }
+  if (scans_.empty()) {
+    report_.first_stamp = scan.stamp;
+    report_.trajectories.push_back(TrajectoryReport{0, scan.stamp, 0, scan.stamp});
+  }
+  const LocalScanResult& signals = detection.kidnapped ? detection : r;
+  KidnapRecord k;
+  k.scan = static_cast<long>(scans_.size());
+  k.stamp = scan.stamp;
+  k.trajectory = static_cast<int>(report_.trajectories.size()) - 1;
+  k.matched = signals.matched;
+  k.cost = signals.match_cost;
+  k.filtered = signals.kidnap.filtered;
+  k.ratio = signals.kidnap.ratio;
+  k.hit_fraction = signals.hit_fraction;
+  k.overlap = signals.overlap;
+  k.cost_rule = signals.kidnap.cost_rule;
+  k.broke = signals.kidnap.broke;
+  k.detected = signals.kidnap.detected;
+  if (k.broke) report_.breaks.push_back(k.scan);
+  if (k.cost_rule && (kidnap_records_.empty() || !kidnap_records_.back().cost_rule)) {
+    report_.cost_rises.push_back(k.scan);
+  }
+  if (k.ratio > report_.max_kidnap_ratio) {
+    report_.max_kidnap_ratio = k.ratio;
+    report_.max_kidnap_ratio_scan = k.scan;
+  }
+  kidnap_records_.push_back(k);
   report_.matching_seconds += r.scan_to_scan_seconds + r.correlative_seconds + r.refine_seconds;
   report_.scan_to_scan += r.scan_to_scan;
   report_.insert_seconds += r.insert_seconds;
@@ -159,12 +232,23 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
   const auto tg = std::chrono::steady_clock::now();
   graph_->AddScan(r.pose, std::move(r.matching), r.inserted_into);
   report_.graph_seconds += SecondsSince(tg);
+  NoteJoins(scan.stamp);
   ScanRecord record;
   record.stamp = scan.stamp;
   record.laser_in_robot = scan.laser_in_robot;
   record.points = ScanToPoints(*used, options_.local.limits);
   scans_.push_back(std::move(record));
   report_.total_seconds += SecondsSince(t0);
+}
+
+void LidarSlam2D::NoteJoins(double stamp) {
+  for (std::size_t t = 1; t < report_.trajectories.size(); ++t) {
+    TrajectoryReport& r = report_.trajectories[t];
+    const int at = graph_->TrajectoryJoinedAt(static_cast<int>(t));
+    if (r.joined_scan >= 0 || at < 0) continue;
+    r.joined_scan = at - 1;
+    r.joined_stamp = stamp;
+  }
 }
 
 void LidarSlam2D::Run(const LidarLog& log, long max_scans, long progress_every,
@@ -192,6 +276,7 @@ void LidarSlam2D::Finish() {
   finished_ = true;
   const auto t0 = std::chrono::steady_clock::now();
   graph_->Finish();
+  if (!scans_.empty()) NoteJoins(scans_.back().stamp);
   report_.graph_seconds += SecondsSince(t0);
   const std::vector<StampedPose2> trajectory = Trajectory();
 
@@ -253,10 +338,12 @@ const ProbabilityGrid& LidarSlam2D::map() const {
 }
 
 std::vector<LidarOutput> LidarSlam2D::OutputNames() {
-  return {{"trajectory.tum", "trajectory", ""},       {"trajectory.g2o", "trajectory (g2o)", ""},
-          {"pose_graph.g2o", "pose graph", ""},       {"map.pgm", "map image", ""},
-          {"map.yaml", "map description", ""},        {"map.png", "map picture", ""},
-          {"loop_closures.txt", "loop closures", ""}, {"self_check.png", "self-check picture", ""}};
+  return {{"trajectory.tum", "trajectory", ""},          {"trajectory.g2o", "trajectory (g2o)", ""},
+          {"pose_graph.g2o", "pose graph", ""},          {"map.pgm", "map image", ""},
+          {"map.yaml", "map description", ""},           {"map.png", "map picture", ""},
+          {"loop_closures.txt", "loop closures", ""},    {"self_check.png", "self-check picture", ""},
+          {"trajectory.csv", "trajectory with ids", ""}, {"kidnap.csv", "kidnap signals", ""},
+          {"kidnap.svg", "kidnap picture", ""}};
 }
 
 std::vector<LidarOutput> LidarSlam2D::Outputs() const {
@@ -304,6 +391,18 @@ std::vector<LidarOutput> LidarSlam2D::Outputs() const {
     }
     set("loop_closures.txt", c.str());
   }
+  {
+    std::ostringstream c;
+    c.precision(17);
+    c << "# scan stamp trajectory x y theta\n";
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      c << i + 1 << ' ' << t[i].stamp << ' ' << kidnap_records_[i].trajectory << ' ' << t[i].pose.x() << ' '
+        << t[i].pose.y() << ' ' << t[i].pose.theta() << '\n';
+    }
+    set("trajectory.csv", c.str());
+  }
+  set("kidnap.csv", KidnapCsv(kidnap_records_, report_.first_stamp));
+  set("kidnap.svg", KidnapSvg(kidnap_records_, options_.local.kidnap));
   // The self-check picture: the map in grey, each judged sample's points green where the scan
   // fits the map made at other times and red where it does not.
   {

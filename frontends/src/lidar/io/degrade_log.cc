@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <ostream>
@@ -169,6 +170,12 @@ bool DegradeOptions::IsValid(std::string* why) const {
   if (!Share(drop_fraction)) return Fail(why, "drop_fraction must be in [0, 1]");
   if (!Share(error_share)) return Fail(why, "error_share must be in [0, 1]");
   if (keep_every < 1) return Fail(why, "keep_every must be at least 1 (1 keeps every scan)");
+  if (!(kidnap_at >= 0) || !std::isfinite(kidnap_at) || !(kidnap_seconds >= 0) || !std::isfinite(kidnap_seconds)) {
+    return Fail(why, "kidnap_at and kidnap_seconds must be finite and not negative (kidnap_seconds 0: no kidnap)");
+  }
+  if (!std::isfinite(kidnap_offset.x()) || !std::isfinite(kidnap_offset.y()) || !std::isfinite(kidnap_offset.theta())) {
+    return Fail(why, "kidnap_offset must be finite");
+  }
   for (const double v : {odometry_translation_noise, odometry_rotation_noise, odometry_rotation_per_metre}) {
     if (!(v >= 0) || !std::isfinite(v)) {
       return Fail(why,
@@ -193,7 +200,7 @@ bool DegradePreset(const std::string& name, DegradeOptions* options) {
 
 std::string DegradePresetNames() { return "lds"; }
 
-LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options) {
+LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options, std::size_t* kidnap_scan) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("lidar degrade: " + why);
   if (options.first_scan >= log.scans.size()) {
@@ -207,30 +214,54 @@ LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options) {
   const std::size_t step = static_cast<std::size_t>(options.keep_every);
   double first = INFINITY, last = -INFINITY;
   std::vector<std::size_t> indices;
+  const double cut_from = log.scans[options.first_scan].stamp + options.kidnap_at;
+  const double cut_to = cut_from + options.kidnap_seconds;
+  std::size_t after_cut = SIZE_MAX;  // the first kept scan after the cut
+  SE2<double> carried;               // the odometry after the cut in the logged odometry's terms
   for (std::size_t i = options.first_scan; i < log.scans.size(); i += step) {
     if (options.max_scans > 0 && out.scans.size() >= options.max_scans) break;
-    indices.push_back(i);
     LaserScan s = log.scans[i];
+    if (options.Kidnaps()) {
+      if (s.stamp >= cut_from && s.stamp < cut_to) continue;
+      if (s.stamp >= cut_to && after_cut == SIZE_MAX) {
+        after_cut = out.scans.size();
+        // Continue from the last scan before the cut (or the first after it), then the offset.
+        const SE2<double> before = out.scans.empty() ? s.odometry : out.scans.back().odometry;
+        carried = before * options.kidnap_offset * s.odometry.Inverse();
+      }
+      if (after_cut != SIZE_MAX) {
+        if (!options.kidnap_keep_odometry) s.odometry = carried * s.odometry;
+        if (options.kidnap_close_gap) {
+          s.stamp -= options.kidnap_seconds;
+          s.logger_stamp -= options.kidnap_seconds;
+        }
+      }
+    }
+    indices.push_back(i);
     Degrade(options, i, &s);
     first = std::min(first, s.stamp);
     last = std::max(last, s.stamp);
     if (s.odometry_origin == OdometryOrigin::kClamped) ++out.clamped_odometry;
     out.scans.push_back(std::move(s));
   }
+  if (kidnap_scan != nullptr) *kidnap_scan = std::min(after_cut, out.scans.size());
   if (options.drop_odometry) return out;
-  if (options.DriftsOdometry()) {
-    DriftOdometry(options, indices, &out.scans);
-  } else {
-    // The messages within [first, last] and the nearest one outside on either side.
-    const std::vector<StampedPose2>& track = log.odometry.Sorted();
-    const auto begin = std::lower_bound(track.begin(), track.end(), first,
-                                        [](const StampedPose2& p, double t) { return p.stamp < t; });
-    const auto end =
-        std::upper_bound(track.begin(), track.end(), last, [](double t, const StampedPose2& p) { return t < p.stamp; });
-    const auto from = begin == track.begin() ? begin : begin - 1;
-    const auto to = end == track.end() ? end : end + 1;
-    for (auto it = from; it != to; ++it) out.odometry.Add(it->stamp, it->pose);
+  if (options.DriftsOdometry()) DriftOdometry(options, indices, &out.scans);
+  // The messages would be the logged odometry's, not the scans' (drifted, or carried across a
+  // kidnap), or, with the stamps moved over a kidnap's cut, interpolate across it: dropped; each
+  // scan carries its own.
+  if (options.DriftsOdometry() || (options.Kidnaps() && (!options.kidnap_keep_odometry || options.kidnap_close_gap))) {
+    return out;
   }
+  // The messages within [first, last] and the nearest one outside on either side.
+  const std::vector<StampedPose2>& track = log.odometry.Sorted();
+  const auto begin =
+      std::lower_bound(track.begin(), track.end(), first, [](const StampedPose2& p, double t) { return p.stamp < t; });
+  const auto end =
+      std::upper_bound(track.begin(), track.end(), last, [](double t, const StampedPose2& p) { return t < p.stamp; });
+  const auto from = begin == track.begin() ? begin : begin - 1;
+  const auto to = end == track.end() ? end : end + 1;
+  for (auto it = from; it != to; ++it) out.odometry.Add(it->stamp, it->pose);
   return out;
 }
 

@@ -59,6 +59,12 @@ bool ConstraintBuilderOptions::IsValid(std::string* why) const {
     return fail("search_every_metres must be finite and not negative (0: by count only)");
   }
   if (threads < 0) return fail("threads must not be negative");
+  if (global_search_every_n_scans < 1) return fail("global_search_every_n_scans must be at least 1");
+  if (!(std::isfinite(global_search_margin) && global_search_margin >= 0) ||
+      !(std::isfinite(global_angular_step) && global_angular_step > 0 && global_angular_step < 1)) {
+    return fail("global_search_margin must be finite and not negative, global_angular_step in (0, 1) rad");
+  }
+  if (!(global_min_score >= 0 && global_min_score <= 1)) return fail("global_min_score must lie in [0, 1]");
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
   if (!PositiveFinite(rival_distance) || !PositiveFinite(rival_angle)) {
     return fail("rival_distance and rival_angle must be positive and finite");
@@ -90,6 +96,7 @@ void ConstraintBuilder2D::AddSubmap(std::shared_ptr<const Submap2D> submap) {
   if (submap == nullptr) throw InvalidArgument("ConstraintBuilder2D::AddSubmap: the submap is null");
   SubmapNode node;
   node.submap = std::move(submap);
+  node.trajectory = trajectory_count() - 1;
   submaps_.push_back(std::move(node));
   links_.emplace_back();
 }
@@ -107,14 +114,20 @@ void ConstraintBuilder2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vec
   scan.points = std::move(points);
   if (options_.search_voxel_size > 0) scan.search_points = VoxelFilter(scan.points, options_.search_voxel_size);
   scan.submaps = submaps;
+  scan.trajectory = trajectory_count() - 1;
+  for (int j : submaps) {
+    SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+    node.reach = std::max(node.reach, (local_pose.translation() - node.submap->local_pose().translation()).norm());
+  }
   for (std::size_t a = 0; a < submaps.size(); ++a) {
     for (std::size_t b = a + 1; b < submaps.size(); ++b) Link(submaps[a], submaps[b]);
   }
   // Sampled: every search_every_n_scans-th scan since the last sampled one, or sooner where the
   // robot travelled search_every_metres since.
   const int i = scan_count();
-  if (scans_.empty()) {
+  if (trajectory_started_) {
     scan.sampled = true;
+    trajectory_started_ = false;
   } else {
     travel_since_sampled_ += (local_pose.translation() - scans_.back().local_pose.translation()).norm();
     scan.sampled = i - last_sampled_ >= options_.search_every_n_scans ||
@@ -125,6 +138,12 @@ void ConstraintBuilder2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vec
     travel_since_sampled_ = 0;
   }
   scans_.push_back(std::move(scan));
+}
+
+void ConstraintBuilder2D::StartTrajectory() {
+  joined_.push_back(false);
+  trajectory_started_ = true;
+  travel_since_sampled_ = 0;
 }
 
 void ConstraintBuilder2D::FinishSubmap(int j) {
@@ -142,7 +161,7 @@ void ConstraintBuilder2D::FinishSubmap(int j) {
   node.matcher = std::make_unique<LazyMatcher>();
   const std::vector<double> d = GraphDistances({j});
   for (int k = 0; k < scan_count(); ++k) {
-    if (!scans_[static_cast<std::size_t>(k)].sampled) continue;
+    if (!scans_[static_cast<std::size_t>(k)].sampled || !Windowed(k, j)) continue;
     double distance = std::numeric_limits<double>::infinity();
     for (int m : scans_[static_cast<std::size_t>(k)].submaps) distance = std::min(distance, d[m]);
     SearchNear(k, j, distance);
@@ -154,11 +173,36 @@ void ConstraintBuilder2D::SearchScan(int i) {
     throw InvalidArgument("ConstraintBuilder2D::SearchScan: scan " + std::to_string(i) + " was not added (" +
                           std::to_string(scan_count()) + " so far)");
   }
-  if (!scans_[static_cast<std::size_t>(i)].sampled) return;
-  const std::vector<double> d = GraphDistances(scans_[static_cast<std::size_t>(i)].submaps);
+  const ScanNode& scan = scans_[static_cast<std::size_t>(i)];
+  if (!scan.sampled) return;
+  const std::vector<double> d = GraphDistances(scan.submaps);
+  const bool global =
+      !joined(scan.trajectory) && (last_global_ < 0 || i - last_global_ >= options_.global_search_every_n_scans ||
+                                   scans_[static_cast<std::size_t>(last_global_)].trajectory != scan.trajectory);
+  if (global) last_global_ = i;
   for (int j = 0; j < submap_count(); ++j) {
-    if (submaps_[static_cast<std::size_t>(j)].finished) SearchNear(i, j, d[static_cast<std::size_t>(j)]);
+    const SubmapNode& submap = submaps_[static_cast<std::size_t>(j)];
+    if (!submap.finished) continue;
+    if (Windowed(i, j)) {
+      SearchNear(i, j, d[static_cast<std::size_t>(j)]);
+    } else if (global && joined(submap.trajectory)) {
+      StartGlobalSearch(i, j);
+    }
   }
+}
+
+bool ConstraintBuilder2D::Windowed(int k, int j) const {
+  const int a = scans_[static_cast<std::size_t>(k)].trajectory;
+  const int b = submaps_[static_cast<std::size_t>(j)].trajectory;
+  return a == b || (joined(a) && joined(b));
+}
+
+void ConstraintBuilder2D::StartGlobalSearch(int k, int j) {
+  // The scan anywhere its submap's own scans were taken from (and a margin), at any heading.
+  const SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+  const SE2d& origin = node.submap->local_pose();
+  const SE2d guess(origin.x(), origin.y(), 0);
+  StartSearch(k, j, node.reach + options_.global_search_margin, M_PI, &guess);
 }
 
 void ConstraintBuilder2D::SearchNear(int k, int j, double distance) {
@@ -220,7 +264,7 @@ double ConstraintBuilder2D::Window(double distance) const {
   return std::max(base, std::min(options_.max_search_window, base + options_.search_window_growth * distance));
 }
 
-void ConstraintBuilder2D::StartSearch(int scan, int submap, double window, double angle) {
+void ConstraintBuilder2D::StartSearch(int scan, int submap, double window, double angle, const SE2d* global_guess) {
   auto s = std::make_unique<Search>();
   s->scan = scan;
   s->submap = submap;
@@ -234,7 +278,10 @@ void ConstraintBuilder2D::StartSearch(int scan, int submap, double window, doubl
   s->points = &node_scan.points;
   s->search_points = node_scan.search_points.empty() ? &node_scan.points : &node_scan.search_points;
   // The scan's pose in the submap's grid (the local map frame it was built in).
-  s->guess = s->submap_local * (estimates_.submap(submap).Inverse() * estimates_.scan(scan));
+  s->global = global_guess != nullptr;
+  if (s->global) s->step = options_.global_angular_step;
+  s->guess =
+      s->global ? *global_guess : s->submap_local * (estimates_.submap(submap).Inverse() * estimates_.scan(scan));
   Search* raw = s.get();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -256,9 +303,9 @@ void ConstraintBuilder2D::RunSearch(Search* s) const {
     std::call_once(s->matcher->once, [&] {
       s->matcher->matcher = std::make_unique<FastCorrelativeScanMatcher2D>(*s->grid, options_.search);
     });
-    const FastMatch m =
-        s->matcher->matcher->MatchChecked(s->guess, *s->search_points, options_.min_score, options_.rival_distance,
-                                          options_.rival_angle, options_.rival_ratio, s->window, s->angle);
+    const FastMatch m = s->matcher->matcher->MatchChecked(
+        s->guess, *s->search_points, s->global ? options_.global_min_score : options_.min_score,
+        options_.rival_distance, options_.rival_angle, options_.rival_ratio, s->window, s->angle, s->step);
     if (m.found && m.on_edge) {
       s->on_edge = true;
     } else if (m.found && m.ambiguous) {
@@ -313,6 +360,10 @@ std::vector<LoopClosure> ConstraintBuilder2D::TakeClosures() {
   for (const std::unique_ptr<Search>& s : done) {
     ++stats_.searches;
     stats_.search_seconds += s->seconds;
+    if (s->global) {
+      ++stats_.global_searches;
+      stats_.global_seconds += s->seconds;
+    }
     if (s->ambiguous) ++stats_.ambiguous;
     if (s->on_edge) ++stats_.on_edge;
     if (!s->found) continue;
@@ -341,7 +392,10 @@ std::vector<LoopClosure> ConstraintBuilder2D::TakeClosures() {
 }
 
 bool ConstraintBuilder2D::Agree(const LoopClosure& a, const LoopClosure& b) const {
-  if (a.submap != b.submap || a.scan == b.scan || std::abs(a.scan - b.scan) > options_.confirm_max_scans) return false;
+  if (a.submap != b.submap || a.scan == b.scan || std::abs(a.scan - b.scan) > options_.confirm_max_scans ||
+      scan_trajectory(a.scan) != scan_trajectory(b.scan)) {
+    return false;
+  }
   // Local SLAM's relative pose between the two scans, and the one the two closures imply.
   const SE2d local = scans_[static_cast<std::size_t>(a.scan)].local_pose.Inverse() *
                      scans_[static_cast<std::size_t>(b.scan)].local_pose;
@@ -360,6 +414,9 @@ void ConstraintBuilder2D::Confirm(int candidate, std::vector<LoopClosure>* out) 
   ++confirmed_;
   const LoopClosure& l = c.closure;
   out->push_back(l);
+  // A trajectory not yet joined is joined by its first closure to a joined submap.
+  const int t = scan_trajectory(l.scan);
+  if (!joined(t) && joined(submap_trajectory(l.submap))) joined_[static_cast<std::size_t>(t)] = true;
   for (int m : scans_[static_cast<std::size_t>(l.scan)].submaps) Link(m, l.submap);
 }
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
@@ -13,6 +14,13 @@ namespace tether {
 namespace lidar {
 
 namespace {
+
+// The 0.1 m cell of a point, as one key.
+std::int64_t OverlapCell(const Eigen::Vector2d& p) {
+  const std::int64_t x = static_cast<std::int64_t>(std::floor(p.x() * 10));
+  const std::int64_t y = static_cast<std::int64_t>(std::floor(p.y() * 10));
+  return (x << 32) ^ (y & 0xffffffff);
+}
 
 double MeanProbability(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
                        double unknown) {
@@ -58,10 +66,12 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
       return false;
     }
   }
-  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why) && scan_to_scan_options.IsValid(why);
+  return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why) &&
+         scan_to_scan_options.IsValid(why) && kidnap.IsValid(why);
 }
 
-LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options) : options_(Checked(options)), submaps_(options.submaps) {}
+LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options)
+    : options_(Checked(options)), submaps_(options.submaps), kidnap_(options.kidnap) {}
 
 SE2d LocalSlam2D::ConstantVelocity() const {
   const std::size_t n = trajectory_.size();
@@ -80,7 +90,17 @@ bool LocalSlam2D::WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, co
              options_.correlative.angular_search_window - 0.5 * m.angular_step;
 }
 
+InsertedSubmaps LocalSlam2D::FinishTrajectory() {
+  kidnapped_ = true;
+  return submaps_.FinishActive();
+}
+
 LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
+  if (kidnapped_) {
+    throw InvalidArgument(
+        "LocalSlam2D::AddScan: a kidnap was declared or the trajectory finished; start a new LocalSlam2D "
+        "for the scans after it");
+  }
   LocalScanResult result;
   result.stamp = scan.stamp;
   const bool has_odometry = scan.odometry_origin != OdometryOrigin::kNone;
@@ -188,6 +208,35 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     result.match_probability =
         MeanProbability(*target->grid(), refined, matching, options_.correlative.unknown_probability);
     result.trusted = result.match_probability >= options_.min_match_probability;
+    const ProbabilityGrid& grid = *target->grid();
+    result.match_cost = 1 - MeanProbability(grid, refined, matching, 0.5);
+    int hits = 0;
+    for (const Eigen::Vector2d& p : matching) {
+      hits += grid.Probability(grid.CellOf(refined * p), 0) >= options_.kidnap.hit_probability;
+    }
+    const double n = static_cast<double>(matching.size());
+    result.hit_fraction = hits / n;
+    // The share of the points within a cell or so of the scan before's (both at their poses).
+    if (!last_cells_.empty()) {
+      int near = 0;
+      for (const Eigen::Vector2d& p : matching) {
+        const Eigen::Vector2d q = refined * p;
+        bool found = false;
+        for (int dx = -1; dx <= 1 && !found; ++dx) {
+          for (int dy = -1; dy <= 1 && !found; ++dy) {
+            found = last_cells_.count(OverlapCell(q + Eigen::Vector2d(0.1 * dx, 0.1 * dy))) != 0;
+          }
+        }
+        near += found;
+      }
+      result.overlap = near / n;
+    }
+    result.kidnap = kidnap_.Add(result.match_cost, result.overlap);
+    if (result.kidnap.detected && options_.kidnap.detect) {
+      result.kidnapped = kidnapped_ = true;
+      result.pose = refined;
+      return result;
+    }
     // A scan whose prediction is constant velocity alone has nothing of its own to fall back to
     // (it repeats the match before): it keeps its match however weak.
     if (result.trusted || weak_prediction) result.pose = refined;
@@ -198,6 +247,10 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
                       scan.stamp - last_inserted_.stamp >= options_.insert_max_seconds;
   trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
   if (!points.empty()) last_points_ = points;
+  if (!matching.empty()) {
+    last_cells_.clear();
+    for (const Eigen::Vector2d& p : matching) last_cells_.insert(OverlapCell(result.pose * p));
+  }
   if (!insert) return result;
   inserted_any_ = true;
   last_inserted_ = trajectory_.back();

@@ -1,7 +1,9 @@
 #include "tether/frontends/lidar/mapping/pose_graph_2d.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "tether/core/error.h"
@@ -65,7 +67,66 @@ PoseGraph2D::PoseGraph2D(const PoseGraphOptions& options)
                GraphEstimates{[this](int i) { return ScanPose(i); }, [this](int j) { return SubmapPose(j); }}) {}
 
 SE2d PoseGraph2D::Pose(Key k) const {
-  return pending_values_.Has(k) ? pending_values_.At<SE2d>(k) : smoother_.Estimate().At<SE2d>(k);
+  if (pending_values_.Has(k)) return pending_values_.At<SE2d>(k);
+  if (smoother_.Estimate().Has(k)) return smoother_.Estimate().At<SE2d>(k);
+  for (auto t = trajectories_.rbegin(); t != trajectories_.rend(); ++t) {
+    if (t->held_values.Has(k)) return t->held_values.At<SE2d>(k);
+  }
+  return smoother_.Estimate().At<SE2d>(k);  // throws, naming the key
+}
+
+int PoseGraph2D::ScanTrajectory(int i) const {
+  int t = 0;
+  while (t + 1 < trajectory_count() && trajectories_[static_cast<std::size_t>(t + 1)].first_scan <= i) ++t;
+  return t;
+}
+
+void PoseGraph2D::StartTrajectory(const InsertedSubmaps& finished) {
+  const Trajectory& current = trajectories_.back();
+  for (const auto& [j, submap] : finished) {
+    const int global = j + current.first_submap;
+    if (submap == nullptr || global < 0 || global >= submap_count() || !submap->finished()) {
+      throw InvalidArgument("PoseGraph2D::StartTrajectory: submap " + std::to_string(j) +
+                            " of the ending trajectory is null, unknown or not finished");
+    }
+    if (options_.loop_closure) builder_.FinishSubmap(global);
+  }
+  if (scan_count() == current.first_scan) return;
+  builder_.StartTrajectory();
+  Trajectory next;
+  next.first_scan = scan_count();
+  next.first_submap = submap_count();
+  trajectories_.push_back(std::move(next));
+  active_.clear();
+}
+
+void PoseGraph2D::Join(int t, const SE2d& correction) {
+  Trajectory& tr = trajectories_[static_cast<std::size_t>(t)];
+  for (const Key k : tr.held_values.keys()) pending_values_.Insert(k, correction * tr.held_values.At<SE2d>(k));
+  for (std::size_t f = 0; f < tr.held_graph.size(); ++f) pending_graph_.Add(tr.held_graph.at(f).Clone());
+  tr.held_graph = FactorGraph();
+  tr.held_values = Values();
+}
+
+void PoseGraph2D::PlaceUnjoined() {
+  double right = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < scan_count(); ++i) {
+    if (TrajectoryJoinedAt(ScanTrajectory(i)) >= 0) right = std::max(right, ScanPose(i).x());
+  }
+  for (int t = 1; t < trajectory_count(); ++t) {
+    const Trajectory& tr = trajectories_[static_cast<std::size_t>(t)];
+    if (tr.joined_at >= 0 || tr.held_values.empty()) continue;
+    double left = std::numeric_limits<double>::infinity();
+    for (const Key k : tr.held_values.keys()) left = std::min(left, tr.held_values.At<SE2d>(k).x());
+    const SE2d shift(right + 5 - left, 0, 0);
+    Join(t, shift);
+    pending_graph_.Add<PriorSE2>(ScanKey(tr.first_scan), pending_values_.At<SE2d>(ScanKey(tr.first_scan)),
+                                 Noise(1e-3, 1e-3));
+    // The next one beside this one.
+    for (int i = tr.first_scan; i < scan_count() && ScanTrajectory(i) == t; ++i) {
+      right = std::max(right, ScanPose(i).x());
+    }
+  }
 }
 SE2d PoseGraph2D::ScanPose(int i) const { return Pose(ScanKey(i)); }
 SE2d PoseGraph2D::SubmapPose(int j) const { return Pose(SubmapKey(j)); }
@@ -87,19 +148,26 @@ SE2d PoseGraph2D::GlobalFromLocal() const {
 
 void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points,
                           const InsertedSubmaps& inserted_into) {
-  int next = submap_count();  // the index a new submap must have
+  Trajectory& tr = trajectories_.back();
+  int next = submap_count() - tr.first_submap;  // the index (the trajectory's) a new submap must have
   for (const auto& [j, submap] : inserted_into) {
     if (submap == nullptr || j < 0 || j > next) {
       throw InvalidArgument("PoseGraph2D::AddScan: submap " + std::to_string(j) + " is null or skips an index (" +
-                            std::to_string(submap_count()) + " so far; give new submaps in increasing order)");
+                            std::to_string(submap_count() - tr.first_submap) +
+                            " so far in this trajectory; give new submaps in increasing order)");
     }
     if (j == next) ++next;
   }
   const int i = scan_count();
-  const SE2d global_from_local = GlobalFromLocal();
-  FactorGraph& g = pending_graph_;
-  Values& v = pending_values_;
-  for (const auto& [j, submap] : inserted_into) {
+  // A new trajectory's first scan continues from the last scan before it (a placement only:
+  // nothing links the two).
+  const SE2d global_from_local =
+      i == tr.first_scan && i > 0 ? ScanPose(i - 1) * local_pose.Inverse() : GlobalFromLocal();
+  const bool held = tr.joined_at < 0;
+  FactorGraph& g = held ? tr.held_graph : pending_graph_;
+  Values& v = held ? tr.held_values : pending_values_;
+  for (const auto& [local_index, submap] : inserted_into) {
+    const int j = local_index + tr.first_submap;
     if (j == submap_count()) {
       submaps_.push_back(submap);
       builder_.AddSubmap(submap);
@@ -110,7 +178,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   if (i == 0) g.Add<PriorSE2>(ScanKey(0), local_pose, Noise(1e-3, 1e-3));
   if (!inserted_into.empty()) {
     active_.clear();
-    for (const auto& [j, submap] : inserted_into) active_.push_back(j);
+    for (const auto& [local_index, submap] : inserted_into) active_.push_back(local_index + tr.first_submap);
   }
   // A scan left out of the submaps (the motion filter; no points) was matched against the
   // active ones all the same: it is tied to them as an inserted scan would be. Tied to the scan
@@ -125,10 +193,11 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
                                  submaps_[static_cast<std::size_t>(j)]->local_pose().Inverse() * local_pose,
                                  Noise(options_.local_translation_sigma, options_.local_rotation_sigma)));
   }
-  // Tied to the scan before it by the local poses: always with the consecutive ties on, and
-  // before the first submap (then as a local constraint, quadratic) where they are off.
+  // Tied to the scan before it (of its trajectory) by the local poses: always with the
+  // consecutive ties on, and before the first submap (then as a local constraint, quadratic)
+  // where they are off.
   const bool consecutive = options_.consecutive_translation_sigma > 0;
-  if (i > 0 && (consecutive || active_.empty())) {
+  if (i > tr.first_scan && (consecutive || active_.empty())) {
     Factor& f = g.Add<BetweenSE2>(
         ScanKey(i - 1), ScanKey(i), local_poses_.back().Inverse() * local_pose,
         consecutive ? Noise(options_.consecutive_translation_sigma, options_.consecutive_rotation_sigma)
@@ -143,7 +212,7 @@ void PoseGraph2D::AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> p
   if (options_.loop_closure) {
     // Submaps finished by this scan: every earlier sampled scan near them.
     for (const auto& [j, submap] : inserted_into) {
-      if (submap->finished()) builder_.FinishSubmap(j);
+      if (submap->finished()) builder_.FinishSubmap(j + tr.first_submap);
     }
     // This scan, if sampled, against every finished submap near it.
     builder_.SearchScan(i);
@@ -155,9 +224,16 @@ bool PoseGraph2D::TakeClosures() {
   static_cast<ConstraintBuilderStats&>(stats_) = builder_.stats();
   for (const LoopClosure& l : taken) {
     closures_.push_back(l);
-    BetweenSE2& f =
-        pending_graph_.Add<BetweenSE2>(SubmapKey(l.submap), ScanKey(l.scan), l.relative,
-                                       Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
+    const int t = ScanTrajectory(l.scan);
+    Trajectory& tr = trajectories_[static_cast<std::size_t>(t)];
+    if (tr.joined_at < 0 && builder_.submap_trajectory(l.submap) != t) {
+      // The trajectory's first closure to the map: moved to where it puts the scan.
+      Join(t, Pose(SubmapKey(l.submap)) * l.relative * Pose(ScanKey(l.scan)).Inverse());
+      tr.joined_at = scan_count();
+    }
+    FactorGraph& g = tr.joined_at < 0 ? tr.held_graph : pending_graph_;
+    BetweenSE2& f = g.Add<BetweenSE2>(SubmapKey(l.submap), ScanKey(l.scan), l.relative,
+                                      Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
     f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
     f.set_loop_closure(true);
   }
@@ -193,6 +269,7 @@ void PoseGraph2D::Export(FactorGraph* graph, Values* values) const {
 
 void PoseGraph2D::Finish() {
   TakeClosures();
+  PlaceUnjoined();
   Flush();
   const auto t0 = std::chrono::steady_clock::now();
   smoother_.Finish();

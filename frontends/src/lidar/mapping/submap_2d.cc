@@ -88,6 +88,18 @@ InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::
   return inserted;
 }
 
+InsertedSubmaps ActiveSubmaps2D::FinishActive() {
+  InsertedSubmaps finished;
+  int index = static_cast<int>(submaps_.size() - active_.size());
+  for (const auto& s : active_) {
+    s->Finish();
+    finished.emplace_back(index++, s);
+  }
+  active_.clear();
+  start_new_ = true;
+  return finished;
+}
+
 std::shared_ptr<const Submap2D> ActiveSubmaps2D::matching_submap() const {
   if (!active_.empty()) return active_.front();
   if (!submaps_.empty()) return submaps_.back();

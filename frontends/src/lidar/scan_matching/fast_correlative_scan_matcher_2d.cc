@@ -85,6 +85,7 @@ void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, cons
 struct FastCorrelativeScanMatcher2D::Setup {
   double step = 0;
   int k_max = 0;                         // rotations -K..K
+  bool full_circle = false;              // the rotations go all the way round: no edge there
   int w = 0;                             // translations -W..W cells
   std::vector<std::vector<Cell>> cells;  // per rotation index k + K: the points' cells at the guess's translation
   // A match that found nothing yet: the guess, with the search's size.
@@ -97,7 +98,7 @@ struct FastCorrelativeScanMatcher2D::Setup {
     return m;
   }
   bool OnEdge(int k, int dx, int dy) const {
-    return (k_max > 0 && std::abs(k) == k_max) || (w > 0 && (std::abs(dx) == w || std::abs(dy) == w));
+    return (k_max > 0 && !full_circle && std::abs(k) == k_max) || (w > 0 && (std::abs(dx) == w || std::abs(dy) == w));
   }
   SE2d Pose(const SE2d& guess, int k, int dx, int dy, double r) const {
     return SE2d(guess.x() + dx * r, guess.y() + dy * r, guess.theta() + k * step);
@@ -118,8 +119,8 @@ FastCorrelativeScanMatcher2D::FastCorrelativeScanMatcher2D(const ProbabilityGrid
 
 FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const SE2d& guess,
                                                                           const std::vector<Eigen::Vector2d>& points,
-                                                                          double linear_window,
-                                                                          double angular_window) const {
+                                                                          double linear_window, double angular_window,
+                                                                          double angular_step) const {
   if (points.empty()) throw InvalidArgument("fast correlative scan matcher: the scan has no points");
   if (!std::isfinite(guess.x()) || !std::isfinite(guess.y()) || !std::isfinite(guess.theta())) {
     throw InvalidArgument("fast correlative scan matcher: the guess is not finite");
@@ -131,13 +132,14 @@ FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const 
   }
   const double r = grid_.resolution();
   Setup s;
-  s.step = options_.angular_step;
+  s.step = angular_step > 0 ? angular_step : options_.angular_step;
   if (s.step == 0) {
     // No point moves by more than one cell between neighbouring rotations.
     s.step = d_max > r / 2 ? std::acos(std::max(-1.0, 1 - r * r / (2 * d_max * d_max))) : M_PI / 2;
   }
   const double angles = angular_window < 0 ? options_.angular_search_window : std::min(angular_window, M_PI);
   s.k_max = static_cast<int>(std::ceil(angles / s.step - 1e-9));
+  s.full_circle = angles >= M_PI;
   const double window = linear_window < 0 ? options_.linear_search_window : linear_window;
   s.w = static_cast<int>(std::ceil(window / r - 1e-9));
   s.cells.resize(static_cast<std::size_t>(2 * s.k_max + 1));
@@ -207,16 +209,16 @@ bool FastCorrelativeScanMatcher2D::HasRival(const SE2d& guess, const std::vector
 
 FastMatch FastCorrelativeScanMatcher2D::MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points,
                                                      double min_score, double rival_distance, double rival_angle,
-                                                     double rival_ratio, double linear_window,
-                                                     double angular_window) const {
+                                                     double rival_ratio, double linear_window, double angular_window,
+                                                     double angular_step) const {
   CheckRivalNeighbourhood(rival_distance, rival_angle);
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) {
     throw InvalidArgument("fast correlative scan matcher: the rival ratio must lie in [0, 1]");
   }
-  if (!std::isfinite(linear_window) || !std::isfinite(angular_window)) {
-    throw InvalidArgument("fast correlative scan matcher: the search window must be finite");
+  if (!std::isfinite(linear_window) || !std::isfinite(angular_window) || !std::isfinite(angular_step)) {
+    throw InvalidArgument("fast correlative scan matcher: the search window and step must be finite");
   }
-  const Setup s = Prepare(guess, points, linear_window, angular_window);
+  const Setup s = Prepare(guess, points, linear_window, angular_window, angular_step);
   FastMatch m = Search(s, guess, points.size(), min_score, nullptr);
   if (m.found && !m.on_edge) {
     // The best's neighbourhood (what counts as the same match) reaches past the window's
@@ -270,7 +272,10 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
   // Whether every candidate of a node of height h is near the exclusion's centre: its
   // rotation, and the corners of its square of translations (the disc is convex).
   const auto excluded = [&](const Node& node, int h) {
-    if (exclude == nullptr || std::abs(node.k - exclude->k) >= exclude->angle) return false;
+    if (exclude == nullptr) return false;
+    int dk = std::abs(node.k - exclude->k);
+    if (s.full_circle) dk = std::min(dk, 2 * s.k_max + 1 - dk);  // the rotations wrap round
+    if (dk >= exclude->angle) return false;
     const double x0 = node.dx - exclude->dx, y0 = node.dy - exclude->dy, side = (1 << h) - 1;
     const double fx = std::max(std::abs(x0), std::abs(x0 + side)), fy = std::max(std::abs(y0), std::abs(y0 + side));
     return fx * fx + fy * fy < exclude->radius * exclude->radius;

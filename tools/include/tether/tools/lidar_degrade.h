@@ -30,6 +30,12 @@ struct LidarDegradeCommand {
   /// Odometry drift: translation share, rotation share, rotation per metre (DegradeOptions'
   /// odometry_*_noise); empty: none.
   std::vector<double> odometry_drift;
+  /// A kidnap: at, seconds (DegradeOptions::kidnap_at, kidnap_seconds); empty: none. The offset
+  /// x, y, theta (empty: none) and the two switches as DegradeOptions has them.
+  std::vector<double> kidnap;
+  std::vector<double> kidnap_offset;
+  bool kidnap_close_gap = false;
+  bool kidnap_keep_odometry = false;
   /// Reading the input: where each scan's odometry comes from (auto, scan-line, interpolated,
   /// none), and a bag's topics.
   std::string odometry = "auto";

@@ -57,6 +57,14 @@ struct LoopClosureCheck {
   bool kept = false;
 };
 
+/// A trajectory (a kidnap starts a new one): where it starts and when it joined the map.
+struct TrajectoryReport {
+  long first_scan = 0;
+  double first_stamp = 0;
+  long joined_scan = -1;  ///< the scan whose closures joined it to the map (-1: never; the first: 0)
+  double joined_stamp = 0;
+};
+
 /// What a run did and how long it took (seconds).
 struct LidarSlamReport {
   long scans = 0;
@@ -77,8 +85,22 @@ struct LidarSlamReport {
   double total_seconds = 0, matching_seconds = 0, insert_seconds = 0, graph_seconds = 0, map_seconds = 0,
          check_seconds = 0;
   SelfCheckResult self_check;
+  /// One per trajectory: the first, and one per kidnap declared.
+  std::vector<TrajectoryReport> trajectories;
+  /// The kidnap signals alone (KidnapStep): the first scans of the runs where the cost rule
+  /// fired, and the scans that broke with the scan before.
+  std::vector<long> cost_rises;
+  std::vector<long> breaks;
+  double first_stamp = 0;       ///< the first scan's stamp (times in the summary count from it)
+  double max_kidnap_ratio = 0;  ///< the largest rise of the filtered cost (KidnapStep::ratio)
+  long max_kidnap_ratio_scan = -1;
+  double kidnap_threshold = 0;  ///< KidnapOptions::threshold
+  double max_overlap = 0;       ///< KidnapOptions::max_overlap
   /// The lines `tether lidar` prints.
   std::string Summary(int threads) const;
+  /// Of those, the kidnaps' (`kidnap detected at scan N (t = T s)`, N from 1, T from the first
+  /// scan) and the independent signal's.
+  std::string KidnapSummary() const;
 };
 
 /// A file a run writes, by name: the bytes Outputs() gives.
@@ -96,9 +118,10 @@ class LidarSlam2D {
   LidarSlam2D(const LidarSlam2D&) = delete;
   LidarSlam2D& operator=(const LidarSlam2D&) = delete;
 
-  /// Adds the next scan (time order). Throws InvalidArgument for a scan ScanProblem refuses
-  /// (nothing changes), after Finish(), and after an earlier scan failed part-way (a point
-  /// far outside any map): the run cannot go on then.
+  /// Adds the next scan (time order). Where local SLAM declares a kidnap at it, the trajectory
+  /// ends there and the scan starts a new one (LidarSlamReport::trajectories). Throws InvalidArgument for a scan
+  /// ScanProblem refuses (nothing changes), after Finish(), and after an earlier scan failed part-way (a point far
+  /// outside any map): the run cannot go on then.
   void AddScan(const LaserScan& scan);
   /// Adds the first `max_scans` scans of a log (0: all) and calls Finish(); `progress`, where
   /// given, is called after every `progress_every`-th scan with the scans added so far. An
@@ -121,11 +144,15 @@ class LidarSlam2D {
   /// The occupancy map of every scan at its final pose (after Finish()).
   const ProbabilityGrid& map() const;
   const std::vector<LoopClosureCheck>& closure_checks() const { return checks_; }
+  /// Every scan's kidnap detection signals, in order.
+  const std::vector<KidnapRecord>& kidnap_records() const { return kidnap_records_; }
   const LidarSlamReport& report() const { return report_; }
   const LidarSlamOptions& options() const { return options_; }
 
   /// The files of a finished run (trajectory.tum, trajectory.g2o, pose_graph.g2o, map.pgm,
-  /// map.yaml, map.png, loop_closures.txt, self_check.png), in OutputNames()' order.
+  /// map.yaml, map.png, loop_closures.txt, self_check.png, trajectory.csv: the poses with
+  /// their trajectory, kidnap.csv and kidnap.svg: the detection's signals), in OutputNames()'
+  /// order.
   std::vector<LidarOutput> Outputs() const;
   /// Their names and descriptions (bytes empty), for checking a folder before a run.
   static std::vector<LidarOutput> OutputNames();
@@ -137,12 +164,16 @@ class LidarSlam2D {
     std::vector<Eigen::Vector2d> points;  ///< valid points, the laser's frame
   };
 
+  /// Notes the trajectories the pose graph joined by now (the scan being added: `stamp`).
+  void NoteJoins(double stamp);
+
   LidarSlamOptions options_;
   std::unique_ptr<LocalSlam2D> local_;
   std::unique_ptr<PoseGraph2D> graph_;
   std::vector<ScanRecord> scans_;
   std::unique_ptr<ProbabilityGrid> map_;
   std::vector<LoopClosureCheck> checks_;
+  std::vector<KidnapRecord> kidnap_records_;
   LidarSlamReport report_;
   bool finished_ = false;
   std::string failed_;  ///< why an earlier AddScan failed part-way, if one did

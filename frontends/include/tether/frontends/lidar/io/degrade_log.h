@@ -55,6 +55,21 @@ struct DegradeOptions {
   double odometry_translation_noise = 0;
   double odometry_rotation_noise = 0;
   double odometry_rotation_per_metre = 0;
+  /// A kidnap (the thesis's section 5.2): the scans stamped within [kidnap_at, kidnap_at +
+  /// kidnap_seconds) seconds after the first kept scan are cut out, with the odometry messages.
+  /// kidnap_seconds 0: no cut. What the scans after the cut keep:
+  /// - kidnap_close_gap: their stamps (and logger stamps) moved back by kidnap_seconds, so that
+  ///   the stamps run on uniformly across the cut (a detector cannot see the time gap);
+  /// - kidnap_keep_odometry false (the robot was carried): their odometry continues from the
+  ///   last scan before the cut, moved by kidnap_offset (the odometry saw nothing of the move, or
+  ///   a jump that has nothing to do with it), and the odometry messages are dropped (each scan
+  ///   carries its own); true: the odometry as logged (it saw the move: a gap in the scans only).
+  /// DegradeLog gives the scan where the kidnap happened.
+  double kidnap_at = 0;
+  double kidnap_seconds = 0;
+  bool kidnap_close_gap = false;
+  bool kidnap_keep_odometry = false;
+  SE2<double> kidnap_offset;
   /// The first scan kept (an index into the log's scans, in their order).
   std::size_t first_scan = 0;
   /// At most this many scans kept (0: all).
@@ -65,8 +80,11 @@ struct DegradeOptions {
 
   /// True where any odometry noise is set.
   bool DriftsOdometry() const;
+  /// True where a kidnap is cut (kidnap_seconds above 0).
+  bool Kidnaps() const { return kidnap_seconds > 0; }
   /// False (and why) for beams 1 or negative, a negative or non-finite range, sigma or odometry
-  /// noise, a fraction or share outside [0, 1], keep_every below 1.
+  /// noise, a fraction or share outside [0, 1], keep_every below 1, a kidnap time or length that
+  /// is negative or not finite, a kidnap offset that is not finite.
   bool IsValid(std::string* why) const;
 };
 
@@ -79,9 +97,12 @@ std::string DegradePresetNames();
 
 /// The degraded log (see DegradeOptions). The odometry messages kept are those within the kept
 /// scans' time span and the nearest one on either side (so interpolation gives the same
-/// odometry); scans keep their source_index. Throws InvalidArgument where the options are not
+/// odometry); scans keep their source_index. `kidnap_scan`, where given, gets the index (from 0)
+/// in the degraded log of the first scan after the kidnap's cut (the scan a detector should
+/// stop at), or the number of scans where there is no kidnap or no scan after it. Throws
+/// InvalidArgument where the options are not
 /// valid or first_scan is beyond the log's scans.
-LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options);
+LidarLog DegradeLog(const LidarLog& log, const DegradeOptions& options, std::size_t* kidnap_scan = nullptr);
 
 /// Writes `log` as a CARMEN log that ReadCarmenLog reads back as the same scans:
 /// - with_odometry: the odometry messages as ODOM lines (in time order, each before the first

@@ -16,6 +16,13 @@
 // - Searches run on `threads` background threads. TakeClosures waits for every search started
 //   and reads their results in the order the searches were started: the closures do not depend
 //   on the number of threads or their timing.
+// - Trajectories (a kidnap, LidarSlam2D): StartTrajectory() begins a new one, whose scans and
+//   submaps have no link to the others. Trajectory 0 is joined (the map everything is placed
+//   in); another becomes joined with its first confirmed closure to a joined submap. Until
+//   then, its sampled scans are searched globally against every finished joined submap: the
+//   window covers the submap's whole known area at every rotation (global_search_*), since
+//   where it lies relative to them is not known. Scans of a joined trajectory are not
+//   searched against unjoined submaps, nor unjoined trajectories against each other.
 // The builder reads the graph's current estimates (GraphEstimates) where it places a search;
 // the graph (pose_graph_2d.h) adds the closures it takes as constraints.
 #include <Eigen/Core>
@@ -125,6 +132,19 @@ struct ConstraintBuilderOptions {
   int confirm_max_scans = 200;
   double confirm_min_translation = 0.1;
   double confirm_min_rotation = 0.05;
+  /// A scan of a trajectory not yet joined is searched against every finished joined submap
+  /// (every rotation, the whole submap) where it is sampled and at least
+  /// global_search_every_n_scans scans came since the last scan searched so; its best must
+  /// score above global_min_score (a look-alike room elsewhere scores well too).
+  /// The window: the submap's origin +- (the farthest its own scans were taken from it +
+  /// global_search_margin), at every rotation, in steps of global_angular_step (rad; coarser
+  /// than a windowed search's: 0.5 degrees moves a point 20 m away by 17 cm, and the
+  /// refinement after it corrects that; the rule of the windowed search would take thousands of
+  /// rotations for a scanner reaching 80 m).
+  int global_search_every_n_scans = 30;
+  double global_min_score = 0.6;
+  double global_search_margin = 2;                   ///< m
+  double global_angular_step = 0.00872664625997165;  ///< rad (0.5 degrees)
   /// Background search threads (0: search in the caller's thread); by default the machine's
   /// cores. The result does not depend on it.
   int threads = DefaultSearchThreads();
@@ -146,6 +166,8 @@ struct ConstraintBuilderStats {
   long unconfirmed = 0;       ///< found matches no other has confirmed (not added, so far)
   double search_seconds = 0;  ///< summed over the searches (all threads)
   double found_seconds = 0;   ///< summed over the searches that found one
+  long global_searches = 0;   ///< of the searches, global ones (a trajectory not yet joined)
+  double global_seconds = 0;  ///< summed over them
   double wait_seconds = 0;    ///< TakeClosures waiting for searches
 };
 
@@ -172,6 +194,9 @@ class ConstraintBuilder2D {
   /// robot's frame) and the submaps it is tied to, which are joined to each other in the graph.
   /// Throws InvalidArgument for a submap not added.
   void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points, const std::vector<int>& submaps);
+  /// The scans and submaps added from now on belong to a new trajectory (not joined), whose
+  /// local poses are in a frame of their own.
+  void StartTrajectory();
   /// Submap j is finished: searches every sampled scan so far that it does not hold against
   /// it, where they lie near enough. Throws InvalidArgument where j was not added or its
   /// submap is not finished; nothing where j is already marked finished.
@@ -187,6 +212,11 @@ class ConstraintBuilder2D {
 
   int scan_count() const { return static_cast<int>(scans_.size()); }
   int submap_count() const { return static_cast<int>(submaps_.size()); }
+  int trajectory_count() const { return static_cast<int>(joined_.size()); }
+  int scan_trajectory(int i) const { return scans_.at(static_cast<std::size_t>(i)).trajectory; }
+  int submap_trajectory(int j) const { return submaps_.at(static_cast<std::size_t>(j)).trajectory; }
+  /// Whether trajectory t is joined (trajectory 0, or joined by a closure TakeClosures gave).
+  bool joined(int t) const { return joined_.at(static_cast<std::size_t>(t)); }
   bool finished(int j) const { return submaps_[static_cast<std::size_t>(j)].finished; }
   /// Whether scan i is sampled for the search (search_every_n_scans, search_every_metres).
   bool sampled(int i) const { return scans_.at(static_cast<std::size_t>(i)).sampled; }
@@ -200,6 +230,7 @@ class ConstraintBuilder2D {
     std::vector<Eigen::Vector2d> search_points;  ///< points through search_voxel_size (empty: points)
     std::vector<int> submaps;
     bool sampled = false;  ///< searched against the finished submaps near it
+    int trajectory = 0;
   };
   // A finished submap's matcher, built by the first search that needs it (on a search
   // thread, where there are any: the precomputation grids take a while on a large submap).
@@ -211,6 +242,8 @@ class ConstraintBuilder2D {
     std::shared_ptr<const Submap2D> submap;
     std::unique_ptr<LazyMatcher> matcher;  // made when finished
     bool finished = false;
+    int trajectory = 0;
+    double reach = 0;  ///< the farthest its own scans lie from its origin (m)
   };
   struct Search {
     int scan = 0, submap = 0;
@@ -223,6 +256,8 @@ class ConstraintBuilder2D {
     const std::vector<Eigen::Vector2d>* search_points = nullptr;
     double window = 0;  // half side of the translations searched (m)
     double angle = -1;  // half the rotations searched (rad)
+    bool global = false;
+    double step = -1;  // the rotation step (negative: the matcher's)
     bool done = false, found = false, ambiguous = false, on_edge = false;
     LoopClosure result;
     double seconds = 0;
@@ -237,7 +272,14 @@ class ConstraintBuilder2D {
   bool Agree(const LoopClosure& a, const LoopClosure& b) const;
   /// Makes candidate c a loop closure (into `out`) and joins its submaps.
   void Confirm(int c, std::vector<LoopClosure>* out);
-  void StartSearch(int scan, int submap, double window, double angle);
+  /// global_guess: a global search from that guess (the submap's grid frame), else a windowed
+  /// one around the estimates.
+  void StartSearch(int scan, int submap, double window, double angle, const SE2d* global_guess = nullptr);
+  /// Whether scan k is searched against submap j around the estimates: the same trajectory,
+  /// or both joined.
+  bool Windowed(int k, int j) const;
+  /// Scan k against the whole of submap j at every rotation.
+  void StartGlobalSearch(int k, int j);
   /// Scan k against submap j where they lie near enough for the window of their graph distance.
   void SearchNear(int k, int j, double distance);
   void Link(int a, int b);
@@ -261,6 +303,9 @@ class ConstraintBuilder2D {
   ConstraintBuilderStats stats_;
   int last_sampled_ = 0;             ///< the last scan sampled for the search
   double travel_since_sampled_ = 0;  ///< m, by local SLAM since then
+  std::vector<bool> joined_{true};   ///< per trajectory
+  bool trajectory_started_ = true;   ///< the next scan is its trajectory's first
+  int last_global_ = -1;             ///< the last scan searched globally
 
   // Searches in the order started; the workers take them from `queue_`.
   std::deque<std::unique_ptr<Search>> searches_;

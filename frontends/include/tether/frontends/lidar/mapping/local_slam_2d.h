@@ -11,11 +11,14 @@
 // robot moved or turned enough (every scan is matched and has a pose). Poses are the robot's in the local map frame
 // (the laser's offset on the robot, LaserScan::laser_in_robot, applied to the points).
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "tether/core/se2.h"
+#include "tether/frontends/lidar/mapping/kidnap_detector.h"
 #include "tether/frontends/lidar/mapping/submap_2d.h"
 #include "tether/frontends/lidar/scan_matching/real_time_correlative_scan_matcher_2d.h"
 #include "tether/frontends/lidar/scan_matching/scan_refiner_2d.h"
@@ -95,6 +98,11 @@ struct LocalSlamOptions {
   /// gyro's drift, while a room without corners keeps the gyro's turn). Scans with odometry
   /// do not use it.
   double imu_rotation_weight = 20;
+  /// Kidnap detection (kidnap_detector.h): every matched scan's cost is filtered; where a kidnap
+  /// is declared (and kidnap.detect is on) the scan is neither inserted nor kept
+  /// (LocalScanResult::kidnapped): local SLAM cannot go on from where it was, and its owner
+  /// starts a new one (LidarSlam2D: a new trajectory).
+  KidnapOptions kidnap;
   bool IsValid(std::string* why) const;
 };
 
@@ -126,6 +134,18 @@ struct LocalScanResult {
   std::vector<Eigen::Vector2d> matching;
   double correlative_score = 0;
   long correlative_candidates = 0;  ///< poses the correlative search scored
+  /// Kidnap detection (matched scans only): the cost (1 - the mean probability the matched
+  /// points read, unknown cells 0.5), the detector's step, the share of the points on
+  /// occupied cells (KidnapOptions::hit_probability), and the overlap (below).
+  double match_cost = 0;
+  KidnapStep kidnap;
+  double hit_fraction = 0;
+  /// The share of the points within about 0.1 m of a point of the scan before (both at their
+  /// poses); -1 where there was none.
+  double overlap = -1;
+  /// The detector declared a kidnap and KidnapOptions::detect is on: the scan was not inserted
+  /// and not kept in trajectory(); nothing more can be added (a new LocalSlam2D takes over).
+  bool kidnapped = false;
   double scan_to_scan_seconds = 0, correlative_seconds = 0, refine_seconds = 0, insert_seconds = 0;
 };
 
@@ -135,7 +155,12 @@ class LocalSlam2D {
   explicit LocalSlam2D(const LocalSlamOptions& options);
 
   /// Matches and inserts one scan; scans must come in time order (not checked: a log's order).
+  /// Throws InvalidArgument after a scan that was kidnapped.
   LocalScanResult AddScan(const LaserScan& scan);
+
+  /// Ends this local SLAM's run (a kidnap): its active submaps are finished and returned
+  /// (ActiveSubmaps2D::FinishActive); no scan can be added afterwards.
+  InsertedSubmaps FinishTrajectory();
 
   const ActiveSubmaps2D& submaps() const { return submaps_; }
   /// One pose per scan added, with the scan's stamp.
@@ -152,13 +177,16 @@ class LocalSlam2D {
   /// the window's outermost ring of translations or rotations.
   bool WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, const ProbabilityGrid& grid) const;
 
-  std::vector<Eigen::Vector2d> last_points_;  ///< the last scan with points, its robot frame
+  std::vector<Eigen::Vector2d> last_points_;     ///< the last scan with points, its robot frame
+  std::unordered_set<std::int64_t> last_cells_;  ///< its matching points' 0.1 m cells, the map frame
   SE2d last_odometry_;
   bool last_has_odometry_ = false;
   double last_imu_yaw_ = 0;
   bool last_has_imu_yaw_ = false;
   bool inserted_any_ = false;
   StampedPose2 last_inserted_;
+  KidnapDetector kidnap_;
+  bool kidnapped_ = false;
 };
 
 }  // namespace lidar

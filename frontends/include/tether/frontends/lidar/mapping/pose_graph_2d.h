@@ -13,6 +13,14 @@
 //   fixed scan counts (every apply_every_n_scans scans, waiting for every search started before
 //   that scan, and in that scan's smoother update) and at Finish(): the result does not depend
 //   on the number of threads or their timing.
+// - Trajectories (a kidnap: LidarSlam2D starts a new one): StartTrajectory() begins a new
+//   trajectory whose first scan has no link to the scans before, and whose local poses and
+//   submap indices start afresh (local SLAM is new). Its nodes and factors are held out of the
+//   smoother, placed where its first scan continues from the last scan before it, until its
+//   first loop closure to the joined map (the constraint builder's global search): then the
+//   whole trajectory is moved rigidly to where that closure puts it and handed to the
+//   smoother with the closures. A trajectory never joined is placed beside the map at
+//   Finish() (to the right of it, 5 m apart), held there by a prior on its first scan.
 // Keys: scan i is Symbol('s', i), submap j Symbol('m', j); a prior holds the first scan.
 #include <Eigen/Core>
 #include <limits>
@@ -115,12 +123,26 @@ class PoseGraph2D {
   /// indices; a finished one stays finished. A scan in no submap (the motion filter left it
   /// out, or no points) is tied to the submaps the last scan with any went into, by the local
   /// poses (before any submap: to the previous scan). Throws InvalidArgument for a null submap
-  /// or one that skips an index.
+  /// or one that skips an index. Within a trajectory after the first, submap indices count
+  /// from 0 again (the new local SLAM's) and local poses are in its frame.
   void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points, const InsertedSubmaps& inserted_into);
+  /// The scans added from now on form a new trajectory (see above). `finished`: the ending
+  /// trajectory's submaps its local SLAM finished (LocalSlam2D::FinishTrajectory, indices as
+  /// it numbers them), searched as any finished submap. No new trajectory where the current one
+  /// has no scan yet. Throws InvalidArgument for a submap that is null, unknown or not finished.
+  void StartTrajectory(const InsertedSubmaps& finished = {});
   /// Waits for every search, applies the results and solves the graph to convergence.
   void Finish();
 
   int scan_count() const { return static_cast<int>(local_poses_.size()); }
+  int trajectory_count() const { return static_cast<int>(trajectories_.size()); }
+  /// Trajectory t's first scan and first submap (indices over all trajectories).
+  int TrajectoryFirstScan(int t) const { return trajectories_.at(static_cast<std::size_t>(t)).first_scan; }
+  int TrajectoryFirstSubmap(int t) const { return trajectories_.at(static_cast<std::size_t>(t)).first_submap; }
+  /// The scans added when trajectory t was joined to the map (-1: not joined; 0 for the first).
+  int TrajectoryJoinedAt(int t) const { return trajectories_.at(static_cast<std::size_t>(t)).joined_at; }
+  /// The trajectory scan i belongs to.
+  int ScanTrajectory(int i) const;
   int submap_count() const { return static_cast<int>(submaps_.size()); }
   /// The current estimates (global frame: the first scan's local pose).
   SE2d ScanPose(int i) const;
@@ -134,8 +156,21 @@ class PoseGraph2D {
   const ConstraintBuilder2D& constraint_builder() const { return builder_; }
 
  private:
-  /// A node's estimate: the smoother's, or its initial value while it waits for an update.
+  struct Trajectory {
+    int first_scan = 0;
+    int first_submap = 0;
+    int joined_at = -1;
+    FactorGraph held_graph;  ///< not joined yet: its factors and values, placed
+    Values held_values;
+  };
+  /// A node's estimate: the smoother's, its initial value while it waits for an update, or
+  /// its placement while its trajectory is held out.
   SE2d Pose(Key k) const;
+  /// Moves trajectory t's held nodes by `correction` (applied on the left) and hands them and
+  /// its factors to the next update.
+  void Join(int t, const SE2d& correction);
+  /// Places the trajectories never joined beside the map, each held by a prior.
+  void PlaceUnjoined();
   /// Hands the waiting nodes and factors to the smoother.
   void Flush();
   /// Takes the builder's new loop closures into the waiting factors; true where there were any.
@@ -150,6 +185,7 @@ class PoseGraph2D {
   std::vector<std::shared_ptr<const Submap2D>> submaps_;
   std::vector<LoopClosure> closures_;
   std::vector<int> active_;  ///< the submaps the last scan given any went into
+  std::vector<Trajectory> trajectories_{Trajectory{0, 0, 0, {}, {}}};
   PoseGraphStats stats_;
   ConstraintBuilder2D builder_;  // reads the estimates above (ScanPose, SubmapPose)
 };

@@ -85,6 +85,9 @@ class ActiveSubmaps2D {
   InsertedSubmaps InsertScan(const SE2d& scan_pose, const Eigen::Vector2d& origin,
                              const std::vector<Eigen::Vector2d>& points);
 
+  /// Finishes the active submaps (a trajectory ends: they will take no more scans) and returns
+  /// them as InsertScan does; the next scan starts a new submap.
+  InsertedSubmaps FinishActive();
   /// The submap to match the next scan against: the older active one (null before any scan).
   std::shared_ptr<const Submap2D> matching_submap() const;
   /// The active submaps, older first (at most two).

@@ -79,7 +79,8 @@ struct FastMatch {
   /// largest offset searched): the score may still rise beyond the window, as where a scan
   /// overlaps the submap's known area more the further it is pushed into it. MatchChecked
   /// also sets it where the best's translation lies within rival_distance of the edge: the
-  /// candidates that count as the same match then reach past the window.
+  /// candidates that count as the same match then reach past the window. Rotations searched
+  /// all the way round (an angular window of pi) have no edge.
   bool on_edge = false;
   /// Set by MatchChecked only: a candidate away from the best scores nearly as well.
   bool ambiguous = false;
@@ -109,10 +110,12 @@ class FastCorrelativeScanMatcher2D {
   /// of the square of translations searched by this call (m); negative: the options'
   /// linear_search_window. angular_window: half the rotations searched by this call (rad, at
   /// most pi); negative: the options' angular_search_window. Throws as Match and HasRival, for
-  /// a ratio outside [0, 1] and for a window that is not finite.
+  /// a ratio outside [0, 1] and for a window that is not finite. angular_step: the rotation
+  /// step of this call (rad; negative: the options'); a step coarser than the one rule above
+  /// makes the search faster and no longer exact between rotations (a global search).
   FastMatch MatchChecked(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score,
                          double rival_distance, double rival_angle, double rival_ratio, double linear_window = -1,
-                         double angular_window = -1) const;
+                         double angular_window = -1, double angular_step = -1) const;
   /// The same candidates scored one by one: the reference for Match, and its speed-up.
   FastMatch MatchExhaustive(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double min_score) const;
 
@@ -127,7 +130,7 @@ class FastCorrelativeScanMatcher2D {
     double radius = 0, angle = 0;
   };
   Setup Prepare(const SE2d& guess, const std::vector<Eigen::Vector2d>& points, double linear_window,
-                double angular_window) const;
+                double angular_window, double angular_step = -1) const;
   FastMatch Search(const Setup& s, const SE2d& guess, std::size_t n_points, double min_score,
                    const Exclusion* exclude) const;
   bool Rival(const Setup& s, const SE2d& guess, std::size_t n_points, const SE2d& best, double min_distance,
