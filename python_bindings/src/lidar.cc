@@ -118,6 +118,10 @@ void BindLidar(py::module_& m) {
           "max_range", [](const LidarSlamOptions& o) { return o.local.limits.max_range; },
           [](LidarSlamOptions& o, double v) { o.local.limits.max_range = v; }, "Drop ranges beyond this [m] (0: none)")
       .def_property(
+          "kidnap_detection", [](const LidarSlamOptions& o) { return o.local.kidnap.detect; },
+          [](LidarSlamOptions& o, bool v) { o.local.kidnap.detect = v; },
+          "Act on a detected kidnap: end the trajectory and start a new one (docs/lidar_slam.md)")
+      .def_property(
           "self_check_every", [](const LidarSlamOptions& o) { return o.self_check.sample_every; },
           [](LidarSlamOptions& o, int v) { o.self_check.sample_every = v; })
       .def_property(
@@ -232,6 +236,22 @@ void BindLidar(py::module_& m) {
             return l;
           },
           "(first scan, last scan) of each stretch the self-check found misplaced")
+      .def_property_readonly(
+          "trajectories",
+          [](const LidarSlam2D& s) {
+            py::list l;
+            for (const lidar::TrajectoryReport& t : s.report().trajectories) {
+              py::dict d;
+              d["first_scan"] = t.first_scan;
+              d["first_stamp"] = t.first_stamp;
+              d["joined_scan"] = t.joined_scan;
+              d["joined_stamp"] = t.joined_stamp;
+              l.append(d);
+            }
+            return l;
+          },
+          "One dict per trajectory (a kidnap starts a new one): first_scan, first_stamp, joined_scan (the scan "
+          "whose closures joined it to the map; -1: never), joined_stamp")
       .def("summary", [](const LidarSlam2D& s) { return s.report().Summary(s.options().pose_graph.threads); })
       .def(
           "write",

@@ -75,6 +75,51 @@ def test_scans_from_arrays_scan_only():
     assert "scans without odometry: " in slam.summary()
 
 
+def _compose(a, b):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
+
+
+def _inverse(a):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (-c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2])
+
+
+def test_kidnap_detection_and_trajectories():
+    truth, scans = trip()
+    options = tether.lidar.LidarSlamOptions()
+    assert options.kidnap_detection is True
+    options.scans_per_submap = 20
+
+    def run(order):
+        # The robot carried: its odometry runs on from the last scan before each jump.
+        slam = tether.lidar.LidarSlam2D(options)
+        odometry, carry = None, (0.0, 0.0, 0.0)
+        for k, i in enumerate(order):
+            if k > 0 and i != order[k - 1] + 1:
+                carry = _compose(odometry, _inverse(tuple(truth[i])))
+            odometry = _compose(carry, tuple(truth[i]))
+            slam.add_scan(scans[i], angle_min=-math.pi / 2, angle_increment=math.pi / 179, stamp=10 + 0.1 * k,
+                          range_max=12.0, odometry=odometry)
+        slam.finish()
+        return slam
+
+    # The lap in order: one trajectory, joined from the start.
+    slam = run(range(len(scans)))
+    assert slam.trajectories == [dict(first_scan=0, first_stamp=10.0, joined_scan=0, joined_stamp=10.0)]
+    assert "no kidnap detected" in slam.summary()
+    # Half a lap skipped after scan 19 (the robot carried across the room): a second trajectory
+    # starts within three scans of the cut.
+    order = list(range(20)) + list(range(55, 70)) + list(range(0, 35))
+    slam = run(order)
+    t = slam.trajectories
+    assert len(t) >= 2, slam.summary()
+    assert 20 <= t[1]["first_scan"] <= 23
+    assert "kidnap detected at scan %d" % (t[1]["first_scan"] + 1) in slam.summary()
+    options.kidnap_detection = False
+    assert len(run(order).trajectories) == 1
+
+
 def test_bad_scans_raise():
     slam = tether.lidar.LidarSlam2D()
     with pytest.raises(tether.InvalidArgument):

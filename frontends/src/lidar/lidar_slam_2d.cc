@@ -159,68 +159,82 @@ LidarSlam2D::LidarSlam2D(const LidarSlamOptions& options)
 
 LidarSlam2D::~LidarSlam2D() = default;
 
+namespace {
+
+// The kidnap record of a scan's local result.
+KidnapRecord RecordOf(const LocalScanResult& r) {
+  KidnapRecord k;
+  k.matched = r.matched;
+  k.cost = r.match_cost;
+  k.filtered = r.kidnap.filtered;
+  k.ratio = r.kidnap.ratio;
+  k.hit_fraction = r.hit_fraction;
+  k.overlap = r.overlap;
+  k.cost_rule = r.kidnap.cost_rule;
+  k.broke = r.kidnap.broke;
+  k.detected = r.kidnap.detected;
+  return k;
+}
+
+}  // namespace
+
 void LidarSlam2D::AddScan(const LaserScan& scan) {
   if (finished_) throw InvalidArgument("LidarSlam2D::AddScan after Finish(): make a new LidarSlam2D for another run");
   if (!failed_.empty()) {
-    throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(scans_.size()) + " failed part-way (" +
-                          failed_ + "); make a new LidarSlam2D for another run");
+    throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(added_) + " failed part-way (" + failed_ +
+                          "); make a new LidarSlam2D for another run");
   }
   const std::string why = ScanProblem(scan);
-  if (!why.empty()) {
-    throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(scans_.size()) + ": " + why);
-  }
+  if (!why.empty()) throw InvalidArgument("LidarSlam2D::AddScan: scan " + std::to_string(added_) + ": " + why);
   const auto t0 = std::chrono::steady_clock::now();
-  // The robot's body masked: a copy only where there is a mask.
-  LaserScan masked_copy;
-  const LaserScan* used = &scan;
-  if (!options_.mask.empty()) {
-    masked_copy = scan;
-    report_.masked_beams += static_cast<long>(ApplyBodyMask(options_.mask, &masked_copy));
-    used = &masked_copy;
+  Staged st;
+  st.scan = scan;
+  // The robot's body masked.
+  if (!options_.mask.empty()) report_.masked_beams += static_cast<long>(ApplyBodyMask(options_.mask, &st.scan));
+  if (added_ == 0) {
+    report_.first_stamp = scan.stamp;
+    report_.trajectories.push_back(TrajectoryReport{0, scan.stamp, 0, scan.stamp});
   }
-  LocalScanResult r;
-  LocalScanResult detection;  // the scan's result where it was kidnapped: its signals
   try {
-    r = local_->AddScan(*used);
-    if (r.kidnapped) {
-      // The trajectory ends; the scan starts a new one with a new local SLAM.
-      detection = std::move(r);
-      graph_->StartTrajectory(local_->FinishTrajectory());
-      local_ = std::make_unique<LocalSlam2D>(options_.local);
-      r = local_->AddScan(*used);
-      report_.trajectories.push_back(TrajectoryReport{static_cast<long>(scans_.size()), scan.stamp, -1, 0});
-    }
+    st.result = local_->AddScan(st.scan);
+    st.record = RecordOf(st.result);
+    if (st.result.kidnapped) Restart(&st);
+    st.record.scan = added_;
+    st.record.stamp = scan.stamp;
+    st.record.trajectory = static_cast<int>(report_.trajectories.size()) - 1;
+    ++added_;
+    staged_.push_back(std::move(st));
+    // The last filter_size - 1 scans wait: a kidnap declared at the next scans began at them.
+    const std::size_t lag =
+        options_.local.kidnap.detect ? static_cast<std::size_t>(options_.local.kidnap.filter_size - 1) : 0;
+    while (staged_.size() > lag) Commit();
   } catch (const std::exception& e) {
     failed_ = e.what();
     throw;
   }
-  if (scans_.empty()) {
-    report_.first_stamp = scan.stamp;
-    report_.trajectories.push_back(TrajectoryReport{0, scan.stamp, 0, scan.stamp});
+  report_.total_seconds += SecondsSince(t0);
+}
+
+void LidarSlam2D::Restart(Staged* st) {
+  // The kidnap began at the scan that opened the detector's window: the scans from there on
+  // (still staged) go to the new trajectory with the detecting one.
+  const std::size_t redo = std::min(staged_.size(), static_cast<std::size_t>(options_.local.kidnap.filter_size - 1));
+  while (staged_.size() > redo) Commit();
+  graph_->StartTrajectory(local_->FinishTrajectory());
+  local_ = std::make_unique<LocalSlam2D>(options_.local);
+  const int t = static_cast<int>(report_.trajectories.size());
+  report_.trajectories.push_back(TrajectoryReport{added_ - static_cast<long>(redo),
+                                                  redo > 0 ? staged_.front().scan.stamp : st->scan.stamp, -1, 0});
+  for (Staged& s : staged_) {
+    s.result = local_->AddScan(s.scan);
+    s.record.trajectory = t;
   }
-  const LocalScanResult& signals = detection.kidnapped ? detection : r;
-  KidnapRecord k;
-  k.scan = static_cast<long>(scans_.size());
-  k.stamp = scan.stamp;
-  k.trajectory = static_cast<int>(report_.trajectories.size()) - 1;
-  k.matched = signals.matched;
-  k.cost = signals.match_cost;
-  k.filtered = signals.kidnap.filtered;
-  k.ratio = signals.kidnap.ratio;
-  k.hit_fraction = signals.hit_fraction;
-  k.overlap = signals.overlap;
-  k.cost_rule = signals.kidnap.cost_rule;
-  k.broke = signals.kidnap.broke;
-  k.detected = signals.kidnap.detected;
-  if (k.broke) report_.breaks.push_back(k.scan);
-  if (k.cost_rule && (kidnap_records_.empty() || !kidnap_records_.back().cost_rule)) {
-    report_.cost_rises.push_back(k.scan);
-  }
-  if (k.ratio > report_.max_kidnap_ratio) {
-    report_.max_kidnap_ratio = k.ratio;
-    report_.max_kidnap_ratio_scan = k.scan;
-  }
-  kidnap_records_.push_back(k);
+  st->result = local_->AddScan(st->scan);
+}
+
+void LidarSlam2D::Commit() {
+  Staged& s = staged_.front();
+  const LocalScanResult& r = s.result;
   report_.matching_seconds += r.scan_to_scan_seconds + r.correlative_seconds + r.refine_seconds;
   report_.scan_to_scan += r.scan_to_scan;
   report_.insert_seconds += r.insert_seconds;
@@ -230,15 +244,25 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
   report_.widened += r.widened;
   report_.imu_turns += r.imu_turn;
   const auto tg = std::chrono::steady_clock::now();
-  graph_->AddScan(r.pose, std::move(r.matching), r.inserted_into);
+  graph_->AddScan(r.pose, std::move(s.result.matching), r.inserted_into);
   report_.graph_seconds += SecondsSince(tg);
-  NoteJoins(scan.stamp);
+  NoteJoins(s.scan.stamp);
+  const KidnapRecord& k = s.record;
+  if (k.broke) report_.breaks.push_back(k.scan);
+  if (k.cost_rule && (kidnap_records_.empty() || !kidnap_records_.back().cost_rule)) {
+    report_.cost_rises.push_back(k.scan);
+  }
+  if (k.ratio > report_.max_kidnap_ratio) {
+    report_.max_kidnap_ratio = k.ratio;
+    report_.max_kidnap_ratio_scan = k.scan;
+  }
+  kidnap_records_.push_back(k);
   ScanRecord record;
-  record.stamp = scan.stamp;
-  record.laser_in_robot = scan.laser_in_robot;
-  record.points = ScanToPoints(*used, options_.local.limits);
+  record.stamp = s.scan.stamp;
+  record.laser_in_robot = s.scan.laser_in_robot;
+  record.points = ScanToPoints(s.scan, options_.local.limits);
   scans_.push_back(std::move(record));
-  report_.total_seconds += SecondsSince(t0);
+  staged_.pop_front();
 }
 
 void LidarSlam2D::NoteJoins(double stamp) {
@@ -275,6 +299,12 @@ void LidarSlam2D::Finish() {
   if (finished_) return;
   finished_ = true;
   const auto t0 = std::chrono::steady_clock::now();
+  try {
+    while (!staged_.empty()) Commit();
+  } catch (const std::exception& e) {
+    failed_ = e.what();
+    throw;
+  }
   graph_->Finish();
   if (!scans_.empty()) NoteJoins(scans_.back().stamp);
   report_.graph_seconds += SecondsSince(t0);

@@ -64,6 +64,13 @@ bool ConstraintBuilderOptions::IsValid(std::string* why) const {
       !(std::isfinite(global_angular_step) && global_angular_step > 0 && global_angular_step < 1)) {
     return fail("global_search_margin must be finite and not negative, global_angular_step in (0, 1) rad");
   }
+  if (!(std::isfinite(join_min_separation) && join_min_separation >= 0) ||
+      !(std::isfinite(global_rival_distance) && global_rival_distance > 0) ||
+      !(std::isfinite(global_rival_angle) && global_rival_angle > 0)) {
+    return fail(
+        "join_min_separation must be finite and not negative, global_rival_distance and global_rival_angle "
+        "positive and finite");
+  }
   if (!(global_min_score >= 0 && global_min_score <= 1)) return fail("global_min_score must lie in [0, 1]");
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
   if (!PositiveFinite(rival_distance) || !PositiveFinite(rival_angle)) {
@@ -160,6 +167,13 @@ void ConstraintBuilder2D::FinishSubmap(int j) {
   node.finished = true;
   node.matcher = std::make_unique<LazyMatcher>();
   const std::vector<double> d = GraphDistances({j});
+  // Scans of trajectories not yet joined, searched globally before: against this joined submap too.
+  if (joined(node.trajectory)) {
+    for (int k = 0; k < scan_count(); ++k) {
+      const ScanNode& scan = scans_[static_cast<std::size_t>(k)];
+      if (scan.global && !joined(scan.trajectory)) StartGlobalSearch(k, j);
+    }
+  }
   for (int k = 0; k < scan_count(); ++k) {
     if (!scans_[static_cast<std::size_t>(k)].sampled || !Windowed(k, j)) continue;
     double distance = std::numeric_limits<double>::infinity();
@@ -179,7 +193,10 @@ void ConstraintBuilder2D::SearchScan(int i) {
   const bool global =
       !joined(scan.trajectory) && (last_global_ < 0 || i - last_global_ >= options_.global_search_every_n_scans ||
                                    scans_[static_cast<std::size_t>(last_global_)].trajectory != scan.trajectory);
-  if (global) last_global_ = i;
+  if (global) {
+    last_global_ = i;
+    scans_[static_cast<std::size_t>(i)].global = true;
+  }
   for (int j = 0; j < submap_count(); ++j) {
     const SubmapNode& submap = submaps_[static_cast<std::size_t>(j)];
     if (!submap.finished) continue;
@@ -356,6 +373,7 @@ std::vector<LoopClosure> ConstraintBuilder2D::TakeClosures() {
     done.swap(searches_);
   }
   stats_.wait_seconds += SecondsSince(t0);
+  DropGlobalRivals(&done);
   std::vector<LoopClosure> closures;
   for (const std::unique_ptr<Search>& s : done) {
     ++stats_.searches;
@@ -391,6 +409,31 @@ std::vector<LoopClosure> ConstraintBuilder2D::TakeClosures() {
   return closures;
 }
 
+void ConstraintBuilder2D::DropGlobalRivals(std::deque<std::unique_ptr<Search>>* done) const {
+  // A scan searched globally against several submaps whose matches put it in different places
+  // of the map (a room like another, a corridor like another): none of them is taken.
+  std::unordered_map<int, std::vector<Search*>> by_scan;
+  for (const std::unique_ptr<Search>& s : *done) {
+    if (s->global && s->found) by_scan[s->scan].push_back(s.get());
+  }
+  for (auto& [scan, found] : by_scan) {
+    bool rivals = false;
+    for (std::size_t a = 0; a < found.size() && !rivals; ++a) {
+      const SE2d pa = estimates_.submap(found[a]->submap) * found[a]->result.relative;
+      for (std::size_t b = a + 1; b < found.size() && !rivals; ++b) {
+        const SE2d pb = estimates_.submap(found[b]->submap) * found[b]->result.relative;
+        rivals = (pa.translation() - pb.translation()).norm() > options_.global_rival_distance ||
+                 std::abs(WrapAngle(pa.theta() - pb.theta())) > options_.global_rival_angle;
+      }
+    }
+    if (!rivals) continue;
+    for (Search* s : found) {
+      s->found = false;
+      s->ambiguous = true;
+    }
+  }
+}
+
 bool ConstraintBuilder2D::Agree(const LoopClosure& a, const LoopClosure& b) const {
   if (a.submap != b.submap || a.scan == b.scan || std::abs(a.scan - b.scan) > options_.confirm_max_scans ||
       scan_trajectory(a.scan) != scan_trajectory(b.scan)) {
@@ -413,11 +456,47 @@ void ConstraintBuilder2D::Confirm(int candidate, std::vector<LoopClosure>* out) 
   c.added = true;
   ++confirmed_;
   const LoopClosure& l = c.closure;
-  out->push_back(l);
-  // A trajectory not yet joined is joined by its first closure to a joined submap.
   const int t = scan_trajectory(l.scan);
-  if (!joined(t) && joined(submap_trajectory(l.submap))) joined_[static_cast<std::size_t>(t)] = true;
+  if (!joined(t) && joined(submap_trajectory(l.submap))) {
+    HoldJoin(t, l, out);
+    return;
+  }
+  out->push_back(l);
   for (int m : scans_[static_cast<std::size_t>(l.scan)].submaps) Link(m, l.submap);
+}
+
+SE2d ConstraintBuilder2D::Placement(const LoopClosure& l) const {
+  return estimates_.submap(l.submap) * l.relative * scans_[static_cast<std::size_t>(l.scan)].local_pose.Inverse();
+}
+
+void ConstraintBuilder2D::HoldJoin(int t, const LoopClosure& l, std::vector<LoopClosure>* out) {
+  // A trajectory not yet joined is joined only where confirmed closures to two submaps at
+  // least join_min_separation apart place it alike: look-alike rooms give a confirmed pair
+  // each, but not one placement for the room and the corridor outside it.
+  std::vector<LoopClosure>& held = held_joins_[t];
+  held.push_back(l);
+  const SE2d p = Placement(l);
+  const Eigen::Vector2d at = estimates_.submap(l.submap).translation();
+  bool join = false;
+  for (const LoopClosure& h : held) {
+    const SE2d q = Placement(h);
+    join = join || ((estimates_.submap(h.submap).translation() - at).norm() >= options_.join_min_separation &&
+                    (p.translation() - q.translation()).norm() <= options_.global_rival_distance &&
+                    std::abs(WrapAngle(p.theta() - q.theta())) <= options_.global_rival_angle);
+  }
+  if (!join) return;
+  joined_[static_cast<std::size_t>(t)] = true;
+  // The closures that agree with this placement join it; the others are dropped.
+  for (const LoopClosure& h : held) {
+    const SE2d q = Placement(h);
+    if ((p.translation() - q.translation()).norm() > options_.global_rival_distance ||
+        std::abs(WrapAngle(p.theta() - q.theta())) > options_.global_rival_angle) {
+      continue;
+    }
+    out->push_back(h);
+    for (int m : scans_[static_cast<std::size_t>(h.scan)].submaps) Link(m, h.submap);
+  }
+  held.clear();
 }
 
 }  // namespace lidar

@@ -85,10 +85,12 @@ void PoseGraph2D::StartTrajectory(const InsertedSubmaps& finished) {
   const Trajectory& current = trajectories_.back();
   for (const auto& [j, submap] : finished) {
     const int global = j + current.first_submap;
-    if (submap == nullptr || global < 0 || global >= submap_count() || !submap->finished()) {
+    if (submap == nullptr || global < 0 || !submap->finished()) {
       throw InvalidArgument("PoseGraph2D::StartTrajectory: submap " + std::to_string(j) +
-                            " of the ending trajectory is null, unknown or not finished");
+                            " of the ending trajectory is null, negative or not finished");
     }
+    // A submap the graph never got (only scans that went to the new trajectory were in it).
+    if (global >= submap_count()) continue;
     if (options_.loop_closure) builder_.FinishSubmap(global);
   }
   if (scan_count() == current.first_scan) return;

@@ -16,6 +16,7 @@
 // times (self_check_2d.h: a stretch of the trajectory placed where it does not belong fits
 // nothing).
 #include <Eigen/Core>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -133,7 +134,9 @@ class LidarSlam2D {
   void Finish();
   bool finished() const { return finished_; }
 
-  long scan_count() const { return static_cast<long>(scans_.size()); }
+  /// Scans added. The last KidnapOptions::filter_size - 1 of them wait for the kidnap detector
+  /// before they reach the pose graph (and Trajectory()); Finish() hands them over.
+  long scan_count() const { return added_; }
   /// The scans' poses (robot frame; the first scan's odometry frame, or the origin), each with
   /// its scan's stamp: the pose graph's current estimate (final after Finish()).
   std::vector<StampedPose2> Trajectory() const;
@@ -164,8 +167,19 @@ class LidarSlam2D {
     std::vector<Eigen::Vector2d> points;  ///< valid points, the laser's frame
   };
 
+  /// A scan local SLAM has matched, waiting for the pose graph.
+  struct Staged {
+    LaserScan scan;  ///< masked
+    LocalScanResult result;
+    KidnapRecord record;
+  };
   /// Notes the trajectories the pose graph joined by now (the scan being added: `stamp`).
   void NoteJoins(double stamp);
+  /// A kidnap declared at *st: the trajectory ends where it began; the staged scans from there
+  /// and *st go through a new local SLAM.
+  void Restart(Staged* st);
+  /// Hands the oldest staged scan to the pose graph.
+  void Commit();
 
   LidarSlamOptions options_;
   std::unique_ptr<LocalSlam2D> local_;
@@ -174,6 +188,8 @@ class LidarSlam2D {
   std::unique_ptr<ProbabilityGrid> map_;
   std::vector<LoopClosureCheck> checks_;
   std::vector<KidnapRecord> kidnap_records_;
+  std::deque<Staged> staged_;
+  long added_ = 0;  ///< scans added (staged or in the graph)
   LidarSlamReport report_;
   bool finished_ = false;
   std::string failed_;  ///< why an earlier AddScan failed part-way, if one did

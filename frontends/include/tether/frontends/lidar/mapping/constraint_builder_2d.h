@@ -21,8 +21,10 @@
 //   in); another becomes joined with its first confirmed closure to a joined submap. Until
 //   then, its sampled scans are searched globally against every finished joined submap: the
 //   window covers the submap's whole known area at every rotation (global_search_*), since
-//   where it lies relative to them is not known. Scans of a joined trajectory are not
-//   searched against unjoined submaps, nor unjoined trajectories against each other.
+//   where it lies relative to them is not known; those scans are searched so again against
+//   every joined submap finished later, as long as their trajectory is not joined (a trajectory
+//   that ended before it joined can still join). Scans of a joined trajectory are not searched
+//   against unjoined submaps, nor unjoined trajectories against each other.
 // The builder reads the graph's current estimates (GraphEstimates) where it places a search;
 // the graph (pose_graph_2d.h) adds the closures it takes as constraints.
 #include <Eigen/Core>
@@ -143,7 +145,15 @@ struct ConstraintBuilderOptions {
   /// rotations for a scanner reaching 80 m).
   int global_search_every_n_scans = 30;
   double global_min_score = 0.6;
-  double global_search_margin = 2;                   ///< m
+  double global_search_margin = 2;  ///< m
+  /// A scan whose global matches (in one batch) put it in places of the map further apart than
+  /// this (m, rad) is ambiguous: none of them is taken (look-alike rooms).
+  double global_rival_distance = 1;
+  double global_rival_angle = 0.1;
+  /// A trajectory not yet joined joins once confirmed closures to two joined submaps whose
+  /// origins lie at least this far apart (m) place it alike (within global_rival_*): one room
+  /// confirms a match to a room like it; the corridor outside it does not.
+  double join_min_separation = 5;
   double global_angular_step = 0.00872664625997165;  ///< rad (0.5 degrees)
   /// Background search threads (0: search in the caller's thread); by default the machine's
   /// cores. The result does not depend on it.
@@ -230,6 +240,7 @@ class ConstraintBuilder2D {
     std::vector<Eigen::Vector2d> search_points;  ///< points through search_voxel_size (empty: points)
     std::vector<int> submaps;
     bool sampled = false;  ///< searched against the finished submaps near it
+    bool global = false;   ///< searched globally (its trajectory not joined then)
     int trajectory = 0;
   };
   // A finished submap's matcher, built by the first search that needs it (on a search
@@ -268,10 +279,19 @@ class ConstraintBuilder2D {
     bool added = false;
   };
 
+  /// Drops the global matches of a scan that disagree with each other (global_rival_*).
+  void DropGlobalRivals(std::deque<std::unique_ptr<Search>>* done) const;
   /// Whether two matches to the same submap confirm each other (confirm_* options).
   bool Agree(const LoopClosure& a, const LoopClosure& b) const;
-  /// Makes candidate c a loop closure (into `out`) and joins its submaps.
+  /// Makes candidate c a loop closure (into `out`) and joins its submaps; one that would join
+  /// a trajectory waits in HoldJoin.
   void Confirm(int c, std::vector<LoopClosure>* out);
+  /// Where closure l puts the origin of its scan's trajectory's local frame (the graph's frame).
+  SE2d Placement(const LoopClosure& l) const;
+  /// Holds a confirmed closure of trajectory t (not joined) to a joined submap until another,
+  /// to a submap join_min_separation away, places t alike; then gives every held closure that
+  /// agrees (into `out`) and marks t joined.
+  void HoldJoin(int t, const LoopClosure& l, std::vector<LoopClosure>* out);
   /// global_guess: a global search from that guess (the submap's grid frame), else a windowed
   /// one around the estimates.
   void StartSearch(int scan, int submap, double window, double angle, const SE2d* global_guess = nullptr);
@@ -301,11 +321,12 @@ class ConstraintBuilder2D {
   std::unordered_map<int, std::vector<int>> candidates_of_submap_;
   long confirmed_ = 0;  // candidates that became loop closures
   ConstraintBuilderStats stats_;
-  int last_sampled_ = 0;             ///< the last scan sampled for the search
-  double travel_since_sampled_ = 0;  ///< m, by local SLAM since then
-  std::vector<bool> joined_{true};   ///< per trajectory
-  bool trajectory_started_ = true;   ///< the next scan is its trajectory's first
-  int last_global_ = -1;             ///< the last scan searched globally
+  int last_sampled_ = 0;                                          ///< the last scan sampled for the search
+  double travel_since_sampled_ = 0;                               ///< m, by local SLAM since then
+  std::vector<bool> joined_{true};                                ///< per trajectory
+  std::unordered_map<int, std::vector<LoopClosure>> held_joins_;  ///< per trajectory not joined
+  bool trajectory_started_ = true;                                ///< the next scan is its trajectory's first
+  int last_global_ = -1;                                          ///< the last scan searched globally
 
   // Searches in the order started; the workers take them from `queue_`.
   std::deque<std::unique_ptr<Search>> searches_;

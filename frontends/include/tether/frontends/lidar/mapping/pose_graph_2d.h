@@ -128,8 +128,9 @@ class PoseGraph2D {
   void AddScan(const SE2d& local_pose, std::vector<Eigen::Vector2d> points, const InsertedSubmaps& inserted_into);
   /// The scans added from now on form a new trajectory (see above). `finished`: the ending
   /// trajectory's submaps its local SLAM finished (LocalSlam2D::FinishTrajectory, indices as
-  /// it numbers them), searched as any finished submap. No new trajectory where the current one
-  /// has no scan yet. Throws InvalidArgument for a submap that is null, unknown or not finished.
+  /// it numbers them), searched as any finished submap; one the graph never got is left out. No
+  /// new trajectory where the current one has no scan yet. Throws InvalidArgument for a submap
+  /// that is null or not finished.
   void StartTrajectory(const InsertedSubmaps& finished = {});
   /// Waits for every search, applies the results and solves the graph to convergence.
   void Finish();
