@@ -114,7 +114,8 @@ std::string KidnapSvg(const std::vector<KidnapRecord>& records, const KidnapOpti
   for (const KidnapRecord& r : records) {
     if (r.detected) {
       s += Line(x(r.scan), cost.top, x(r.scan), hits.top + kPanel, "stroke=\"#d62728\" stroke-width=\"1.5\"");
-      s += Text(x(r.scan) + 3, cost.top + 28, "kidnap at scan " + std::to_string(r.scan + 1), "fill=\"#d62728\"");
+      s += Text(x(r.scan) + 3, cost.top + 28, "kidnap declared at scan " + std::to_string(r.scan + 1),
+                "fill=\"#d62728\"");
     }
     if (r.broke) {
       s += Line(x(r.scan), hits.top + kPanel, x(r.scan), hits.top + kPanel - 8, "stroke=\"#e08000\"");

@@ -6,8 +6,9 @@
 // The picture, x the scan number (from 1) in three panels: the match cost (grey) and its
 // filtered value (blue); the filtered value's rise over the last filtered value before its
 // window (blue) against the threshold T (dashed red); the overlap with the scan before (green)
-// against the independent signal's threshold (dashed orange). Each detection is a red vertical
-// line through all three, each break a short orange tick at the bottom.
+// against the independent signal's threshold (dashed orange). Each declaration is a red vertical
+// line through all three (f_size - 1 scans after the break it starts the new trajectory at),
+// each break a short orange tick at the bottom.
 #include <string>
 #include <vector>
 
