@@ -209,7 +209,10 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
         MeanProbability(*target->grid(), refined, matching, options_.correlative.unknown_probability);
     result.trusted = result.match_probability >= options_.min_match_probability;
     const ProbabilityGrid& grid = *target->grid();
-    result.match_cost = 1 - MeanProbability(grid, refined, matching, 0.5);
+    // Unknown cells read 0.5 in the cost: the same mean where the matcher's unknown is 0.5 too.
+    result.match_cost =
+        1 - (options_.correlative.unknown_probability == 0.5 ? result.match_probability
+                                                             : MeanProbability(grid, refined, matching, 0.5));
     int hits = 0;
     for (const Eigen::Vector2d& p : matching) {
       hits += grid.Probability(grid.CellOf(refined * p), 0) >= options_.kidnap.hit_probability;
