@@ -2,7 +2,8 @@
 # Fuzzes every graph reader, the CARMEN laser-log reader (with the log writer and degrader
 # behind it), the TUM and relations readers, the bag record check and the map image (PGM)
 # reader with the localisation map behind it, with libFuzzer under
-# AddressSanitizer and UndefinedBehaviorSanitizer.
+# AddressSanitizer and UndefinedBehaviorSanitizer, and the saved LiDAR state reader (whole files,
+# and payloads packed with a correct CRC so that their contents are fuzzed).
 #
 #   bash benchmarks/fuzz.sh [SECONDS]     (default 60 seconds per target)
 #
@@ -33,12 +34,12 @@ bash scripts/install_deps.sh > /dev/null
 
 CC=clang CXX=clang++ cmake -S . -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETHER_BUILD_FUZZERS=ON \
   -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_TOOLS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DBUILD_SHARED_LIBS=OFF > /dev/null
-cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam fuzz_carmen fuzz_lidar_text > /dev/null
+cmake --build "$work/build" -j"$(nproc)" --target fuzz_g2o fuzz_toro fuzz_isam fuzz_carmen fuzz_lidar_text fuzz_lidar_state > /dev/null
 
 # Seed corpora.
 datasets="$root/../shared/datasets"
 stamp=$(date +%Y%m%d-%H%M%S)
-for t in g2o toro isam carmen lidar_text; do
+for t in g2o toro isam carmen lidar_text lidar_state; do
   mkdir -p "$work/corpus/$t" "$work/findings/$t"
   if [ -n "$(ls -A "$work/findings/$t")" ]; then
     mkdir -p "$work/findings/$t.$stamp"
@@ -91,6 +92,12 @@ fi
 for f in "$root"/tests/fuzz/regressions/carmen/*; do
   case "$f" in *.md) continue ;; esac
   [ -f "$f" ] && cp "$f" "$work/corpus/carmen/"
+done
+# Saved LiDAR states: the kept small states (whole files, first byte 0) and their payloads
+# (first byte 1: packed with a correct CRC by the target, so that the contents are fuzzed).
+for f in "$root"/tests/fuzz/regressions/lidar_state/*; do
+  case "$f" in *.md) continue ;; esac
+  [ -f "$f" ] && cp "$f" "$work/corpus/lidar_state/"
 done
 for f in "$root"/tests/fuzz/regressions/*; do
   [ -f "$f" ] || continue
@@ -158,7 +165,7 @@ DICT
 status=0
 echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
-for t in g2o toro isam carmen lidar_text; do
+for t in g2o toro isam carmen lidar_text lidar_state; do
   log="$work/fuzz_$t.log"
   dict="$work/tags.dict"
   [ "$t" = carmen ] && dict="$work/carmen.dict"

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
@@ -130,6 +131,35 @@ void ProbabilityGrid::ShrinkToKnown() {
   cells_.swap(kept);
   min_cell_ = lo;
   size_ = size;
+}
+
+void ProbabilityGrid::Restore(const Cell& min_cell, const Cell& size, std::vector<std::uint16_t> values) {
+  if (!updated_.empty()) {
+    throw Error("ProbabilityGrid::Restore: " + std::to_string(updated_.size()) +
+                " cells are marked as updated; call FinishUpdate first");
+  }
+  const long long last_x = static_cast<long long>(min_cell.x()) + size.x();
+  const long long last_y = static_cast<long long>(min_cell.y()) + size.y();
+  if (size.x() < 0 || size.y() < 0 || last_x > std::numeric_limits<int>::max() ||
+      last_y > std::numeric_limits<int>::max()) {
+    throw InvalidArgument("ProbabilityGrid::Restore: a box of " + std::to_string(size.x()) + " x " +
+                          std::to_string(size.y()) + " cells from (" + std::to_string(min_cell.x()) + ", " +
+                          std::to_string(min_cell.y()) + ") does not fit in int cells");
+  }
+  const auto count = static_cast<unsigned long long>(size.x()) * static_cast<unsigned long long>(size.y());
+  if (values.size() != count) {
+    throw InvalidArgument("ProbabilityGrid::Restore: " + std::to_string(values.size()) + " values for a box of " +
+                          std::to_string(count) + " cells");
+  }
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (values[i] > kMaxValue) {
+      throw InvalidArgument("ProbabilityGrid::Restore: value " + std::to_string(i) + " is " +
+                            std::to_string(values[i]) + ", above " + std::to_string(kMaxValue));
+    }
+  }
+  min_cell_ = count == 0 ? Cell::Zero() : min_cell;
+  size_ = count == 0 ? Cell::Zero() : size;
+  cells_ = std::move(values);
 }
 
 int ProbabilityGrid::GrowToInclude(const Cell& c) {

@@ -228,7 +228,9 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   FolderOutputs outputs(cmd.output_dir);
   std::vector<std::pair<std::string, std::string>> inputs = {{cmd.log, ""}};
   if (!cmd.ground_truth.empty()) inputs.emplace_back(cmd.ground_truth, "ground truth");
-  if (const int rc = outputs.Prepare("lidar", inputs, lidar::LidarSlam2D::OutputNames(), err); rc != kExitOk) return rc;
+  std::vector<lidar::LidarOutput> names = lidar::LidarSlam2D::OutputNames();
+  if (cmd.save_state) names.push_back(lidar::LidarSlam2D::StateOutputName());
+  if (const int rc = outputs.Prepare("lidar", inputs, names, err); rc != kExitOk) return rc;
   lidar::LidarLog log;
   std::vector<lidar::StampedPose2> truth;
   if (const int rc = ReadLidarInputs(cmd, &log, &truth, err); rc != kExitOk) return outputs.Fail(rc);
@@ -263,14 +265,16 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
 
   lidar::LidarSlam2D slam(cmd.options);
   if (const int rc = Map(cmd, log, n, &slam, out, err); rc != kExitOk) return outputs.Fail(rc);
-  if (const int rc = outputs.Write(slam.Outputs(), err); rc != kExitOk) return outputs.Fail(rc);
+  std::vector<lidar::LidarOutput> files = slam.Outputs();
+  if (cmd.save_state) files.push_back(slam.StateOutput());
+  if (const int rc = outputs.Write(files, err); rc != kExitOk) return outputs.Fail(rc);
   out << slam.report().Summary(cmd.options.pose_graph.threads);
   if (!cmd.ground_truth.empty()) {
     const TrajectoryError ate = lidar::StampedTrajectoryError(slam.Trajectory(), truth);
     out << "against " << cmd.ground_truth << ": absolute trajectory error (rigid alignment) " << FormatMetres(ate.rmse)
         << " RMSE, max " << FormatMetres(ate.max) << " over " << ate.poses << " poses\n";
   }
-  out << "wrote " << FolderOutputs::List(cmd.output_dir, lidar::LidarSlam2D::OutputNames()) << "\n";
+  out << "wrote " << FolderOutputs::List(cmd.output_dir, names) << "\n";
   return kExitOk;
 }
 
@@ -447,6 +451,8 @@ void LidarCli::AddSensorOptions(CLI::App* sub) {
          "Self-check every N-th scan against the map made at other times (0: no check)");
   Option("--progress-every", cmd_.progress_every, "Scans between progress lines (0: none)");
   sub->add_flag("-q,--quiet", cmd_.quiet, "No progress lines");
+  sub->add_flag("--save-state", cmd_.save_state,
+                "Also write state.tether: the scans, submaps, loop closures and map, for tether localize");
 }
 
 }  // namespace

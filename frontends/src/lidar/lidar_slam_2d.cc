@@ -312,7 +312,7 @@ void LidarSlam2D::Finish() {
 
   // The map: every scan at its final pose.
   const auto tm = std::chrono::steady_clock::now();
-  map_ = std::make_unique<ProbabilityGrid>(options_.local.submaps.resolution);
+  map_ = std::make_shared<ProbabilityGrid>(options_.local.submaps.resolution);
   const ProbabilityGridInserter inserter(options_.local.submaps.insert, map_->min_probability(),
                                          map_->max_probability());
   std::vector<SE2d> lasers(scans_.size());
@@ -374,6 +374,45 @@ std::vector<LidarOutput> LidarSlam2D::OutputNames() {
           {"loop_closures.txt", "loop closures", ""},    {"self_check.png", "self-check picture", ""},
           {"trajectory.csv", "trajectory with ids", ""}, {"kidnap.csv", "kidnap signals", ""},
           {"kidnap.svg", "kidnap picture", ""}};
+}
+
+LidarState LidarSlam2D::State() const {
+  if (!finished_) throw InvalidArgument("LidarSlam2D::State: call Finish() first");
+  const PoseGraph2D& g = *graph_;
+  LidarState state;
+  state.trajectories = g.trajectory_count();
+  state.scans.resize(scans_.size());
+  for (std::size_t i = 0; i < scans_.size(); ++i) {
+    const int k = static_cast<int>(i);
+    SavedScan& s = state.scans[i];
+    s.stamp = scans_[i].stamp;
+    s.trajectory = g.ScanTrajectory(k);
+    s.pose = g.ScanPose(k);
+    s.local_pose = g.LocalPose(k);
+    s.laser_in_robot = scans_[i].laser_in_robot;
+    s.submaps = g.ScanSubmaps(k);
+    s.points = scans_[i].points;
+  }
+  state.submaps.resize(static_cast<std::size_t>(g.submap_count()));
+  for (int j = 0; j < g.submap_count(); ++j) {
+    SavedSubmap& m = state.submaps[static_cast<std::size_t>(j)];
+    m.trajectory = g.SubmapTrajectory(j);
+    m.pose = g.SubmapPose(j);
+    m.local_pose = g.submap(j)->local_pose();
+    m.num_scans = g.submap(j)->num_scans();
+    m.grid = g.submap(j)->grid();
+  }
+  for (const LoopClosure& c : g.loop_closures()) {
+    state.closures.push_back(SavedClosure{c.scan, c.submap, c.relative, c.score});
+  }
+  state.map = map_;
+  return state;
+}
+
+LidarOutput LidarSlam2D::StateOutput() const {
+  LidarOutput o = StateOutputName();
+  o.bytes = LidarStateBytes(State());
+  return o;
 }
 
 std::vector<LidarOutput> LidarSlam2D::Outputs() const {

@@ -102,6 +102,13 @@ class ProbabilityGrid {
   void ShrinkToKnown();
   /// Number of cells updated since the last FinishUpdate.
   std::size_t pending_updates() const { return updated_.size(); }
+  /// The stored box's raw values, row-major (y rows of x cells; what Restore takes back).
+  const std::vector<std::uint16_t>& values() const { return cells_; }
+  /// Replaces the stored box: cells min_cell .. min_cell + size - 1 take `values`, row-major (a
+  /// saved grid read back). Throws InvalidArgument for a negative size, a box reaching beyond
+  /// int cells, a count that is not size.x() * size.y(), or a value above kMaxValue (a marked
+  /// cell); Error while updates are pending.
+  void Restore(const Cell& min_cell, const Cell& size, std::vector<std::uint16_t> values);
 
  private:
   int Index(const Cell& c) const {

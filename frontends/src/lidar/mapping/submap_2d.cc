@@ -36,6 +36,21 @@ Submap2D::Submap2D(const SE2d& local_pose, const SubmapOptions& options)
       grid_(std::make_shared<ProbabilityGrid>(options.resolution, local_pose.translation(), options.min_probability,
                                               options.max_probability)) {}
 
+std::shared_ptr<Submap2D> Submap2D::Restored(const SE2d& local_pose, std::shared_ptr<ProbabilityGrid> grid,
+                                             int num_scans) {
+  if (grid == nullptr) throw InvalidArgument("Submap2D::Restored: the grid is null");
+  if (num_scans < 0) throw InvalidArgument("Submap2D::Restored: " + std::to_string(num_scans) + " scans");
+  SubmapOptions options;
+  options.resolution = grid->resolution();
+  options.min_probability = grid->min_probability();
+  options.max_probability = grid->max_probability();
+  auto submap = std::make_shared<Submap2D>(local_pose, options);
+  submap->grid_ = std::move(grid);
+  submap->num_scans_ = num_scans;
+  submap->finished_ = true;
+  return submap;
+}
+
 void Submap2D::InsertScan(const ProbabilityGridInserter& inserter, const Eigen::Vector2d& origin,
                           const std::vector<Eigen::Vector2d>& points, InsertedCells* cells) {
   if (finished_) {

@@ -9,6 +9,8 @@
 //                       pose, the violation (m, degrees), kept (below 20 cm and 1 degree)
 //   self_check.png   the map with the self-check's sampled scans, green where they fit the
 //                    map made at other times, red where not
+//   trajectory.csv, kidnap.csv, kidnap.svg   the poses with their trajectory; the kidnap signals
+//   state.tether     with --save-state: the saved state (lidar_state.h) `tether localize` reads
 // The command parses its flags straight into the options (LidarSlamOptions, LidarReadOptions),
 // runs, and prints the report.
 #include <iosfwd>
@@ -47,6 +49,7 @@ struct LidarCommand {
   /// The body mask's sectors, "a:b[,c:d]" in degrees (lidar::ParseAngleSectors); empty: none.
   std::string mask_angles;
   long progress_every = 2000;  ///< scans between progress lines (0: none)
+  bool save_state = false;     ///< also write state.tether (LidarSlam2D::StateOutput)
   bool quiet = false;
 };
 

@@ -27,6 +27,7 @@
 #include "tether/factors/probability_grid.h"
 #include "tether/frontends/lidar/eval/self_check_2d.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
+#include "tether/frontends/lidar/io/lidar_state.h"
 #include "tether/frontends/lidar/mapping/local_slam_2d.h"
 #include "tether/frontends/lidar/mapping/pose_graph_2d.h"
 #include "tether/frontends/lidar/sensor/body_mask.h"
@@ -159,6 +160,12 @@ class LidarSlam2D {
   std::vector<LidarOutput> Outputs() const;
   /// Their names and descriptions (bytes empty), for checking a folder before a run.
   static std::vector<LidarOutput> OutputNames();
+  /// What a finished run built, to localise in or to go on from (lidar_state.h): every scan
+  /// with its points and poses, the submaps, the loop closures and the map.
+  LidarState State() const;
+  /// The state file's name and description (`tether lidar --save-state`), and with its bytes.
+  static LidarOutput StateOutputName() { return {"state.tether", "saved state", ""}; }
+  LidarOutput StateOutput() const;
 
  private:
   struct ScanRecord {
@@ -185,7 +192,7 @@ class LidarSlam2D {
   std::unique_ptr<LocalSlam2D> local_;
   std::unique_ptr<PoseGraph2D> graph_;
   std::vector<ScanRecord> scans_;
-  std::unique_ptr<ProbabilityGrid> map_;
+  std::shared_ptr<ProbabilityGrid> map_;
   std::vector<LoopClosureCheck> checks_;
   std::vector<KidnapRecord> kidnap_records_;
   std::deque<Staged> staged_;

@@ -225,6 +225,8 @@ class ConstraintBuilder2D {
   int trajectory_count() const { return static_cast<int>(joined_.size()); }
   int scan_trajectory(int i) const { return scans_.at(static_cast<std::size_t>(i)).trajectory; }
   int submap_trajectory(int j) const { return submaps_.at(static_cast<std::size_t>(j)).trajectory; }
+  /// The submaps scan i was added with.
+  const std::vector<int>& scan_submaps(int i) const { return scans_.at(static_cast<std::size_t>(i)).submaps; }
   /// Whether trajectory t is joined (trajectory 0, or joined by a closure TakeClosures gave).
   bool joined(int t) const { return joined_.at(static_cast<std::size_t>(t)); }
   bool finished(int j) const { return submaps_[static_cast<std::size_t>(j)].finished; }

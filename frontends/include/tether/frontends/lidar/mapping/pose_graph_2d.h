@@ -145,6 +145,12 @@ class PoseGraph2D {
   /// The trajectory scan i belongs to.
   int ScanTrajectory(int i) const;
   int submap_count() const { return static_cast<int>(submaps_.size()); }
+  /// Scan i's pose from local SLAM (its trajectory's local frame) and the submaps it is tied to.
+  const SE2d& LocalPose(int i) const { return local_poses_.at(static_cast<std::size_t>(i)); }
+  const std::vector<int>& ScanSubmaps(int i) const { return builder_.scan_submaps(i); }
+  /// Submap j, and the trajectory it belongs to.
+  const std::shared_ptr<const Submap2D>& submap(int j) const { return submaps_.at(static_cast<std::size_t>(j)); }
+  int SubmapTrajectory(int j) const { return builder_.submap_trajectory(j); }
   /// The current estimates (global frame: the first scan's local pose).
   SE2d ScanPose(int i) const;
   SE2d SubmapPose(int j) const;

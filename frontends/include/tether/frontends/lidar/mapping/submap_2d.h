@@ -54,6 +54,11 @@ class Submap2D {
   /// InvalidArgument if the submap is finished.
   void InsertScan(const ProbabilityGridInserter& inserter, const Eigen::Vector2d& origin,
                   const std::vector<Eigen::Vector2d>& points, InsertedCells* cells = nullptr);
+  /// A finished submap read back (a saved state, lidar_state.h): its local pose, its grid (in
+  /// the local map frame) and the scans it held. Throws InvalidArgument for a null grid or a
+  /// negative count.
+  static std::shared_ptr<Submap2D> Restored(const SE2d& local_pose, std::shared_ptr<ProbabilityGrid> grid,
+                                            int num_scans);
   /// Freezes the submap.
   void Finish() {
     finished_ = true;
