@@ -20,8 +20,8 @@ int main(int argc, char** argv) {
   for (auto make :
        {tether::MakeOptimizeCommand, tether::MakeSimulateCommand, tether::MakePluginsCommand,
         tether::MakeCheckPluginCommand, tether::MakeBenchCommand, tether::MakeReplayCommand, tether::MakeEkfDemoCommand,
-        tether::MakeLidarCommand, tether::MakeLidarEvalCommand, tether::MakeLidarDegradeCommand, tether::MakeMclCommand,
-        tether::MakeMclDemoCommand, tether::MakeMclBenchCommand}) {
+        tether::MakeLidarCommand, tether::MakeLidarEvalCommand, tether::MakeLidarDegradeCommand,
+        tether::MakeLocalizeCommand, tether::MakeMclCommand, tether::MakeMclDemoCommand, tether::MakeMclBenchCommand}) {
     commands.push_back(make());
   }
   CLI::App app{"tether: factor-graph optimisation for SLAM"};

@@ -66,6 +66,10 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
       return false;
     }
   }
+  if (keep_submaps < 0) {
+    if (why != nullptr) *why = "keep_submaps must not be negative (0: keep every submap)";
+    return false;
+  }
   return submaps.IsValid(why) && correlative.IsValid(why) && refiner.IsValid(why) &&
          scan_to_scan_options.IsValid(why) && kidnap.IsValid(why);
 }
@@ -249,6 +253,9 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
                       std::abs(moved.theta()) >= options_.insert_min_angle ||
                       scan.stamp - last_inserted_.stamp >= options_.insert_max_seconds;
   trajectory_.push_back(StampedPose2{scan.stamp, result.pose});
+  if (options_.keep_submaps > 0 && trajectory_.size() > 64) {
+    trajectory_.erase(trajectory_.begin(), trajectory_.end() - 2);  // bounded: the last two predict
+  }
   if (!points.empty()) last_points_ = points;
   if (!matching.empty()) {
     last_cells_.clear();
@@ -262,6 +269,7 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
   std::vector<Eigen::Vector2d> in_map(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) in_map[i] = result.pose * points[i];
   result.inserted_into = submaps_.InsertScan(result.pose, result.pose * scan.laser_in_robot.translation(), in_map);
+  if (options_.keep_submaps > 0) submaps_.KeepNewest(options_.keep_submaps);
   result.insert_seconds = SecondsSince(t0);
   return result;
 }

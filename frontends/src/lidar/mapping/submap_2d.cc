@@ -85,7 +85,7 @@ InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::
   }
   // The active submaps are the newest ones, in order of creation.
   InsertedSubmaps inserted;
-  int index = static_cast<int>(submaps_.size() - active_.size());
+  int index = dropped_ + static_cast<int>(submaps_.size() - active_.size());
   for (const auto& s : active_) {
     s->InsertScan(inserter_, origin, points);
     inserted.emplace_back(index++, s);
@@ -105,7 +105,7 @@ InsertedSubmaps ActiveSubmaps2D::InsertScan(const SE2d& scan_pose, const Eigen::
 
 InsertedSubmaps ActiveSubmaps2D::FinishActive() {
   InsertedSubmaps finished;
-  int index = static_cast<int>(submaps_.size() - active_.size());
+  int index = dropped_ + static_cast<int>(submaps_.size() - active_.size());
   for (const auto& s : active_) {
     s->Finish();
     finished.emplace_back(index++, s);
@@ -113,6 +113,14 @@ InsertedSubmaps ActiveSubmaps2D::FinishActive() {
   active_.clear();
   start_new_ = true;
   return finished;
+}
+
+void ActiveSubmaps2D::KeepNewest(int n) {
+  const std::size_t keep = std::max({static_cast<std::size_t>(std::max(n, 1)), active_.size()});
+  if (submaps_.size() <= keep) return;
+  const std::size_t drop = submaps_.size() - keep;
+  submaps_.erase(submaps_.begin(), submaps_.begin() + static_cast<std::ptrdiff_t>(drop));
+  dropped_ += static_cast<int>(drop);
 }
 
 std::shared_ptr<const Submap2D> ActiveSubmaps2D::matching_submap() const {

@@ -74,6 +74,7 @@ std::unique_ptr<Command> MakeEkfDemoCommand();
 std::unique_ptr<Command> MakeLidarCommand();
 std::unique_ptr<Command> MakeLidarEvalCommand();
 std::unique_ptr<Command> MakeLidarDegradeCommand();
+std::unique_ptr<Command> MakeLocalizeCommand();
 std::unique_ptr<Command> MakeMclCommand();
 std::unique_ptr<Command> MakeMclDemoCommand();
 std::unique_ptr<Command> MakeMclBenchCommand();

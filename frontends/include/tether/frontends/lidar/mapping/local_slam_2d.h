@@ -103,6 +103,10 @@ struct LocalSlamOptions {
   /// (LocalScanResult::kidnapped): local SLAM cannot go on from where it was, and its owner
   /// starts a new one (LidarSlam2D: a new trajectory).
   KidnapOptions kidnap;
+  /// A run that never ends (localisation in a saved map): keep only the newest this many
+  /// submaps and the last poses (trajectory() then holds the last few), so that memory stays
+  /// bounded. 0: keep everything (mapping).
+  int keep_submaps = 0;
   bool IsValid(std::string* why) const;
 };
 
@@ -163,7 +167,7 @@ class LocalSlam2D {
   InsertedSubmaps FinishTrajectory();
 
   const ActiveSubmaps2D& submaps() const { return submaps_; }
-  /// One pose per scan added, with the scan's stamp.
+  /// One pose per scan added, with the scan's stamp (with keep_submaps, the last few only).
   const std::vector<StampedPose2>& trajectory() const { return trajectory_; }
 
  private:

@@ -97,8 +97,13 @@ class ActiveSubmaps2D {
   std::shared_ptr<const Submap2D> matching_submap() const;
   /// The active submaps, older first (at most two).
   const std::vector<std::shared_ptr<Submap2D>>& active() const { return active_; }
-  /// Every submap made so far, in order of creation (finished ones and active ones).
+  /// Every submap made so far, in order of creation (finished ones and active ones), less the
+  /// ones KeepNewest dropped: submaps()[k] has index dropped() + k.
   const std::vector<std::shared_ptr<Submap2D>>& submaps() const { return submaps_; }
+  /// Drops all but the newest `n` submaps (n >= 1; the active ones are always kept), so that a
+  /// run that never ends holds a bounded map (localisation). Indices go on counting.
+  void KeepNewest(int n);
+  int dropped() const { return dropped_; }
   const SubmapOptions& options() const { return options_; }
 
  private:
@@ -106,6 +111,7 @@ class ActiveSubmaps2D {
   ProbabilityGridInserter inserter_;
   std::vector<std::shared_ptr<Submap2D>> active_;
   std::vector<std::shared_ptr<Submap2D>> submaps_;
+  int dropped_ = 0;        // submaps KeepNewest dropped
   bool start_new_ = true;  // the next scan starts a submap
   bool any_scan_ = false;
   Eigen::Vector2d last_position_ = Eigen::Vector2d::Zero();  // the last inserted scan's

@@ -1,0 +1,332 @@
+#include "tether/frontends/lidar/localizer_2d.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "tether/core/error.h"
+#include "tether/core/registry.h"
+#include "tether/core/timing.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
+#include "tether/frontends/lidar/sensor/voxel_filter.h"
+
+namespace tether {
+namespace lidar {
+
+namespace {
+
+const LocalizationOptions& Checked(const LocalizationOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidArgument("LocalizationOptions: " + why);
+  return o;
+}
+
+// How the points (robot frame) at `pose` fit the grid: the share of them on known cells and the
+// mean probability those read (0 where none).
+struct Fit {
+  double known = 0;
+  double score = 0;
+};
+Fit FitOf(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points) {
+  Fit f;
+  if (points.empty()) return f;
+  std::vector<ProbabilityGrid::Cell> cells;
+  grid.CellsOf(pose, points, &cells);
+  double sum = 0;
+  long known = 0;
+  for (const ProbabilityGrid::Cell& c : cells) {
+    const std::uint16_t v = grid.Value(c);
+    if (v == ProbabilityGrid::kUnknownValue) continue;
+    ++known;
+    sum += grid.ValueToProbability(v);
+  }
+  f.known = static_cast<double>(known) / static_cast<double>(cells.size());
+  f.score = known > 0 ? sum / static_cast<double>(known) : 0;
+  return f;
+}
+
+bool Near(const SE2d& a, const SE2d& b, double translation, double rotation) {
+  return (a.translation() - b.translation()).norm() <= translation &&
+         std::abs(WrapAngle(a.theta() - b.theta())) <= rotation;
+}
+
+}  // namespace
+
+LocalSlamOptions LocalizationOptions::DefaultLocalOptions() {
+  LocalSlamOptions o;
+  o.keep_submaps = 3;
+  return o;
+}
+
+bool LocalizationOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  std::string inner;
+  if (!local.IsValid(&inner)) return fail("local matching: " + inner);
+  if (!mask.IsValid(&inner)) return fail("body mask: " + inner);
+  if (!search.IsValid(&inner)) return fail("search: " + inner);
+  if (!refine.IsValid(&inner)) return fail("refine: " + inner);
+  if (keep_submaps < 1) return fail("keep_submaps must be at least 1");
+  if (global_every_n_scans < 1) return fail("global_every_n_scans must be at least 1");
+  if (!(global_min_score > 0 && global_min_score < 1)) return fail("global_min_score must lie in (0, 1)");
+  if (!(global_rival_ratio >= 0 && global_rival_ratio <= 1)) return fail("global_rival_ratio must lie in [0, 1]");
+  for (double v : {global_rival_distance, global_rival_angle, confirm_translation, confirm_rotation,
+                   max_correction_translation, max_correction_rotation}) {
+    if (!(std::isfinite(v) && v > 0)) {
+      return fail(
+          "global_rival_distance, global_rival_angle, confirm_translation, confirm_rotation and max_correction_* "
+          "must be positive and finite");
+    }
+  }
+  if (!(std::isfinite(global_angular_step) && global_angular_step > 0 && global_angular_step < 1)) {
+    return fail("global_angular_step must lie in (0, 1) rad");
+  }
+  for (double v : {global_search_voxel_size, confirm_min_travel, confirm_min_turn}) {
+    if (!(std::isfinite(v) && v >= 0)) {
+      return fail("global_search_voxel_size, confirm_min_travel and confirm_min_turn must be finite and not negative");
+    }
+  }
+  if (confirm_max_scans < 1) return fail("confirm_max_scans must be at least 1");
+  if (!(track_min_score > 0 && track_min_score < 1)) return fail("track_min_score must lie in (0, 1)");
+  if (!(min_known_share > 0 && min_known_share <= 1)) return fail("min_known_share must lie in (0, 1]");
+  if (lost_after_scans < 1) return fail("lost_after_scans must be at least 1");
+  if (has_initial_pose &&
+      !(std::isfinite(initial_pose.x()) && std::isfinite(initial_pose.y()) && std::isfinite(initial_pose.theta()))) {
+    return fail("initial_pose must be finite");
+  }
+  return true;
+}
+
+std::string LocalizationReport::Summary() const {
+  std::ostringstream s;
+  s << "localised " << localized << " of " << scans << " scans ("
+    << (scans > 0 ? FormatFixed(100.0 * static_cast<double>(localized) / static_cast<double>(scans), 1) : "-") << "%), "
+    << tracked << " fitted to the map, " << outside << " beyond it; ";
+  if (first_fix_scan < 0) {
+    s << "no fix";
+  } else {
+    s << "first fix at scan " << first_fix_scan + 1 << " (t = " << FormatFixed(first_fix_seconds, 1) << " s)";
+  }
+  s << "; " << fixes << " fixes, " << losses << " losses\n";
+  s << "global localisation: " << global_searches << " searches (" << FormatFixed(global_seconds, 2) << " s), "
+    << candidates << " candidates, " << ambiguous << " ambiguous\n";
+  const double rt = localized_seconds > 0 ? logged_localized_seconds / localized_seconds : 0;
+  s << "time " << FormatFixed(total_seconds, 2) << " s for " << FormatFixed(logged_seconds, 1) << " s of log";
+  if (localized_seconds > 0) s << "; once localised " << FormatFixed(rt, 1) << "x real time";
+  s << "\n";
+  return s.str();
+}
+
+Localizer2D::Localizer2D(const LidarState& state, const LocalizationOptions& options)
+    : options_(Checked(options)), map_(state.map) {
+  if (map_ == nullptr) throw InvalidArgument("Localizer2D: the state has no map");
+  ProbabilityGrid::Cell lo, hi;
+  if (!map_->KnownBounds(&lo, &hi)) throw InvalidArgument("Localizer2D: the state's map knows no cell");
+  const Eigen::Vector2d a = map_->CellCenter(lo), b = map_->CellCenter(hi);
+  map_center_ = SE2d(0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), 0);
+  map_half_side_ = 0.5 * std::max(b.x() - a.x(), b.y() - a.y()) + map_->resolution();
+  matcher_ = std::make_unique<FastCorrelativeScanMatcher2D>(*map_, options_.search);
+  LocalSlamOptions local = options_.local;
+  local.keep_submaps = options_.keep_submaps;
+  options_.local = local;
+  local_ = std::make_unique<LocalSlam2D>(local);
+}
+
+Localizer2D::~Localizer2D() = default;
+
+void Localizer2D::Lose() {
+  if (fixed_) ++report_.losses;
+  fixed_ = false;
+  candidates_.clear();
+  misses_ = 0;
+  since_global_ = 0;
+}
+
+bool Localizer2D::GlobalSearch(long scan, const SE2d& local, const std::vector<Eigen::Vector2d>& points,
+                               LocalizedScan* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  out->global = true;
+  ++report_.global_searches;
+  const std::vector<Eigen::Vector2d> search =
+      options_.global_search_voxel_size > 0 ? VoxelFilter(points, options_.global_search_voxel_size) : points;
+  FastMatch m;
+  if (!search.empty()) {
+    m = matcher_->MatchChecked(map_center_, search, options_.global_min_score, options_.global_rival_distance,
+                               options_.global_rival_angle, options_.global_rival_ratio, map_half_side_, M_PI,
+                               options_.global_angular_step);
+  }
+  report_.global_seconds += SecondsSince(t0);
+  if (!m.found) return false;
+  if (m.ambiguous) {
+    ++report_.ambiguous;
+    return false;
+  }
+  SE2d pose = m.pose;
+  const ScanRefinement r = RefineScanPose(map_, m.pose, m.pose, points, options_.refine);
+  if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
+  ++report_.candidates;
+  const Candidate c{scan, local, pose * local.Inverse()};
+  // Confirmed by an earlier candidate from another view that places the frame alike.
+  bool confirmed = false;
+  for (const Candidate& e : candidates_) {
+    const SE2d moved = e.local.Inverse() * c.local;
+    const bool other_view = moved.translation().norm() >= options_.confirm_min_travel ||
+                            std::abs(moved.theta()) >= options_.confirm_min_turn;
+    if (scan - e.scan <= options_.confirm_max_scans && other_view &&
+        Near(e.placement * c.local, c.placement * c.local, options_.confirm_translation, options_.confirm_rotation)) {
+      confirmed = true;
+    }
+  }
+  candidates_.push_back(c);
+  if (candidates_.size() > 64) candidates_.erase(candidates_.begin());
+  if (!confirmed) return false;
+  fixed_ = true;
+  placement_ = c.placement;
+  candidates_.clear();
+  out->fix = true;
+  ++report_.fixes;
+  return true;
+}
+
+bool Localizer2D::Track(const SE2d& local, const std::vector<Eigen::Vector2d>& points, LocalizedScan* out) {
+  const SE2d predicted = placement_ * local;
+  out->pose = predicted;
+  out->outside = false;
+  if (points.empty()) return false;
+  // Where the map does not know where most points fall (the robot beyond the mapped area),
+  // there is nothing to fit: local SLAM carries the pose, and that is no sign of being lost.
+  const Fit before = FitOf(*map_, predicted, points);
+  out->score = before.score;
+  if (before.known < options_.min_known_share) {
+    out->outside = true;
+    return false;
+  }
+  const ScanRefinement r = RefineScanPose(map_, predicted, predicted, points, options_.refine);
+  if (r.status != SolverStatus::kConverged && r.status != SolverStatus::kMaxIterations) return false;
+  if (!Near(r.pose, predicted, options_.max_correction_translation, options_.max_correction_rotation)) return false;
+  const Fit after = FitOf(*map_, r.pose, points);
+  if (after.known < options_.min_known_share || after.score < options_.track_min_score) return false;
+  out->pose = r.pose;
+  out->score = after.score;
+  placement_ = r.pose * local.Inverse();
+  return true;
+}
+
+LocalizedScan Localizer2D::AddScan(const LaserScan& input) {
+  const std::string why = ScanProblem(input);
+  if (!why.empty()) throw InvalidArgument("Localizer2D::AddScan: scan " + std::to_string(report_.scans) + ": " + why);
+  const auto t0 = std::chrono::steady_clock::now();
+  LaserScan scan = input;
+  if (!options_.mask.empty()) ApplyBodyMask(options_.mask, &scan);
+  LocalizedScan out;
+  out.scan = report_.scans;
+  out.stamp = scan.stamp;
+  if (report_.scans == 0) first_stamp_ = scan.stamp;
+  LocalScanResult r = local_->AddScan(scan);
+  if (r.kidnapped) {
+    // Local SLAM cannot go on from where it was; neither can the fix.
+    local_ = std::make_unique<LocalSlam2D>(options_.local);
+    r = local_->AddScan(scan);
+    Lose();
+  }
+  if (report_.scans == 0 && options_.has_initial_pose) {
+    fixed_ = true;
+    placement_ = options_.initial_pose * r.pose.Inverse();
+    out.fix = true;
+    ++report_.fixes;
+  }
+  if (!fixed_ && (since_global_ == 0 || since_global_ >= options_.global_every_n_scans) && !r.matching.empty()) {
+    since_global_ = 0;
+    GlobalSearch(out.scan, r.pose, r.matching, &out);
+  }
+  ++since_global_;
+  if (fixed_) {
+    out.localized = true;
+    out.tracked = Track(r.pose, r.matching, &out);
+    if (!out.outside) misses_ = out.tracked ? 0 : misses_ + 1;
+    if (misses_ >= options_.lost_after_scans) {
+      Lose();
+      out.localized = false;
+    }
+  }
+  if (out.fix && report_.first_fix_scan < 0) {
+    report_.first_fix_scan = out.scan;
+    report_.first_fix_seconds = scan.stamp - first_stamp_;
+  }
+  ++report_.scans;
+  report_.localized += out.localized;
+  report_.tracked += out.tracked;
+  report_.outside += out.outside;
+  const double seconds = SecondsSince(t0);
+  report_.total_seconds += seconds;
+  if (out.localized && last_localized_) {
+    report_.localized_seconds += seconds;
+    report_.logged_localized_seconds += scan.stamp - last_stamp_;
+  }
+  report_.logged_seconds = scan.stamp - first_stamp_;
+  last_localized_ = out.localized;
+  last_stamp_ = scan.stamp;
+  return out;
+}
+
+void Localizer2D::Run(const LidarLog& log, long start_scan, long max_scans, int repeat, long progress_every,
+                      const std::function<void(long)>& progress) {
+  const long total = static_cast<long>(log.scans.size());
+  const long from = std::clamp(start_scan, 0L, total);
+  const long to = max_scans > 0 ? std::min(total, from + max_scans) : total;
+  if (to <= from) return;
+  const double span =
+      log.scans[static_cast<std::size_t>(to - 1)].stamp - log.scans[static_cast<std::size_t>(from)].stamp;
+  const double step = to - from > 1 ? span / static_cast<double>(to - from - 1) : 0.1;
+  long done = 0;
+  for (int pass = 0; pass < std::max(repeat, 1); ++pass) {
+    for (long i = from; i < to; ++i) {
+      LaserScan scan = log.scans[static_cast<std::size_t>(i)];
+      scan.stamp += pass * (span + step);
+      try {
+        results_.push_back(AddScan(scan));
+      } catch (const Error& e) {
+        throw ParseError(ScanLocation(log, log.scans[static_cast<std::size_t>(i)]) + ": scan " + std::to_string(i) +
+                         ": " + e.what());
+      }
+      ++done;
+      if (progress && progress_every > 0 && done % progress_every == 0) progress(done);
+    }
+  }
+}
+
+std::vector<StampedPose2> Localizer2D::Trajectory() const {
+  std::vector<StampedPose2> t;
+  for (const LocalizedScan& r : results_) {
+    if (r.localized) t.push_back(StampedPose2{r.stamp, r.pose});
+  }
+  return t;
+}
+
+std::vector<LidarOutput> Localizer2D::OutputNames() {
+  return {{"poses.tum", "localised poses", ""}, {"localization.csv", "every scan's result", ""}};
+}
+
+std::vector<LidarOutput> Localizer2D::Outputs() const {
+  std::vector<LidarOutput> out = OutputNames();
+  std::ostringstream tum;
+  WriteTum(tum, Trajectory());
+  out[0].bytes = tum.str();
+  std::ostringstream csv;
+  csv.precision(10);
+  csv << "scan,stamp,localized,x,y,theta,tracked,outside,score,fix,global\n";
+  for (const LocalizedScan& r : results_) {
+    csv << r.scan + 1 << ',' << r.stamp << ',' << r.localized << ',' << r.pose.x() << ',' << r.pose.y() << ','
+        << r.pose.theta() << ',' << r.tracked << ',' << r.outside << ',' << r.score << ',' << r.fix << ',' << r.global
+        << '\n';
+  }
+  out[1].bytes = csv.str();
+  return out;
+}
+
+}  // namespace lidar
+}  // namespace tether
