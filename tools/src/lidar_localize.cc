@@ -147,10 +147,19 @@ void LocalizeCli::Add(CLI::App& app) {
                   "A TUM trajectory in the map's frame (the mapping run's trajectory.tum): the error printed");
   Option("--global-every", o.global_every_n_scans, "Global localisation: search every N-th scan until the fix");
   Option("--global-min-score", o.global_min_score, "Global localisation: a match must score above this");
+  Option("--global-max-range", o.global_max_range,
+         "Global localisation: score only the points at most this far from the robot [m] (0: all)");
+  Option("--global-depth", o.search.branch_and_bound_depth, "Global localisation: branch and bound's depth");
   Option("--track-min-score", o.track_min_score,
          "Tracking: a scan fits the map where its points read this mean probability");
   Option("--lost-after", o.lost_after_scans, "Scans in a row that do not fit before the fix is given up");
   Option("--keep-submaps", o.keep_submaps, "Local SLAM's newest submaps kept");
+  sub->add_flag_function(
+      "--no-correlative", [&o](std::int64_t) { o.local.use_correlative_matcher = false; },
+      "Local SLAM refines from the prediction without the correlative search first");
+  sub->add_flag_function(
+      "--correlative", [&o](std::int64_t) { o.local.use_correlative_matcher = true; },
+      "Local SLAM searches correlatively before refining");
   Option("--odometry", cmd_.odometry, "Where the odometry comes from: auto, scan-line, interpolated, or none");
   Option("--max-range", cmd_.read.limits.max_range, "Drop ranges beyond this [m] (0: the log's)");
   Option("--scan-topic", cmd_.read.scan_topic, "Bags: the sensor_msgs/LaserScan topic");

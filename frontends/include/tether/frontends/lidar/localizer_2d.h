@@ -18,13 +18,20 @@
 //   local SLAM's frame lies in the map. Two candidates from scans at least confirm_min_travel
 //   apart (or turned confirm_min_turn) that place the frame alike (confirm_*) are the fix: a
 //   single scan can match a look-alike room; two views seldom agree on one.
-// - Once fixed: each scan's pose in the map is local SLAM's pose moved into the map by the
-//   frame's placement, refined against the saved map (the scan-match factor); where the
-//   refined scan fits (mean probability >= track_min_score, moved less than max_correction_*)
-//   that pose is the scan's and the placement follows it. After lost_after_scans scans in a row
-//   that do not fit, or a kidnap local SLAM declares, the fix is lost and global localisation
-//   starts again. Beyond the mapped area (most points on unknown cells) local SLAM alone carries
-//   the pose: that is not being lost.
+// - Once fixed, two ways, each scan refined against the saved map (the scan-match factor) and
+//   taken where it fits (LocalizationOptions::min_known_share, track_min_score, max_correction_*):
+//   - tracking the map: the prediction is the last pose moved by the odometry (scans without
+//     odometry: by a scan-to-scan match); local SLAM does not run. The saved map is better than
+//     any submap local SLAM could build, and local SLAM's search costs most of the time (aces: 19
+//     ms a scan, a ceiling of 10x real time).
+//   - dead reckoning by local SLAM: where a scan does not fit (the map does not know where its
+//     points fall: the robot beyond the mapped area; a door the map has closed; odometry that
+//     slipped), a new local SLAM starts at the predicted pose and carries the poses, each still
+//     refined against the map; after resume_after_scans scans in a row that fit, tracking the map
+//     takes over again.
+//   After lost_after_scans scans in a row that do not fit (scans beyond the mapped area do not
+//   count), or a kidnap local SLAM declares, the fix is lost and global localisation starts
+//   again.
 // - --initial-pose (LocalizationOptions::initial_pose): the first scan is placed there and
 //   tracking starts at once (no global search).
 #include <Eigen/Core>
@@ -62,7 +69,9 @@ struct LocalizationOptions {
   double global_rival_angle = 0.1;
   double global_angular_step = 0.00872664625997165;  ///< rad (0.5 degrees)
   double global_search_voxel_size = 0.2;             ///< m: the points branch and bound scores
-  FastMatcherOptions search;                         ///< its depth (the windows are the map's)
+  /// Branch and bound scores only the points at most this far from the robot (m; 0: all).
+  double global_max_range = 0;
+  FastMatcherOptions search;  ///< its depth (the windows are the map's)
   /// Two candidates confirm each other where they place local SLAM's frame within these (m,
   /// rad, compared at the later scan) and their scans lie confirm_min_travel (m) apart or
   /// turned confirm_min_turn (rad) by local SLAM, at most confirm_max_scans scans apart.
@@ -83,6 +92,8 @@ struct LocalizationOptions {
   ScanRefinerOptions refine;
   /// Scans in a row that do not fit before the fix is given up (global localisation again).
   int lost_after_scans = 50;
+  /// Dead reckoning hands back to tracking the map after this many scans in a row that fit.
+  int resume_after_scans = 3;
   /// Where known: the first scan's pose in the map; tracking starts there.
   bool has_initial_pose = false;
   SE2d initial_pose;
@@ -109,6 +120,7 @@ struct LocalizationReport {
   long localized = 0;
   long tracked = 0;
   long outside = 0;               ///< localised scans beyond the mapped area (LocalizedScan::outside)
+  long dead_reckoned = 0;         ///< localised scans local SLAM carried (the others: tracking the map)
   long first_fix_scan = -1;       ///< -1: never
   double first_fix_seconds = -1;  ///< of log, from the first scan
   long fixes = 0;                 ///< the first and any after a loss
@@ -161,20 +173,34 @@ class Localizer2D {
   };
   /// A global search of a scan (robot-frame points); adds a candidate, and fixes where two agree.
   bool GlobalSearch(long scan, const SE2d& local, const std::vector<Eigen::Vector2d>& points, LocalizedScan* out);
-  /// Refines the prediction against the map; whether it fits.
-  bool Track(const SE2d& local, const std::vector<Eigen::Vector2d>& points, LocalizedScan* out);
+  enum class Mode { kGlobal, kTracking, kDeadReckoning };
+  /// Refines `predicted` against the map; whether it fits (out: the pose, score, outside).
+  bool Fits(const SE2d& predicted, const std::vector<Eigen::Vector2d>& points, LocalizedScan* out) const;
+  /// Tracking the map: the scan's predicted pose from the last one.
+  SE2d Predict(const LaserScan& scan, const std::vector<Eigen::Vector2d>& points) const;
+  /// Global localisation or dead reckoning: the scan through local SLAM.
+  void AddByLocalSlam(const LaserScan& scan, LocalizedScan* out);
   void Lose();
+  /// The scan's valid points, the robot's frame, through the matching voxel filter.
+  std::vector<Eigen::Vector2d> MatchingPoints(const LaserScan& scan) const;
 
   LocalizationOptions options_;
   std::shared_ptr<const ProbabilityGrid> map_;
   std::unique_ptr<FastCorrelativeScanMatcher2D> matcher_;
   SE2d map_center_;  ///< the map's known area's centre
   double map_half_side_ = 0;
-  std::unique_ptr<LocalSlam2D> local_;
+  std::unique_ptr<LocalSlam2D> local_;  ///< null while tracking the map
   std::vector<Candidate> candidates_;
-  bool fixed_ = false;
-  SE2d placement_;  ///< local SLAM's frame in the map (once fixed)
+  Mode mode_ = Mode::kGlobal;
+  SE2d placement_;  ///< local SLAM's frame in the map (dead reckoning)
   long misses_ = 0;
+  long streak_ = 0;  ///< scans in a row that fit (dead reckoning)
+  // The last scan, for the next prediction while tracking the map.
+  SE2d last_pose_, before_last_pose_;
+  bool has_last_ = false, has_before_last_ = false;
+  SE2d last_odometry_;
+  bool last_has_odometry_ = false;
+  std::vector<Eigen::Vector2d> last_points_;
   long since_global_ = 0;
   double first_stamp_ = 0;
   double last_stamp_ = 0;
