@@ -85,6 +85,7 @@ const struct {
     {"lidar", "missing.clf -o out", false},
     {"lidar-eval", "missing.tum missing.relations", false},
     {"lidar-degrade", "missing.clf -o out.clf", false},
+    {"localize", "missing.clf --state missing.tether -o out", false},
 };
 
 TEST_F(OptionChecksTest, EveryNumericOptionRefusesNonNumbersAndOutOfRangeValuesByName) {
@@ -94,7 +95,7 @@ TEST_F(OptionChecksTest, EveryNumericOptionRefusesNonNumbersAndOutOfRangeValuesB
     EXPECT_FALSE(flags.empty()) << c.command;
     for (const std::string& flag : flags) {
       ++options;
-      const int width = flag == "--laser-offset" ? 3 : 1;  // x,y,theta
+      const int width = flag == "--laser-offset" || flag == "--initial-pose" ? 3 : 1;  // x,y,theta
       for (const char* value : {"nan", "inf", "-inf", "1e300", "-1e300", "-1", "0", "1e-300"}) {
         std::string v = value;
         for (int k = 1; k < width; ++k) v += std::string(",") + value;

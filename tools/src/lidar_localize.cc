@@ -1,6 +1,7 @@
 // `tether localize LOG --state STATE -o DIR`: a laser log localised in the saved map of an
 // earlier `tether lidar --save-state` run (frontends/lidar/localizer_2d.h); this file only binds
 // the flags, runs and prints.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -90,9 +91,14 @@ int RunLocalize(LocalizeCommand cmd, std::ostream& out, std::ostream& err) {
   if (const int rc = ReadLocalizeInputs(cmd, &state, &log, &reference, err); rc != kExitOk) return outputs.Fail(rc);
   if (!cmd.quiet) {
     const ProbabilityGrid& m = *state.map;
-    out << cmd.state << ": a map of " << m.size().x() << " x " << m.size().y() << " cells of "
-        << FormatDouble(m.resolution()) << " m from " << state.scans.size() << " scans; " << log.scans.size()
-        << " scans to localise from scan " << cmd.start_scan + 1 << ", "
+    ProbabilityGrid::Cell lo, hi;
+    m.KnownBounds(&lo, &hi);
+    const long total = static_cast<long>(log.scans.size());
+    const long from = std::min(cmd.start_scan, total);
+    const long n = cmd.max_scans > 0 ? std::min(cmd.max_scans, total - from) : total - from;
+    out << cmd.state << ": a map of " << FormatFixed((hi.x() - lo.x() + 1) * m.resolution(), 1) << " m x "
+        << FormatFixed((hi.y() - lo.y() + 1) * m.resolution(), 1) << " m in cells of " << FormatDouble(m.resolution())
+        << " m from " << state.scans.size() << " scans; " << n << " scans to localise from scan " << from + 1 << ", "
         << (cmd.options.has_initial_pose ? "from the initial pose" : "global start") << "\n"
         << std::flush;
   }

@@ -122,6 +122,20 @@ const OptionRange kRanges[] = {
     {"lidar-degrade", "--keep-every", 1, kBig},
     {"lidar-degrade", "--first-scan", 0, kBig},
     {"lidar-degrade", "--max-scans", 0, kBig},
+    // localize
+    {"localize", "--initial-pose", -1e6, 1e6},
+    {"localize", "--start-scan", 0, kBig},
+    {"localize", "--max-scans", 0, kBig},
+    {"localize", "--repeat", 1, 1e6},
+    {"localize", "--global-every", 1, kBig},
+    {"localize", "--global-min-score", 1e-9, 0.999},
+    {"localize", "--global-max-range", 0, 1e6},
+    {"localize", "--global-depth", 1, 16},
+    {"localize", "--track-min-score", 1e-9, 0.999},
+    {"localize", "--lost-after", 1, kBig},
+    {"localize", "--keep-submaps", 1, 1e6},
+    {"localize", "--max-range", 0, 1000},
+    {"localize", "--progress-every", 0, kBig},
 };
 
 }  // namespace
