@@ -8,7 +8,9 @@
 #include "tether/core/output_file.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
 #include "tether/frontends/lidar/io/occupancy_map.h"
+#include "tether/frontends/lidar/io/lidar_state.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
+#include "tether/frontends/lidar/localizer_2d.h"
 #include "tether/frontends/lidar/sensor/sensor_preset.h"
 
 namespace tether {
@@ -80,6 +82,114 @@ lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double an
   if (!laser_offset.is_none()) s.laser_in_robot = PoseFromTuple(laser_offset, "laser_offset");
   return s;
 }
+
+namespace {
+
+// Writes one file whole or not at all.
+void WriteBytes(const std::string& path, const std::string& what, const std::string& bytes) {
+  OutputSet outputs;
+  OutputFile& file = outputs.Add(path, what);
+  file.Stage(bytes);
+  outputs.CommitAll();
+}
+
+py::dict ResultDict(const lidar::LocalizedScan& r) {
+  py::dict d;
+  d["scan"] = r.scan;
+  d["stamp"] = r.stamp;
+  d["localized"] = r.localized;
+  d["pose"] = py::make_tuple(r.pose.x(), r.pose.y(), r.pose.theta());
+  d["tracked"] = r.tracked;
+  d["outside"] = r.outside;
+  d["score"] = r.score;
+  d["fix"] = r.fix;
+  return d;
+}
+
+void BindSavedMaps(py::module_& li) {
+  py::class_<lidar::LidarState>(li, "LidarState",
+                                "A saved LiDAR SLAM state (lidar_state.h): LidarSlam2D.state(), read_state(path)")
+      .def_property_readonly("trajectories", [](const lidar::LidarState& s) { return s.trajectories; })
+      .def_property_readonly("scan_count", [](const lidar::LidarState& s) { return s.scans.size(); })
+      .def_property_readonly("submap_count", [](const lidar::LidarState& s) { return s.submaps.size(); })
+      .def_property_readonly("loop_closure_count", [](const lidar::LidarState& s) { return s.closures.size(); })
+      .def_property_readonly(
+          "poses",
+          [](const lidar::LidarState& s) {
+            Eigen::MatrixXd a(static_cast<Eigen::Index>(s.scans.size()), 3);
+            for (std::size_t i = 0; i < s.scans.size(); ++i) {
+              const SE2d& p = s.scans[i].pose;
+              a.row(static_cast<Eigen::Index>(i)) << p.x(), p.y(), p.theta();
+            }
+            return a;
+          },
+          "(N, 3) = x, y, theta of each saved scan's pose in the map")
+      .def(
+          "write", [](const lidar::LidarState& s, const std::string& path) {
+            WriteBytes(path, "saved state", lidar::LidarStateBytes(s));
+          },
+          py::arg("path"), "Writes the state file (all or nothing).");
+  li.def("read_state", &lidar::ReadLidarState, py::arg("path"),
+         "Reads a saved state (state.tether); raises ValueError naming the file and what is wrong for a damaged one "
+         "or another version.");
+
+  py::class_<lidar::Localizer2D>(li, "Localizer2D",
+                                 "Localisation in a saved map (the library class behind `tether localize`): global "
+                                 "localisation until the first fix, then tracking against the map.")
+      .def(py::init([](const lidar::LidarState& state, const py::object& initial_pose, int global_every_n_scans,
+                       double global_min_score, double track_min_score) {
+             lidar::LocalizationOptions o;
+             if (!initial_pose.is_none()) {
+               o.has_initial_pose = true;
+               o.initial_pose = PoseFromTuple(initial_pose, "initial_pose");
+             }
+             o.global_every_n_scans = global_every_n_scans;
+             o.global_min_score = global_min_score;
+             o.track_min_score = track_min_score;
+             return std::make_unique<lidar::Localizer2D>(state, o);
+           }),
+           py::arg("state"), py::arg("initial_pose") = py::none(), py::arg("global_every_n_scans") = 5,
+           py::arg("global_min_score") = 0.6, py::arg("track_min_score") = 0.5, py::keep_alive<1, 2>())
+      .def(
+          "add_scan",
+          [](lidar::Localizer2D& l, const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
+             double range_max, double range_min, const py::object& odometry, const py::object& laser_offset) {
+            return ResultDict(l.AddScan(
+                MakeScan(ranges, angle_min, angle_increment, stamp, range_min, range_max, odometry, laser_offset)));
+          },
+          py::arg("ranges"), py::arg("angle_min"), py::arg("angle_increment"), py::arg("stamp"), py::arg("range_max"),
+          py::arg("range_min") = 0.0, py::arg("odometry") = py::none(), py::arg("laser_offset") = py::none(),
+          "One scan (as LidarSlam2D.add_scan); returns a dict: scan, stamp, localized, pose (x, y, theta in the "
+          "map), tracked, outside, score, fix.")
+      .def(
+          "run_log",
+          [](lidar::Localizer2D& l, const std::string& path, long start_scan, long max_scans) {
+            lidar::LidarReadOptions ro;
+            ro.limits = l.options().local.limits;
+            l.Run(lidar::ReadLidarLog(path, ro), start_scan, max_scans);
+          },
+          py::arg("path"), py::arg("start_scan") = 0, py::arg("max_scans") = 0,
+          "Reads a CARMEN log or ROS 1 bag and localises its scans from start_scan (max_scans of them; 0: to the "
+          "end).")
+      .def_property_readonly(
+          "poses",
+          [](const lidar::Localizer2D& l) {
+            const std::vector<lidar::StampedPose2> t = l.Trajectory();
+            Eigen::MatrixXd a(static_cast<Eigen::Index>(t.size()), 4);
+            for (std::size_t i = 0; i < t.size(); ++i)
+              a.row(static_cast<Eigen::Index>(i)) << t[i].stamp, t[i].pose.x(), t[i].pose.y(), t[i].pose.theta();
+            return a;
+          },
+          "(N, 4) = stamp, x, y, theta of each localised scan run_log added")
+      .def_property_readonly("first_fix_scan", [](const lidar::Localizer2D& l) { return l.report().first_fix_scan; })
+      .def_property_readonly("first_fix_seconds",
+                             [](const lidar::Localizer2D& l) { return l.report().first_fix_seconds; })
+      .def_property_readonly("localized", [](const lidar::Localizer2D& l) { return l.report().localized; })
+      .def_property_readonly("scan_count", [](const lidar::Localizer2D& l) { return l.report().scans; })
+      .def("summary", [](const lidar::Localizer2D& l) { return l.report().Summary(); });
+}
+
+}  // namespace
 
 void BindLidar(py::module_& m) {
   py::module_ li = m.def_submodule("lidar", "2D LiDAR SLAM: LidarSlam2D (the library class behind `tether lidar`)");
@@ -266,7 +376,17 @@ void BindLidar(py::module_& m) {
             for (auto& [file, bytes] : staged) file->Stage(bytes);
             outputs.CommitAll();
           },
-          py::arg("folder"), "Writes the files `tether lidar -o FOLDER` writes (all or nothing).");
+          py::arg("folder"), "Writes the files `tether lidar -o FOLDER` writes (all or nothing).")
+      .def(
+          "save_state",
+          [](const LidarSlam2D& s, const std::string& path) { WriteBytes(path, "saved state", s.StateOutput().bytes); },
+          py::arg("path"),
+          "Writes the run's saved state (what `tether lidar --save-state` writes as state.tether) to path; after "
+          "finish().")
+      .def(
+          "state", [](const LidarSlam2D& s) { return s.State(); },
+          "The run's saved state as a LidarState (after finish()).");
+  BindSavedMaps(li);
 }
 
 }  // namespace python
