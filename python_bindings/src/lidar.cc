@@ -7,8 +7,8 @@
 #include "common.h"
 #include "tether/core/output_file.h"
 #include "tether/frontends/lidar/io/lidar_log.h"
-#include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/io/lidar_state.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
 #include "tether/frontends/lidar/localizer_2d.h"
 #include "tether/frontends/lidar/sensor/sensor_preset.h"
@@ -125,7 +125,8 @@ void BindSavedMaps(py::module_& li) {
           },
           "(N, 3) = x, y, theta of each saved scan's pose in the map")
       .def(
-          "write", [](const lidar::LidarState& s, const std::string& path) {
+          "write",
+          [](const lidar::LidarState& s, const std::string& path) {
             WriteBytes(path, "saved state", lidar::LidarStateBytes(s));
           },
           py::arg("path"), "Writes the state file (all or nothing).");
