@@ -121,6 +121,31 @@ TEST(LidarLocalizeTest, AStateReadBackLocalisesAlike) {
   }
 }
 
+// A robot standing still shows one view: four alike candidates from it are the fix; without
+// that rule none comes (two views are needed).
+TEST(LidarLocalizeTest, ARobotStandingStillIsFixedFromOneView) {
+  const Fixture& f = Mapped();
+  const std::size_t at = 500;  // inside the mapped part
+  SE2d fixed;
+  const auto run = [&](int still) {
+    LocalizationOptions o;
+    o.confirm_still_candidates = still;
+    Localizer2D loc(f.state, o);
+    for (int k = 0; k < 40; ++k) {
+      LaserScan s = f.sim.log.scans[at];
+      s.stamp += 0.1 * k;
+      const LocalizedScan r = loc.AddScan(s);
+      if (r.fix) fixed = r.pose;
+    }
+    return loc.report();
+  };
+  const LocalizationReport r = run(4);
+  ASSERT_GE(r.first_fix_scan, 0) << r.Summary();
+  EXPECT_LE(r.first_fix_scan, 20) << r.Summary();
+  EXPECT_LT(((f.world_from_map * fixed).translation() - f.sim.truth[at].pose.translation()).norm(), 0.1);
+  EXPECT_EQ(run(0).first_fix_scan, -1);
+}
+
 TEST(LidarLocalizeTest, LocalSlamKeepsOnlyItsNewestSubmaps) {
   LocalSlamOptions o;
   o.keep_submaps = 3;

@@ -100,6 +100,7 @@ bool LocalizationOptions::IsValid(std::string* why) const {
     }
   }
   if (confirm_max_scans < 1) return fail("confirm_max_scans must be at least 1");
+  if (confirm_still_candidates < 0) return fail("confirm_still_candidates must not be negative (0: never)");
   if (!(track_min_score > 0 && track_min_score < 1)) return fail("track_min_score must lie in (0, 1)");
   if (!(min_known_share > 0 && min_known_share <= 1)) return fail("min_known_share must lie in (0, 1]");
   if (lost_after_scans < 1 || resume_after_scans < 1) {
@@ -194,17 +195,22 @@ bool Localizer2D::GlobalSearch(long scan, const SE2d& local, const std::vector<E
   if (r.status == SolverStatus::kConverged || r.status == SolverStatus::kMaxIterations) pose = r.pose;
   ++report_.candidates;
   const Candidate c{scan, local, pose * local.Inverse()};
-  // Confirmed by an earlier candidate from another view that places the frame alike.
+  // Confirmed by an earlier candidate from another view that places the frame alike; or, a
+  // robot that stands still, by confirm_still_candidates alike from the one view.
   bool confirmed = false;
+  int alike = 1;
   for (const Candidate& e : candidates_) {
     const SE2d moved = e.local.Inverse() * c.local;
     const bool other_view = moved.translation().norm() >= options_.confirm_min_travel ||
                             std::abs(moved.theta()) >= options_.confirm_min_turn;
-    if (scan - e.scan <= options_.confirm_max_scans && other_view &&
-        Near(e.placement * c.local, c.placement * c.local, options_.confirm_translation, options_.confirm_rotation)) {
-      confirmed = true;
+    if (scan - e.scan > options_.confirm_max_scans ||
+        !Near(e.placement * c.local, c.placement * c.local, options_.confirm_translation, options_.confirm_rotation)) {
+      continue;
     }
+    confirmed = confirmed || other_view;
+    ++alike;
   }
+  confirmed = confirmed || (options_.confirm_still_candidates > 0 && alike >= options_.confirm_still_candidates);
   candidates_.push_back(c);
   if (candidates_.size() > 64) candidates_.erase(candidates_.begin());
   if (!confirmed) return false;

@@ -17,7 +17,8 @@
 //   place or heading scoring within global_rival_ratio of it) is a candidate: it says where
 //   local SLAM's frame lies in the map. Two candidates from scans at least confirm_min_travel
 //   apart (or turned confirm_min_turn) that place the frame alike (confirm_*) are the fix: a
-//   single scan can match a look-alike room; two views seldom agree on one.
+//   single scan can match a look-alike room; two views seldom agree on one. A robot standing
+//   still has one view: confirm_still_candidates alike candidates from it are the fix.
 // - Once fixed, two ways, each scan refined against the saved map (the scan-match factor) and
 //   taken where it fits (LocalizationOptions::min_known_share, track_min_score, max_correction_*):
 //   - tracking the map: the prediction is the last pose moved by the odometry (scans without
@@ -80,6 +81,10 @@ struct LocalizationOptions {
   double confirm_min_travel = 1;
   double confirm_min_turn = 0.5;
   int confirm_max_scans = 300;
+  /// A robot that stands still shows one view only: that many candidates (within
+  /// confirm_max_scans) placing the frame alike are the fix as well (0: never; a fix then needs
+  /// the robot to move).
+  int confirm_still_candidates = 4;
   /// Tracking: the refined scan fits where at least min_known_share of its points fall on cells
   /// the map knows and those read at least track_min_score mean probability, and it moved less
   /// than max_correction_translation (m) and max_correction_rotation (rad) from the prediction.
