@@ -384,6 +384,9 @@ void BindLidar(py::module_& m) {
           py::arg("path"),
           "Writes the run's saved state (what `tether lidar --save-state` writes as state.tether) to path; after "
           "finish().")
+      .def("continue_from", &LidarSlam2D::Continue, py::arg("state"),
+           "Multi-session mapping: before the first scan, go on from a saved state (read_state, or state() of an "
+           "earlier run); the scans added next form a new trajectory joined to it by the global search.")
       .def(
           "state", [](const LidarSlam2D& s) { return s.State(); },
           "The run's saved state as a LidarState (after finish()).");

@@ -1,7 +1,7 @@
 // Localisation in a saved map (Localizer2D): a simulated robot mapped over its first 800 scans,
 // then localised over the rest from an unknown start (global localisation) and from a given
 // pose, against the simulator's truth; a saved state read back localises alike; memory stays
-// bounded (local SLAM keeps its newest submaps only).
+// bounded (local SLAM keeps its newest submaps only); the rest mapped as a second session.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -159,6 +159,42 @@ TEST(LidarLocalizeTest, LocalSlamKeepsOnlyItsNewestSubmaps) {
   // Indices go on counting across the dropped ones.
   const LocalScanResult r = local.AddScan(f.sim.log.scans[600]);
   for (const auto& [index, submap] : r.inserted_into) EXPECT_GE(index, local.submaps().dropped());
+}
+
+// Multi-session mapping: the rest of the run mapped as a second session of the saved map,
+// joined to it by the global search, both sessions placed against the truth.
+TEST(LidarLocalizeTest, ASecondSessionJoinsTheSavedMap) {
+  const Fixture& f = Mapped();
+  LidarLog rest = f.sim.log;
+  rest.scans.erase(rest.scans.begin(), rest.scans.begin() + static_cast<std::ptrdiff_t>(kMapped));
+  LidarSlamOptions options;
+  options.pose_graph.threads = 0;
+  LidarSlam2D slam(options);
+  slam.Continue(f.state);
+  EXPECT_EQ(slam.scan_count(), static_cast<long>(kMapped));
+  slam.Run(rest);
+  const LidarSlamReport& r = slam.report();
+  ASSERT_EQ(r.trajectories.size(), 2u) << r.KidnapSummary();
+  EXPECT_TRUE(r.trajectories[1].session);
+  EXPECT_EQ(r.trajectories[1].first_scan, static_cast<long>(kMapped));
+  ASSERT_GE(r.trajectories[1].joined_scan, 0) << r.KidnapSummary();
+  EXPECT_NE(r.KidnapSummary().find("a new session"), std::string::npos);
+  EXPECT_NE(r.KidnapSummary().find("no kidnap detected"), std::string::npos);
+  // Every pose of both sessions against the truth, in the map's frame.
+  const std::vector<StampedPose2> t = slam.Trajectory();
+  ASSERT_EQ(t.size(), 1400u);
+  double worst = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    worst = std::max(worst, ((f.world_from_map * t[i].pose).translation() - f.sim.truth[i].pose.translation()).norm());
+  }
+  EXPECT_LT(worst, 0.2);
+  // The merged state holds both sessions.
+  const LidarState both = slam.State();
+  EXPECT_EQ(both.scans.size(), 1400u);
+  EXPECT_EQ(both.trajectories, 2);
+  EXPECT_GT(both.submaps.size(), f.state.submaps.size());
+  // Only before the first scan.
+  EXPECT_THROW(slam.Continue(f.state), InvalidArgument);
 }
 
 TEST(LidarLocalizeTest, BadOptionsAndAStateWithoutAMapAreRefused) {

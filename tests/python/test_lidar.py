@@ -266,6 +266,16 @@ def test_saved_state_and_localisation(tmp_path):
     first = loc.add_scan(scans[0], angle_min=-math.pi / 2, angle_increment=math.pi / 179, stamp=20.0, range_max=12.0,
                          odometry=tuple(truth[0]))
     assert first["localized"] and first["fix"]
+    # The lap again as a second session of the saved map: joined to it.
+    again = tether.lidar.LidarSlam2D(options)
+    again.continue_from(state)
+    for k, ranges in enumerate(scans):
+        again.add_scan(ranges, angle_min=-math.pi / 2, angle_increment=math.pi / 179, stamp=20 + 0.1 * k,
+                       range_max=12.0, odometry=tuple(truth[k]))
+    again.finish()
+    t = again.trajectories
+    assert len(t) == 2 and t[1]["first_scan"] == len(scans) and t[1]["joined_scan"] >= len(scans), again.summary()
+    assert again.poses.shape == (2 * len(scans), 3)
     # A damaged state is refused by name.
     data = bytearray(path.read_bytes())
     data[len(data) // 2] ^= 0x5A

@@ -1,6 +1,6 @@
 // tether lidar --save-state and tether localize: a simulated office mapped over its first 800
-// scans, the rest localised in the saved state from an unknown start; a damaged or missing
-// state refused by name with nothing written.
+// scans, the rest localised in the saved state from an unknown start and mapped as a second
+// session of it (--continue); a damaged or missing state refused by name with nothing written.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -58,6 +58,16 @@ TEST_F(LocalizeCliTest, TheRestOfTheRunIsLocalisedInTheSavedMap) {
     sum += ((world_from_map * p.pose).translation() - truth[k].pose.translation()).norm();
   }
   EXPECT_LT(sum / static_cast<double>(poses.size()), 0.05);
+  // The same rest mapped as a second session of the saved map, and saved merged.
+  ASSERT_EQ(Tether("lidar-degrade " + P("o.log") + " -o " + P("rest.log") + " --first-scan 800 -q").code, 0);
+  const CliRun c = Tether("lidar " + P("rest.log") + " --continue " + P("map/state.tether") + " -o " + P("both") +
+                          " --save-state --threads 0 --ground-truth " + P("o.tum"));
+  ASSERT_EQ(c.code, 0) << c.output;
+  EXPECT_NE(c.output.find("going on from " + P("map/state.tether") + ": 800 scans"), std::string::npos) << c.output;
+  EXPECT_NE(c.output.find("a new session (the log after the saved state) at scan 801"), std::string::npos) << c.output;
+  EXPECT_NE(c.output.find("joined the map at scan"), std::string::npos) << c.output;
+  EXPECT_EQ(lidar::ReadLidarState(P("both/state.tether")).scans.size(), 1200u);
+  EXPECT_EQ(lidar::ReadTumFile(P("both/trajectory.tum")).size(), 1200u);
 }
 
 TEST_F(LocalizeCliTest, ADamagedOrMissingStateIsRefusedByName) {
@@ -75,6 +85,10 @@ TEST_F(LocalizeCliTest, ADamagedOrMissingStateIsRefusedByName) {
   r = Tether("localize " + P("o.log") + " --state " + P("none.tether") + " -o " + P("out"));
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_NE(r.output.find("cannot open the state file"), std::string::npos) << r.output;
+  r = Tether("lidar " + P("o.log") + " --continue " + P("bad.tether") + " -o " + P("out"));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find(P("bad.tether") + ": "), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(P("out")));
   // A state is not a log, and a log is not a state.
   r = Tether("localize " + P("o.log") + " --state " + P("o.log") + " -o " + P("out"));
   EXPECT_EQ(r.code, 1) << r.output;

@@ -228,6 +228,7 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   FolderOutputs outputs(cmd.output_dir);
   std::vector<std::pair<std::string, std::string>> inputs = {{cmd.log, ""}};
   if (!cmd.ground_truth.empty()) inputs.emplace_back(cmd.ground_truth, "ground truth");
+  if (!cmd.continue_state.empty()) inputs.emplace_back(cmd.continue_state, "state");
   std::vector<lidar::LidarOutput> names = lidar::LidarSlam2D::OutputNames();
   if (cmd.save_state) names.push_back(lidar::LidarSlam2D::StateOutputName());
   if (const int rc = outputs.Prepare("lidar", inputs, names, err); rc != kExitOk) return rc;
@@ -264,6 +265,19 @@ int RunLidar(LidarCommand cmd, std::ostream& out, std::ostream& err) {
   }
 
   lidar::LidarSlam2D slam(cmd.options);
+  if (!cmd.continue_state.empty()) {
+    try {
+      const lidar::LidarState state = lidar::ReadLidarState(cmd.continue_state);
+      slam.Continue(state);
+      if (!cmd.quiet) {
+        out << "going on from " << cmd.continue_state << ": " << state.scans.size() << " scans, "
+            << state.submaps.size() << " submaps, " << state.closures.size() << " loop closures\n";
+      }
+    } catch (const Error& e) {
+      err << "error: " << e.what() << "; nothing was written\n";
+      return outputs.Fail(kExitBadInput);
+    }
+  }
   if (const int rc = Map(cmd, log, n, &slam, out, err); rc != kExitOk) return outputs.Fail(rc);
   std::vector<lidar::LidarOutput> files = slam.Outputs();
   if (cmd.save_state) files.push_back(slam.StateOutput());
@@ -451,6 +465,9 @@ void LidarCli::AddSensorOptions(CLI::App* sub) {
          "Self-check every N-th scan against the map made at other times (0: no check)");
   Option("--progress-every", cmd_.progress_every, "Scans between progress lines (0: none)");
   sub->add_flag("-q,--quiet", cmd_.quiet, "No progress lines");
+  sub->add_option("--continue", cmd_.continue_state,
+                  "Go on from a saved state (DIR/state.tether of an earlier --save-state run): the log is a second "
+                  "session of that map, joined to it where it recognises a place");
   sub->add_flag("--save-state", cmd_.save_state,
                 "Also write state.tether: the scans, submaps, loop closures and map, for tether localize");
 }

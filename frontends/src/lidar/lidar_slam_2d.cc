@@ -66,18 +66,22 @@ bool LidarSlamOptions::IsValid(std::string* why) const {
 
 std::string LidarSlamReport::KidnapSummary() const {
   std::ostringstream out;
+  long kidnaps = 0;
   for (std::size_t t = 1; t < trajectories.size(); ++t) {
     const TrajectoryReport& r = trajectories[t];
-    out << "kidnap detected at scan " << r.first_scan + 1 << " (t = " << Fixed(r.first_stamp - first_stamp, 2)
-        << " s): trajectory " << t << " starts there; ";
+    kidnaps += !r.session;
+    out << (r.session ? "a new session (the log after the saved state) at scan " : "kidnap detected at scan ")
+        << r.first_scan + 1 << " (t = " << Fixed(r.first_stamp - first_stamp, 2) << " s): trajectory " << t
+        << " starts there; ";
     if (r.joined_scan >= 0) {
       out << "joined the map at scan " << r.joined_scan + 1 << " (" << r.joined_scan - r.first_scan << " scans, "
-          << Fixed(r.joined_stamp - r.first_stamp, 1) << " s after the kidnap)\n";
+          << Fixed(r.joined_stamp - r.first_stamp, 1) << " s after " << (r.session ? "its start" : "the kidnap")
+          << ")\n";
     } else {
       out << "never joined the map: placed beside it\n";
     }
   }
-  if (trajectories.size() <= 1) {
+  if (kidnaps == 0) {
     out << "no kidnap detected (the filtered match cost rose at most " << Fixed(max_kidnap_ratio, 3) << " times";
     if (max_kidnap_ratio_scan >= 0) out << ", at scan " << max_kidnap_ratio_scan + 1;
     out << "; threshold " << Fixed(kidnap_threshold, 3) << ")\n";
@@ -194,6 +198,9 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
   if (added_ == 0) {
     report_.first_stamp = scan.stamp;
     report_.trajectories.push_back(TrajectoryReport{0, scan.stamp, 0, scan.stamp});
+  } else if (continued_) {
+    continued_ = false;
+    report_.trajectories.push_back(TrajectoryReport{added_, scan.stamp, -1, 0, true});
   }
   try {
     st.result = local_->AddScan(st.scan);
@@ -213,6 +220,26 @@ void LidarSlam2D::AddScan(const LaserScan& scan) {
     throw;
   }
   report_.total_seconds += SecondsSince(t0);
+}
+
+void LidarSlam2D::Continue(const LidarState& state) {
+  if (added_ > 0 || finished_) throw InvalidArgument("LidarSlam2D::Continue: before the first scan only");
+  graph_->Restore(state);
+  if (state.scans.empty()) return;
+  for (const SavedScan& s : state.scans) {
+    ScanRecord record;
+    record.stamp = s.stamp;
+    record.laser_in_robot = s.laser_in_robot;
+    record.points = s.points;
+    scans_.push_back(std::move(record));
+    KidnapRecord k;
+    k.scan = added_++;
+    k.stamp = s.stamp;
+    kidnap_records_.push_back(k);
+  }
+  report_.first_stamp = state.scans.front().stamp;
+  report_.trajectories.push_back(TrajectoryReport{0, report_.first_stamp, 0, report_.first_stamp});
+  continued_ = true;
 }
 
 void LidarSlam2D::Restart(Staged* st) {

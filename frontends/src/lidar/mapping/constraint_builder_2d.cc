@@ -182,6 +182,17 @@ void ConstraintBuilder2D::FinishSubmap(int j) {
   }
 }
 
+void ConstraintBuilder2D::RestoreFinishedSubmap(int j) {
+  if (j < 0 || j >= submap_count() || !submaps_[static_cast<std::size_t>(j)].submap->finished()) {
+    throw InvalidArgument("ConstraintBuilder2D::RestoreFinishedSubmap: submap " + std::to_string(j) +
+                          " was not added or is not finished");
+  }
+  SubmapNode& node = submaps_[static_cast<std::size_t>(j)];
+  if (node.finished) return;
+  node.finished = true;
+  node.matcher = std::make_unique<LazyMatcher>();
+}
+
 void ConstraintBuilder2D::SearchScan(int i) {
   if (i < 0 || i >= scan_count()) {
     throw InvalidArgument("ConstraintBuilder2D::SearchScan: scan " + std::to_string(i) + " was not added (" +

@@ -102,6 +102,64 @@ void PoseGraph2D::StartTrajectory(const InsertedSubmaps& finished) {
   active_.clear();
 }
 
+void PoseGraph2D::Restore(const LidarState& state) {
+  if (scan_count() > 0) throw InvalidArgument("PoseGraph2D::Restore: scans were added already");
+  if (const std::string why = state.Problem(); !why.empty()) throw InvalidArgument("PoseGraph2D::Restore: " + why);
+  if (state.scans.empty()) return;
+  for (std::size_t j = 0; j < state.submaps.size(); ++j) {
+    const SavedSubmap& m = state.submaps[j];
+    auto submap = Submap2D::Restored(m.local_pose, std::make_shared<ProbabilityGrid>(*m.grid), m.num_scans);
+    submaps_.push_back(submap);
+    builder_.AddSubmap(submap);
+    pending_values_.Insert(SubmapKey(static_cast<int>(j)), m.pose);
+  }
+  const SqrtInformation local = Noise(options_.local_translation_sigma, options_.local_rotation_sigma);
+  const bool consecutive = options_.consecutive_translation_sigma > 0;
+  const SqrtInformation tie =
+      consecutive ? Noise(options_.consecutive_translation_sigma, options_.consecutive_rotation_sigma) : local;
+  const auto local_loss = [&](Factor& f) {
+    if (options_.local_huber_delta > 0) f.set_loss(std::make_shared<HuberLoss>(options_.local_huber_delta));
+  };
+  for (std::size_t i = 0; i < state.scans.size(); ++i) {
+    const SavedScan& s = state.scans[i];
+    const int k = static_cast<int>(i);
+    pending_values_.Insert(ScanKey(k), s.pose);
+    if (i == 0) pending_graph_.Add<PriorSE2>(ScanKey(0), s.pose, Noise(1e-3, 1e-3));
+    for (const int j : s.submaps) {
+      local_loss(pending_graph_.Add<BetweenSE2>(
+          SubmapKey(j), ScanKey(k), state.submaps[static_cast<std::size_t>(j)].local_pose.Inverse() * s.local_pose,
+          local));
+    }
+    const bool same = i > 0 && state.scans[i - 1].trajectory == s.trajectory;
+    if (same && (consecutive || s.submaps.empty())) {
+      Factor& f = pending_graph_.Add<BetweenSE2>(ScanKey(k - 1), ScanKey(k),
+                                                 state.scans[i - 1].local_pose.Inverse() * s.local_pose, tie);
+      if (consecutive) local_loss(f);
+    }
+    std::vector<Eigen::Vector2d> points = s.points;
+    for (Eigen::Vector2d& p : points) p = s.laser_in_robot * p;
+    builder_.AddScan(s.local_pose, std::move(points), s.submaps);
+    local_poses_.push_back(s.local_pose);
+  }
+  for (const SavedClosure& c : state.closures) {
+    BetweenSE2& f =
+        pending_graph_.Add<BetweenSE2>(SubmapKey(c.submap), ScanKey(c.scan), c.relative,
+                                       Noise(options_.loop_translation_sigma, options_.loop_rotation_sigma));
+    f.set_loss(std::make_shared<HuberLoss>(options_.huber_delta));
+    f.set_loop_closure(true);
+    closures_.push_back(LoopClosure{c.scan, c.submap, c.relative, c.score});
+  }
+  for (int j = 0; j < submap_count(); ++j) builder_.RestoreFinishedSubmap(j);
+  Flush();
+  // The next scans: a trajectory of their own, joined by the global search.
+  builder_.StartTrajectory();
+  Trajectory next;
+  next.first_scan = scan_count();
+  next.first_submap = submap_count();
+  trajectories_.push_back(std::move(next));
+  active_.clear();
+}
+
 void PoseGraph2D::Join(int t, const SE2d& correction) {
   Trajectory& tr = trajectories_[static_cast<std::size_t>(t)];
   for (const Key k : tr.held_values.keys()) pending_values_.Insert(k, correction * tr.held_values.At<SE2d>(k));

@@ -50,6 +50,9 @@ struct LidarCommand {
   std::string mask_angles;
   long progress_every = 2000;  ///< scans between progress lines (0: none)
   bool save_state = false;     ///< also write state.tether (LidarSlam2D::StateOutput)
+  /// A saved state (state.tether of an earlier run) to go on from: the log becomes a second
+  /// session of that map (LidarSlam2D::Continue); empty: a new map.
+  std::string continue_state;
   bool quiet = false;
 };
 

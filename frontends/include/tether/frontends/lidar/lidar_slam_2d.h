@@ -65,6 +65,7 @@ struct TrajectoryReport {
   double first_stamp = 0;
   long joined_scan = -1;  ///< the scan whose closures joined it to the map (-1: never; the first: 0)
   double joined_stamp = 0;
+  bool session = false;  ///< started by the log after a saved state (LidarSlam2D::Continue), not a kidnap
 };
 
 /// What a run did and how long it took (seconds).
@@ -120,6 +121,12 @@ class LidarSlam2D {
   LidarSlam2D(const LidarSlam2D&) = delete;
   LidarSlam2D& operator=(const LidarSlam2D&) = delete;
 
+  /// Multi-session mapping: before the first scan, a saved state (State() of an earlier run, or
+  /// ReadLidarState) becomes the map this run goes on from (PoseGraph2D::Restore): its scans are
+  /// scans 0.., trajectory 0; the scans added next form a new trajectory that joins it by the
+  /// global search (as after a kidnap), and the outputs, the map and State() hold both. Throws
+  /// InvalidArgument after a scan was added or for a state with a Problem().
+  void Continue(const LidarState& state);
   /// Adds the next scan (time order). Where local SLAM declares a kidnap at it, the trajectory
   /// ends there and the scan starts a new one (LidarSlamReport::trajectories). Throws InvalidArgument for a scan
   /// ScanProblem refuses (nothing changes), after Finish(), and after an earlier scan failed part-way (a point far
@@ -196,7 +203,8 @@ class LidarSlam2D {
   std::vector<LoopClosureCheck> checks_;
   std::vector<KidnapRecord> kidnap_records_;
   std::deque<Staged> staged_;
-  long added_ = 0;  ///< scans added (staged or in the graph)
+  long added_ = 0;          ///< scans added (staged or in the graph), with a continued state's
+  bool continued_ = false;  ///< Continue() gave the first scans; the next one starts a trajectory
   LidarSlamReport report_;
   bool finished_ = false;
   std::string failed_;  ///< why an earlier AddScan failed part-way, if one did

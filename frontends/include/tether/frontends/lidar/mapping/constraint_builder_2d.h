@@ -211,6 +211,10 @@ class ConstraintBuilder2D {
   /// it, where they lie near enough. Throws InvalidArgument where j was not added or its
   /// submap is not finished; nothing where j is already marked finished.
   void FinishSubmap(int j);
+  /// Marks submap j finished without searching anything against it (a submap of a saved map,
+  /// whose closures were found when it was made): later scans are searched against it as against
+  /// any finished submap. Throws as FinishSubmap.
+  void RestoreFinishedSubmap(int j);
   /// Scan i, if sampled (every search_every_n_scans-th since the last sampled one, or sooner
   /// after search_every_metres of travel), against every finished submap near it that does
   /// not hold it. Throws InvalidArgument for a scan not added.

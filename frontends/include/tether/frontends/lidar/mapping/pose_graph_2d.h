@@ -30,6 +30,7 @@
 
 #include "tether/core/key.h"
 #include "tether/core/se2.h"
+#include "tether/frontends/lidar/io/lidar_state.h"
 #include "tether/frontends/lidar/mapping/constraint_builder_2d.h"
 #include "tether/frontends/lidar/mapping/submap_2d.h"
 #include "tether/solvers/incremental_smoother.h"
@@ -132,6 +133,14 @@ class PoseGraph2D {
   /// new trajectory where the current one has no scan yet. Throws InvalidArgument for a submap
   /// that is null or not finished.
   void StartTrajectory(const InsertedSubmaps& finished = {});
+  /// Before any scan: a saved map (a session before this one, lidar_state.h) as trajectory 0,
+  /// joined, at its saved poses: its scans and submaps (finished, not searched again), the
+  /// constraints the run that saved it had (each scan to its submaps and to the scan before it
+  /// in its own trajectory by the local poses, the loop closures; a prior on its first scan).
+  /// The scans added next form a new trajectory, not joined, that the global search joins to it
+  /// (multi-session mapping). Throws InvalidArgument after a scan was added or for a state with
+  /// a Problem().
+  void Restore(const LidarState& state);
   /// Waits for every search, applies the results and solves the graph to convergence.
   void Finish();
 
