@@ -244,16 +244,29 @@ bool Localizer2D::Fits(const SE2d& predicted, const std::vector<Eigen::Vector2d>
   return true;
 }
 
-SE2d Localizer2D::Predict(const LaserScan& scan, const std::vector<Eigen::Vector2d>& points) const {
-  const bool odometry = scan.odometry_origin != OdometryOrigin::kNone;
-  if (odometry && last_has_odometry_) return last_pose_ * (last_odometry_.Inverse() * scan.odometry);
-  // No odometry: the motion from the scan before by a scan-to-scan match, from constant motion.
+SE2d Localizer2D::Predict(const LaserScan& scan, const std::vector<Eigen::Vector2d>& points, bool* by_odometry) const {
+  const bool odometry = scan.odometry_origin != OdometryOrigin::kNone && last_has_odometry_;
+  *by_odometry = odometry;
+  if (!odometry) return PredictByScans(points);
+  // The odometry's motion, checked by a scan-to-scan match from it: where the two scans say the
+  // robot moved otherwise (a wheel that slipped, a sign that flipped), the scans' motion.
+  const SE2d motion = last_odometry_.Inverse() * scan.odometry;
+  if (!options_.local.scan_to_scan || last_points_.empty() || points.empty()) return last_pose_ * motion;
+  const ScanToScanMatch m = MatchScanToScan(last_points_, points, motion, options_.local.scan_to_scan_options);
+  return last_pose_ * (m.ok ? m.motion : motion);
+}
+
+SE2d Localizer2D::PredictByScans(const std::vector<Eigen::Vector2d>& points) const {
+  // The motion from the scan before by a scan-to-scan match from constant motion and from none,
+  // the second taken where it pairs clearly more points (as local SLAM does).
   const SE2d motion = has_before_last_ ? before_last_pose_.Inverse() * last_pose_ : SE2d();
-  if (options_.local.scan_to_scan && !last_points_.empty() && !points.empty()) {
-    const ScanToScanMatch m = MatchScanToScan(last_points_, points, motion, options_.local.scan_to_scan_options);
-    if (m.ok) return last_pose_ * m.motion;
-  }
-  return last_pose_ * motion;
+  if (!options_.local.scan_to_scan || last_points_.empty() || points.empty()) return last_pose_ * motion;
+  const ScanToScanOptions& o = options_.local.scan_to_scan_options;
+  const ScanToScanMatch moving = MatchScanToScan(last_points_, points, motion, o);
+  const ScanToScanMatch still = MatchScanToScan(last_points_, points, SE2d(), o);
+  const bool take_still = still.ok && (!moving.ok || still.pairs * 10 > moving.pairs * 11);
+  const ScanToScanMatch& m = take_still ? still : moving;
+  return last_pose_ * (m.ok ? m.motion : motion);
 }
 
 void Localizer2D::AddByLocalSlam(const LaserScan& scan, LocalizedScan* out) {
@@ -304,9 +317,20 @@ LocalizedScan Localizer2D::AddScan(const LaserScan& input) {
   if (report_.scans == 0) first_stamp_ = scan.stamp;
   std::vector<Eigen::Vector2d> points = MatchingPoints(scan);
   if (mode_ == Mode::kTracking) {
-    const SE2d predicted = Predict(scan, points);
+    bool by_odometry = false;
+    SE2d predicted = Predict(scan, points, &by_odometry);
     out.localized = true;
     out.tracked = Fits(predicted, points, &out);
+    if (!out.tracked && by_odometry) {
+      // The odometry can be wrong where the scans are not (a wheel that slipped, a sign that
+      // flipped): the scans' own motion next, and where that fits neither, local SLAM from it.
+      LocalizedScan by_scans = out;
+      predicted = PredictByScans(points);
+      if (Fits(predicted, points, &by_scans)) {
+        out = by_scans;
+        out.tracked = true;
+      }
+    }
     if (!out.tracked) {
       // Local SLAM carries the poses from the prediction on.
       local_ = std::make_unique<LocalSlam2D>(options_.local);

@@ -22,7 +22,8 @@
 // - Once fixed, two ways, each scan refined against the saved map (the scan-match factor) and
 //   taken where it fits (LocalizationOptions::min_known_share, track_min_score, max_correction_*):
 //   - tracking the map: the prediction is the last pose moved by the odometry (scans without
-//     odometry: by a scan-to-scan match); local SLAM does not run. The saved map is better than
+//     odometry, or where the odometry's prediction does not fit: by a scan-to-scan match); local
+//     SLAM does not run. The saved map is better than
 //     any submap local SLAM could build, and local SLAM's search costs most of the time (aces: 19
 //     ms a scan, a ceiling of 10x real time).
 //   - dead reckoning by local SLAM: where a scan does not fit (the map does not know where its
@@ -181,8 +182,11 @@ class Localizer2D {
   enum class Mode { kGlobal, kTracking, kDeadReckoning };
   /// Refines `predicted` against the map; whether it fits (out: the pose, score, outside).
   bool Fits(const SE2d& predicted, const std::vector<Eigen::Vector2d>& points, LocalizedScan* out) const;
-  /// Tracking the map: the scan's predicted pose from the last one.
-  SE2d Predict(const LaserScan& scan, const std::vector<Eigen::Vector2d>& points) const;
+  /// Tracking the map: the scan's predicted pose from the last one, by the odometry where the
+  /// scan and the one before have it (*by_odometry), else PredictByScans.
+  SE2d Predict(const LaserScan& scan, const std::vector<Eigen::Vector2d>& points, bool* by_odometry) const;
+  /// The last pose moved by a scan-to-scan match of the scan before and this one.
+  SE2d PredictByScans(const std::vector<Eigen::Vector2d>& points) const;
   /// Global localisation or dead reckoning: the scan through local SLAM.
   void AddByLocalSlam(const LaserScan& scan, LocalizedScan* out);
   void Lose();
