@@ -13,9 +13,11 @@ benchmarks/mcl_logs.sh does the same). Localisation reads every log with its odo
   made the map). Per start: the seconds of log to the first fix, the fix's error against the
   whole-log mapping run's pose at that scan (a false fix: more than 1 m or 5 degrees), the mean
   error of every localised pose after it;
-- whole: each whole log localised in its half map: scans localised, mean error, real-time factor;
 - memory: intel's second half replayed 1 and 5 times in a row (--repeat), the largest resident
-  set of each (GNU time).
+  set of each (GNU time);
+- whole: each whole log localised in its half map: scans localised, mean error, real-time factor
+  (slow where the log leaves the half map for long: every 5th scan is then searched globally,
+  about 4 s a search on aces' map).
 Needs ../shared/datasets (or TETHER_DATASETS_DIR). Extra `tether localize` options: $LOCALIZE_ARGS.
 """
 import bisect
@@ -140,6 +142,16 @@ def main():
     print(f"\nfirst fix within 10 s of log: {fixed_in_10} of {total}; false fixes: {false_fixes}; "
           f"mean error over the starts: {sum(means) / max(len(means), 1):.4f} m\n")
 
+    if "intel" in info:
+        log, n, ref, stamps, state, _ = info["intel"]
+        print("\nmemory, intel's second half replayed (largest resident set):")
+        for repeat in (1, 5):
+            t = subprocess.run(["/usr/bin/time", "-v", tether, "localize", log, "--state", state, "-o",
+                                os.path.join(outdir, "memory"), "-q", "--start-scan", str(n // 2), "--repeat",
+                                str(repeat)] + extra, capture_output=True, text=True, check=True)
+            rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", t.stderr)
+            print(f"  --repeat {repeat}: {int(rss.group(1)) / 1024:.0f} MB")
+
     print("whole logs in their half maps:")
     print("| log | scans localised | first fix [s] | mean error [m] | max error [m] | real time once localised |")
     print("|---|---|---|---|---|---|")
@@ -155,16 +167,6 @@ def main():
         worst = max((x[1] for x in e), default=float("nan"))
         print(f"| {name} | {loc} of {len(rows)} ({100 * loc / len(rows):.1f}%) | {t_fix:.1f} | {mean:.4f} | "
               f"{worst:.3f} | {rt.group(1) if rt else '-'}x |")
-
-    if "intel" in info:
-        log, n, ref, stamps, state, _ = info["intel"]
-        print("\nmemory, intel's second half replayed (largest resident set):")
-        for repeat in (1, 5):
-            t = subprocess.run(["/usr/bin/time", "-v", tether, "localize", log, "--state", state, "-o",
-                                os.path.join(outdir, "memory"), "-q", "--start-scan", str(n // 2), "--repeat",
-                                str(repeat)] + extra, capture_output=True, text=True, check=True)
-            rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", t.stderr)
-            print(f"  --repeat {repeat}: {int(rss.group(1)) / 1024:.0f} MB")
 
 
 if __name__ == "__main__":
