@@ -40,7 +40,9 @@ TEST_F(LocalizeCliTest, TheRestOfTheRunIsLocalisedInTheSavedMap) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("400 scans to localise from scan 801, global start"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("first fix at scan"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("wrote " + P("loc") + "/{poses.tum, localization.csv}"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("wrote " + P("loc") + "/{poses.tum, localization.csv, localization.png}"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(Read("loc/localization.png").rfind("\x89PNG", 0), 0u);
   const std::string csv = Read("loc/localization.csv");
   EXPECT_EQ(csv.rfind("scan,stamp,localized,x,y,theta,tracked,outside,score,fix,global", 0), 0u);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 401);

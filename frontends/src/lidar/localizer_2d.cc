@@ -9,6 +9,7 @@
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
 #include "tether/core/timing.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/frontends/lidar/scan_matching/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/sensor/voxel_filter.h"
@@ -409,7 +410,46 @@ std::vector<StampedPose2> Localizer2D::Trajectory() const {
 }
 
 std::vector<LidarOutput> Localizer2D::OutputNames() {
-  return {{"poses.tum", "localised poses", ""}, {"localization.csv", "every scan's result", ""}};
+  return {{"poses.tum", "localised poses", ""},
+          {"localization.csv", "every scan's result", ""},
+          {"localization.png", "localisation picture", ""}};
+}
+
+std::string Localizer2D::Picture() const {
+  // The saved map in grey; each localised scan's position a dot: blue where it fitted the map,
+  // orange where local SLAM carried it; each fix a red cross.
+  const OccupancyImage image = RenderOccupancy(*map_);
+  std::vector<std::uint8_t> rgb(3 * image.pixels.size());
+  for (std::size_t i = 0; i < image.pixels.size(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = image.pixels[i];
+  const auto dot = [&](const Eigen::Vector2d& p, int radius, bool cross, std::uint8_t r, std::uint8_t g,
+                       std::uint8_t b) {
+    const int cx = static_cast<int>(std::floor((p.x() - image.origin.x()) / image.resolution));
+    const int cy = image.height - 1 - static_cast<int>(std::floor((p.y() - image.origin.y()) / image.resolution));
+    for (int dy = -radius; dy <= radius; ++dy) {
+      for (int dx = -radius; dx <= radius; ++dx) {
+        if (cross && std::abs(dx) != std::abs(dy)) continue;
+        const int x = cx + dx, y = cy + dy;
+        if (x < 0 || y < 0 || x >= image.width || y >= image.height) continue;
+        const std::size_t k =
+            3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(x));
+        rgb[k] = r;
+        rgb[k + 1] = g;
+        rgb[k + 2] = b;
+      }
+    }
+  };
+  for (const LocalizedScan& r : results_) {
+    if (!r.localized || !r.pose.translation().allFinite()) continue;
+    if (r.tracked) {
+      dot(r.pose.translation(), 1, false, 30, 90, 230);
+    } else {
+      dot(r.pose.translation(), 1, false, 240, 140, 0);
+    }
+  }
+  for (const LocalizedScan& r : results_) {
+    if (r.fix && r.pose.translation().allFinite()) dot(r.pose.translation(), 5, true, 220, 0, 0);
+  }
+  return PngBytesRgb(image.width, image.height, rgb);
 }
 
 std::vector<LidarOutput> Localizer2D::Outputs() const {
@@ -426,6 +466,7 @@ std::vector<LidarOutput> Localizer2D::Outputs() const {
         << r.global << '\n';
   }
   out[1].bytes = csv.str();
+  out[2].bytes = Picture();
   return out;
 }
 

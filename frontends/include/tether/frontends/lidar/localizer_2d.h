@@ -164,7 +164,9 @@ class Localizer2D {
   /// The localised scans' poses with their stamps.
   std::vector<StampedPose2> Trajectory() const;
   /// The files of a run (poses.tum: the localised scans' poses; localization.csv: every scan's
-  /// result), in OutputNames()' order.
+  /// result; localization.png: the map with the localised positions, blue where they fitted
+  /// the map, orange where local SLAM carried them, a red cross at each fix), in OutputNames()'
+  /// order.
   std::vector<LidarOutput> Outputs() const;
   static std::vector<LidarOutput> OutputNames();
   const LocalizationReport& report() const { return report_; }
@@ -190,6 +192,8 @@ class Localizer2D {
   /// Global localisation or dead reckoning: the scan through local SLAM.
   void AddByLocalSlam(const LaserScan& scan, LocalizedScan* out);
   void Lose();
+  /// localization.png's bytes.
+  std::string Picture() const;
   /// The scan's valid points, the robot's frame, through the matching voxel filter.
   std::vector<Eigen::Vector2d> MatchingPoints(const LaserScan& scan) const;
 
