@@ -51,6 +51,7 @@ TEST(KidnapDetectorTest, TheFilterAndTheRatio) {
   for (int i = 0; i < 2; ++i) EXPECT_EQ(d.Add(0.3, 0.9).ratio, 0);  // fewer than 2 f costs
   const KidnapStep s = d.Add(0.6, 0.9);                             // (0.3 0.6 0.9) (0.3 0.3 0.6)
   EXPECT_DOUBLE_EQ(s.filtered, 0.4);
+  EXPECT_DOUBLE_EQ(s.before, 0.6);  // what the ratio compares with, for the relocation's check
   EXPECT_DOUBLE_EQ(s.ratio, 0.4 / 0.6);
 }
 
@@ -126,6 +127,21 @@ TEST(KidnapDetectorTest, OptionsAreChecked) {
   o.max_overlap = 1.5;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("max_overlap"), std::string::npos);
+  o = KidnapOptions();
+  o.relocate_window = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("relocate_window"), std::string::npos);
+  o = KidnapOptions();
+  o.relocate_max_rise = 0.9;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("relocate_max_rise"), std::string::npos);
+  o = KidnapOptions();
+  o.relocate_min_score = 1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("relocate_min_score"), std::string::npos);
+  o = KidnapOptions();
+  o.relocate_window = 0;  // off
+  EXPECT_TRUE(o.IsValid(&why)) << why;
   o = KidnapOptions();
   o.hit_probability = 0.5;
   EXPECT_FALSE(o.IsValid(nullptr));

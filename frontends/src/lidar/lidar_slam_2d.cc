@@ -90,6 +90,12 @@ std::string LidarSlamReport::KidnapSummary() const {
     for (std::size_t i = 0; i < scans.size() && i < 8; ++i) out << (i > 0 ? ", " : " ") << scans[i] + 1;
     if (scans.size() > 8) out << ", ...";
   };
+  if (!relocations.empty()) {
+    out << "  lost and found again in the current submap near the last pose (no kidnap) at " << relocations.size()
+        << " scan" << (relocations.size() == 1 ? "" : "s");
+    list(relocations);
+    out << "\n";
+  }
   out << "  the two signals alone: the cost rule (Algorithm 13) at " << cost_rises.size() << " scan"
       << (cost_rises.size() == 1 ? "" : "s");
   list(cost_rises);
@@ -177,6 +183,7 @@ KidnapRecord RecordOf(const LocalScanResult& r) {
   k.cost_rule = r.kidnap.cost_rule;
   k.broke = r.kidnap.broke;
   k.detected = r.kidnap.detected;
+  k.relocated = r.kidnap.relocated;
   return k;
 }
 
@@ -276,6 +283,7 @@ void LidarSlam2D::Commit() {
   NoteJoins(s.scan.stamp);
   const KidnapRecord& k = s.record;
   if (k.broke) report_.breaks.push_back(k.scan);
+  if (k.relocated) report_.relocations.push_back(k.scan);
   if (k.cost_rule && (kidnap_records_.empty() || !kidnap_records_.back().cost_rule)) {
     report_.cost_rises.push_back(k.scan);
   }

@@ -13,11 +13,12 @@ namespace lidar {
 std::string KidnapCsv(const std::vector<KidnapRecord>& records, double first_stamp) {
   std::ostringstream c;
   c.precision(9);
-  c << "# scan t trajectory matched cost filtered ratio overlap hit_fraction cost_rule broke detected\n";
+  c << "# scan t trajectory matched cost filtered ratio overlap hit_fraction cost_rule broke detected relocated\n";
   for (const KidnapRecord& r : records) {
     c << r.scan + 1 << ' ' << r.stamp - first_stamp << ' ' << r.trajectory << ' ' << (r.matched ? 1 : 0) << ' '
       << r.cost << ' ' << r.filtered << ' ' << r.ratio << ' ' << r.overlap << ' ' << r.hit_fraction << ' '
-      << (r.cost_rule ? 1 : 0) << ' ' << (r.broke ? 1 : 0) << ' ' << (r.detected ? 1 : 0) << '\n';
+      << (r.cost_rule ? 1 : 0) << ' ' << (r.broke ? 1 : 0) << ' ' << (r.detected ? 1 : 0) << ' '
+      << (r.relocated ? 1 : 0) << '\n';
   }
   return c.str();
 }
@@ -114,7 +115,8 @@ std::string KidnapSvg(const std::vector<KidnapRecord>& records, const KidnapOpti
   for (const KidnapRecord& r : records) {
     if (r.detected) {
       s += Line(x(r.scan), cost.top, x(r.scan), hits.top + kPanel, "stroke=\"#d62728\" stroke-width=\"1.5\"");
-      s += Text(x(r.scan) + 3, cost.top + 28, "kidnap declared at scan " + std::to_string(r.scan + 1),
+      s += Text(x(r.scan) + 3, cost.top + 28,
+                (r.relocated ? "lost, found nearby at scan " : "kidnap declared at scan ") + std::to_string(r.scan + 1),
                 "fill=\"#d62728\"");
     }
     if (r.broke) {

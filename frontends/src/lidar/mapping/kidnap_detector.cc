@@ -25,6 +25,15 @@ bool KidnapOptions::IsValid(std::string* why) const {
   if (!(hit_probability > 0.5 && hit_probability <= 1)) {
     return fail("kidnap hit_probability is " + FormatDouble(hit_probability) + "; it must lie in (0.5, 1]");
   }
+  if (!(relocate_window >= 0 && relocate_window <= 100)) {
+    return fail("kidnap relocate_window is " + FormatDouble(relocate_window) + "; it must lie in [0, 100] m");
+  }
+  if (!(relocate_max_rise >= 1 && relocate_max_rise <= 10)) {
+    return fail("kidnap relocate_max_rise is " + FormatDouble(relocate_max_rise) + "; it must lie in [1, 10]");
+  }
+  if (!(relocate_min_score > 0 && relocate_min_score < 1)) {
+    return fail("kidnap relocate_min_score is " + FormatDouble(relocate_min_score) + "; it must lie in (0, 1)");
+  }
   return true;
 }
 
@@ -58,6 +67,7 @@ KidnapStep KidnapDetector::Add(double cost, double overlap) {
     double before = 0;
     for (std::size_t i = 0; i < f; ++i) before += costs_[i];
     before /= static_cast<double>(f);
+    step.before = before;
     if (before > 0) step.ratio = step.filtered / before;
     step.cost_rule = step.ratio > options_.threshold;
     step.detected = step.cost_rule && breaks_.front();

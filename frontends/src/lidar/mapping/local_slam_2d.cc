@@ -7,6 +7,7 @@
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
 #include "tether/core/timing.h"
+#include "tether/frontends/lidar/scan_matching/fast_correlative_scan_matcher_2d.h"
 #include "tether/frontends/lidar/scan_matching/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/sensor/voxel_filter.h"
 
@@ -21,6 +22,14 @@ std::int64_t OverlapCell(const Eigen::Vector2d& p) {
   const std::int64_t y = static_cast<std::int64_t>(std::floor(p.y() * 10));
   return (x << 32) ^ (y & 0xffffffff);
 }
+
+// The relocation search (LocalSlam2D::Relocate): rotations in 0.5 degree steps all the way
+// round, and a best with a rival within 90% of its score 1 m or 0.1 rad away is not taken (the
+// global search's rules, ConstraintBuilderOptions::global_*).
+constexpr double kRelocateAngularStep = 0.00872664625997165;
+constexpr double kRelocateRivalDistance = 1;
+constexpr double kRelocateRivalAngle = 0.1;
+constexpr double kRelocateRivalRatio = 0.9;
 
 double MeanProbability(const ProbabilityGrid& grid, const SE2d& pose, const std::vector<Eigen::Vector2d>& points,
                        double unknown) {
@@ -76,6 +85,27 @@ bool LocalSlamOptions::IsValid(std::string* why) const {
 
 LocalSlam2D::LocalSlam2D(const LocalSlamOptions& options)
     : options_(Checked(options)), submaps_(options.submaps), kidnap_(options.kidnap) {}
+
+bool LocalSlam2D::Relocate(const std::shared_ptr<const ProbabilityGrid>& grid,
+                           const std::vector<Eigen::Vector2d>& matching, double before, SE2d* pose) const {
+  const KidnapOptions& k = options_.kidnap;
+  const std::size_t f = static_cast<std::size_t>(k.filter_size);
+  if (k.relocate_window <= 0 || before <= 0 || matching.empty() || trajectory_.size() < f) return false;
+  // The last pose before the scan that broke (the detector's window holds f scans, this one
+  // the last): the robot was known there.
+  const SE2d centre = trajectory_[trajectory_.size() - f].pose;
+  FastMatcherOptions search;
+  search.linear_search_window = k.relocate_window;
+  search.angular_search_window = M_PI;
+  const FastCorrelativeScanMatcher2D matcher(*grid, search);
+  const FastMatch m = matcher.MatchChecked(centre, matching, k.relocate_min_score, kRelocateRivalDistance,
+                                           kRelocateRivalAngle, kRelocateRivalRatio, -1, M_PI, kRelocateAngularStep);
+  if (!m.found || m.ambiguous || m.on_edge) return false;
+  const SE2d refined = RefineScanPose(grid, m.pose, m.pose, matching, options_.refiner).pose;
+  if (1 - MeanProbability(*grid, refined, matching, 0.5) > k.relocate_max_rise * before) return false;
+  *pose = refined;
+  return true;
+}
 
 SE2d LocalSlam2D::ConstantVelocity() const {
   const std::size_t n = trajectory_.size();
@@ -240,9 +270,18 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
     }
     result.kidnap = kidnap_.Add(result.match_cost, result.overlap);
     if (result.kidnap.detected && options_.kidnap.detect) {
-      result.kidnapped = kidnapped_ = true;
-      result.pose = refined;
-      return result;
+      if (Relocate(target->grid(), matching, result.kidnap.before, &refined)) {
+        // Lost, not carried off: the scan fits the submap near where the robot last was.
+        result.kidnap.relocated = true;
+        result.trusted = true;
+        result.match_probability = MeanProbability(grid, refined, matching, options_.correlative.unknown_probability);
+        result.match_cost = 1 - MeanProbability(grid, refined, matching, 0.5);
+        kidnap_.Reset();
+      } else {
+        result.kidnapped = kidnapped_ = true;
+        result.pose = refined;
+        return result;
+      }
     }
     // A scan whose prediction is constant velocity alone has nothing of its own to fall back to
     // (it repeats the match before): it keeps its match however weak.

@@ -94,6 +94,9 @@ struct LidarSlamReport {
   /// fired, and the scans that broke with the scan before.
   std::vector<long> cost_rises;
   std::vector<long> breaks;
+  /// Declared kidnaps withdrawn: the scan fitted the current submap near the last pose before
+  /// the break (KidnapOptions::relocate_window), and the trajectory went on from there.
+  std::vector<long> relocations;
   double first_stamp = 0;       ///< the first scan's stamp (times in the summary count from it)
   double max_kidnap_ratio = 0;  ///< the largest rise of the filtered cost (KidnapStep::ratio)
   long max_kidnap_ratio_scan = -1;

@@ -40,6 +40,17 @@ struct KidnapOptions {
   double max_overlap = 0.25;
   /// A cell counts as occupied for LocalScanResult::hit_fraction from this probability.
   double hit_probability = 0.6;
+  /// Before a declared kidnap is acted on, the scan is searched (branch and bound, every
+  /// rotation) in the current submap within this distance (m) of the last pose before the
+  /// break: where it fits there as well as the scans before the break did (its cost at most
+  /// relocate_max_rise times their filtered cost, the best not ambiguous), local SLAM had lost
+  /// the robot without its being carried off (a stall of the logger, a slip without odometry):
+  /// the scan takes that pose and the trajectory goes on (LocalScanResult::relocated). 0: never.
+  double relocate_window = 3;
+  double relocate_max_rise = 1.2;
+  /// The relocation search's best must score above this (mean probability, as the loop
+  /// closures' ConstraintBuilderOptions::min_score).
+  double relocate_min_score = 0.55;
   bool IsValid(std::string* why) const;
 };
 
@@ -49,9 +60,13 @@ struct KidnapStep {
   double filtered = 0;  ///< the mean of the last filter_size costs (fewer at the start)
   /// filtered / the filtered value filter_size scans before (0 until there are 2 f costs).
   double ratio = 0;
+  double before = 0;       ///< the filtered value the ratio compares with (0 until 2 f costs)
   bool cost_rule = false;  ///< ratio above the threshold (Algorithm 13 alone)
   bool broke = false;      ///< the independent signal: the scan's overlap below max_overlap
   bool detected = false;   ///< both: the cost rule, and a break at the scan that opened the window
+  /// Set by LocalSlam2D: the declaration was withdrawn, the scan fitted the current submap near
+  /// the last pose before the break (KidnapOptions::relocate_window); the trajectory went on.
+  bool relocated = false;
 };
 
 /// Kidnap detection, per scan (LocalScanResult's signals and the detector's step).
@@ -65,6 +80,7 @@ struct KidnapRecord {
   bool cost_rule = false;  ///< Algorithm 13 alone fired
   bool broke = false;      ///< the independent signal fired
   bool detected = false;   ///< a kidnap (a new trajectory starts here where KidnapOptions::detect)
+  bool relocated = false;  ///< declared, then withdrawn (KidnapStep::relocated)
 };
 
 class KidnapDetector {

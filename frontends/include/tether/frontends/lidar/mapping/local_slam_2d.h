@@ -180,6 +180,11 @@ class LocalSlam2D {
   /// A scan-only scan's first search is weak: below min_match_probability, or its best on
   /// the window's outermost ring of translations or rotations.
   bool WeakMatch(const CorrelativeMatch& m, const SE2d& predicted, const ProbabilityGrid& grid) const;
+  /// A declared kidnap's scan searched in `grid` near the last pose before the break
+  /// (KidnapOptions::relocate_*): true, with the refined pose, where it fits there as well as
+  /// the scans before (`before`: their filtered cost).
+  bool Relocate(const std::shared_ptr<const ProbabilityGrid>& grid, const std::vector<Eigen::Vector2d>& matching,
+                double before, SE2d* pose) const;
 
   std::vector<Eigen::Vector2d> last_points_;     ///< the last scan with points, its robot frame
   std::unordered_set<std::int64_t> last_cells_;  ///< its matching points' 0.1 m cells, the map frame
