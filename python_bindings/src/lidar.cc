@@ -233,6 +233,11 @@ void BindLidar(py::module_& m) {
           [](LidarSlamOptions& o, bool v) { o.local.kidnap.detect = v; },
           "Act on a detected kidnap: end the trajectory and start a new one (docs/lidar_slam.md)")
       .def_property(
+          "kidnap_relocate_window", [](const LidarSlamOptions& o) { return o.local.kidnap.relocate_window; },
+          [](LidarSlamOptions& o, double v) { o.local.kidnap.relocate_window = v; },
+          "Before acting on a kidnap, search the scan in the current submap within this distance [m] of the last "
+          "pose before the break; where it fits as well as the scans before, go on from there (0: never)")
+      .def_property(
           "self_check_every", [](const LidarSlamOptions& o) { return o.self_check.sample_every; },
           [](LidarSlamOptions& o, int v) { o.self_check.sample_every = v; })
       .def_property(
@@ -363,6 +368,10 @@ void BindLidar(py::module_& m) {
           },
           "One dict per trajectory (a kidnap starts a new one): first_scan, first_stamp, joined_scan (the scan "
           "whose closures joined it to the map; -1: never), joined_stamp")
+      .def_property_readonly(
+          "relocations", [](const LidarSlam2D& s) { return s.report().relocations; },
+          "The scans (from 0) where a declared kidnap was withdrawn: the scan fitted the current submap near the "
+          "last pose before the break (kidnap_relocate_window), and the trajectory went on")
       .def("summary", [](const LidarSlam2D& s) { return s.report().Summary(s.options().pose_graph.threads); })
       .def(
           "write",

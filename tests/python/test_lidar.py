@@ -116,8 +116,13 @@ def test_kidnap_detection_and_trajectories():
     assert len(t) >= 2, slam.summary()
     assert 20 <= t[1]["first_scan"] <= 23
     assert "kidnap detected at scan %d" % (t[1]["first_scan"] + 1) in slam.summary()
+    assert slam.relocations == []  # carried beyond the relocation search's window
     options.kidnap_detection = False
     assert len(run(order).trajectories) == 1
+    options.kidnap_detection = True
+    options.kidnap_relocate_window = -1
+    with pytest.raises(tether.InvalidArgument, match="relocate_window"):
+        tether.lidar.LidarSlam2D(options)
 
 
 def test_bad_scans_raise():

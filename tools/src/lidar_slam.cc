@@ -101,6 +101,7 @@ constexpr std::pair<const char*, const char*> kFieldFlags[] = {
     {"kidnap filter_size", "--kidnap-filter"},
     {"kidnap threshold", "--kidnap-threshold"},
     {"kidnap max_overlap", "--kidnap-max-overlap"},
+    {"kidnap relocate_window", "--kidnap-relocate-window"},
 };
 
 // The options a sensor preset sets, each with the flag that sets it too: where that flag was
@@ -426,6 +427,9 @@ void LidarCli::AddKidnapOptions(CLI::App* sub) {
   Option("--kidnap-max-overlap", k.max_overlap,
          "Kidnap detection's independent signal: a scan breaks with the scan before where fewer of its points "
          "than this share lie near that scan's");
+  Option("--kidnap-relocate-window", k.relocate_window,
+         "Before acting on a kidnap, search the scan in the current submap within this distance [m] of the last "
+         "pose before the break; where it fits as well as the scans before, go on from there (0: never)");
 }
 
 // The scanner, its mounting and body, the IMU, reading the log and the checks.

@@ -103,6 +103,7 @@ const OptionRange kRanges[] = {
     {"lidar", "--kidnap-filter", 1, 1000},
     {"lidar", "--kidnap-threshold", 1, 1e6},
     {"lidar", "--kidnap-max-overlap", 0, 1},
+    {"lidar", "--kidnap-relocate-window", 0, 100},
     {"lidar", "--max-range", 0, 1000},
     {"lidar", "--min-range", 0, 1000},
     {"lidar", "--imu-bias-seconds", 0, 1e6},
