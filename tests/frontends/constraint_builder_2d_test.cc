@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -189,6 +190,80 @@ TEST(ConstraintBuilder2DTest, MatchesThatDisagreeWithLocalSlamDoNotConfirm) {
     EXPECT_EQ(run.stats.found, 2);
     EXPECT_EQ(run.stats.unconfirmed, 2);
   }
+}
+
+// A trajectory not yet joined (a kidnap) sees submap A of the map (a room), drives 60 m by
+// local SLAM, then sees submap B (another room, 38 m away). Local SLAM drifted 1.2 m on the
+// way: the motion between the two views that the closures imply is 1.2 m from local SLAM's.
+// That is within the drift local SLAM may gather over 60 m (join_drift): the trajectory joins,
+// with the closures to both. Held to the fixed tolerance alone (join_drift 0: 1 m), it does
+// not.
+int JoinAfterADetour(double join_drift, std::vector<LoopClosure>* closures) {
+  std::vector<Segment> world = testing::RoomWithBoxes();
+  testing::AddRectangle(40, 0, 50, 6, &world);  // OtherRoom, 40 m to the right
+  testing::AddRectangle(46, 2, 47, 2.5, &world);
+  testing::AddRectangle(48, 4.5, 48.5, 6, &world);  // and a pillar: no two corners alike
+  SubmapOptions so;
+  const ProbabilityGridInserter inserter(so.insert, so.min_probability, so.max_probability);
+  std::vector<SE2d> estimates;
+  std::vector<std::shared_ptr<Submap2D>> submaps;
+  ConstraintBuilderOptions options;
+  options.threads = 0;
+  options.search_every_n_scans = 1;
+  options.global_search_every_n_scans = 1;
+  options.join_drift = join_drift;
+  options.global_min_score = 0.5;  // submaps of 20 scans: their far walls barely seen
+  ConstraintBuilder2D builder(
+      options, GraphEstimates{[&](int i) { return estimates[static_cast<std::size_t>(i)]; },
+                              [&](int j) { return submaps[static_cast<std::size_t>(j)]->local_pose(); }});
+  for (const Eigen::Vector2d& start : {Eigen::Vector2d(4, 7), Eigen::Vector2d(41.5, 1.5)}) {
+    const int j = static_cast<int>(submaps.size());
+    submaps.push_back(std::make_shared<Submap2D>(SE2d(start.x(), start.y(), 0), so));
+    builder.AddSubmap(submaps.back());
+    for (int k = 0; k < 20; ++k) {
+      const SE2d pose(start.x() + 0.2 * k, start.y() + 0.05 * k, 0.03 * k);
+      const std::vector<Eigen::Vector2d> points = Scan(world, pose);
+      std::vector<Eigen::Vector2d> in_map;
+      for (const Eigen::Vector2d& p : points) in_map.push_back(pose * p);
+      submaps.back()->InsertScan(inserter, pose.translation(), in_map);
+      builder.AddScan(pose, points, {j});
+      estimates.push_back(pose);
+    }
+    submaps.back()->Finish();
+    builder.FinishSubmap(j);
+  }
+  builder.TakeClosures();
+  builder.StartTrajectory();
+  const SE2d frame(-50, 30, 1.0);  // the new trajectory's local frame, from the truth
+  const SE2d drift(1.2, 0, 0);     // what local SLAM gathered on the detour (the map's frame)
+  const auto add = [&](const SE2d& truth, bool after_detour, const std::vector<Segment>& seen) {
+    const SE2d local = frame * (after_detour ? drift * truth : truth);
+    builder.AddScan(local, Scan(seen, truth), {});
+    estimates.push_back(local);
+    return builder.scan_count() - 1;
+  };
+  for (const SE2d& a : {SE2d(6.1, 7.6, 0.45), SE2d(6.9, 7.3, 0.6)}) builder.SearchScan(add(a, false, world));
+  // The detour: 60 m driven where nothing of the map is seen (not searched).
+  for (int k = 0; k < 12; ++k) add(SE2d(7 + 5 * (k % 2), -40 - 2.5 * k, 0), false, OtherRoom());
+  for (const SE2d& b : {SE2d(42.5, 1.75, 0.15), SE2d(43.3, 1.95, 0.27)}) builder.SearchScan(add(b, true, world));
+  *closures = builder.TakeClosures();
+  return builder.joined(1) ? 1 : 0;
+}
+
+TEST(ConstraintBuilder2DTest, ATrajectoryJoinsWithinTheDriftOfItsLocalSlam) {
+  std::vector<LoopClosure> closures;
+  EXPECT_EQ(JoinAfterADetour(ConstraintBuilderOptions().join_drift, &closures), 1);
+  int to_a = 0, to_b = 0;
+  for (const LoopClosure& c : closures) (c.submap == 0 ? to_a : to_b) += c.scan >= 40;
+  EXPECT_GE(to_a, 2);
+  EXPECT_GE(to_b, 2);
+  EXPECT_EQ(JoinAfterADetour(0, &closures), 0);
+  EXPECT_TRUE(closures.empty());
+  ConstraintBuilderOptions bad;
+  bad.join_drift = -0.01;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("join_drift"), std::string::npos) << why;
 }
 
 TEST(ConstraintBuilder2DTest, RefusesBadInput) {

@@ -72,6 +72,9 @@ bool ConstraintBuilderOptions::IsValid(std::string* why) const {
         "positive and finite");
   }
   if (!(global_min_score >= 0 && global_min_score <= 1)) return fail("global_min_score must lie in [0, 1]");
+  if (!(std::isfinite(join_drift) && join_drift >= 0) || !(std::isfinite(join_drift_angle) && join_drift_angle >= 0)) {
+    return fail("join_drift and join_drift_angle must be finite and not negative");
+  }
   if (!(rival_ratio >= 0 && rival_ratio <= 1)) return fail("rival_ratio must lie in [0, 1]");
   if (!PositiveFinite(rival_distance) || !PositiveFinite(rival_angle)) {
     return fail("rival_distance and rival_angle must be positive and finite");
@@ -476,8 +479,19 @@ void ConstraintBuilder2D::Confirm(int candidate, std::vector<LoopClosure>* out) 
   for (int m : scans_[static_cast<std::size_t>(l.scan)].submaps) Link(m, l.submap);
 }
 
-SE2d ConstraintBuilder2D::Placement(const LoopClosure& l) const {
-  return estimates_.submap(l.submap) * l.relative * scans_[static_cast<std::size_t>(l.scan)].local_pose.Inverse();
+bool ConstraintBuilder2D::PlaceAlike(const LoopClosure& a, const LoopClosure& b) const {
+  const auto scan = [this](int i) -> const SE2d& { return scans_[static_cast<std::size_t>(i)].local_pose; };
+  // The motion from a's scan to b's: local SLAM's, and the one the two closures imply.
+  const SE2d local = scan(a.scan).Inverse() * scan(b.scan);
+  const SE2d implied =
+      (estimates_.submap(a.submap) * a.relative).Inverse() * (estimates_.submap(b.submap) * b.relative);
+  const SE2d error = local.Inverse() * implied;
+  double driven = 0;
+  for (int i = std::min(a.scan, b.scan); i < std::max(a.scan, b.scan); ++i) {
+    driven += (scan(i + 1).translation() - scan(i).translation()).norm();
+  }
+  return error.translation().norm() <= options_.global_rival_distance + options_.join_drift * driven &&
+         std::abs(WrapAngle(error.theta())) <= options_.global_rival_angle + options_.join_drift_angle * driven;
 }
 
 void ConstraintBuilder2D::HoldJoin(int t, const LoopClosure& l, std::vector<LoopClosure>* out) {
@@ -486,24 +500,17 @@ void ConstraintBuilder2D::HoldJoin(int t, const LoopClosure& l, std::vector<Loop
   // each, but not one placement for the room and the corridor outside it.
   std::vector<LoopClosure>& held = held_joins_[t];
   held.push_back(l);
-  const SE2d p = Placement(l);
   const Eigen::Vector2d at = estimates_.submap(l.submap).translation();
   bool join = false;
   for (const LoopClosure& h : held) {
-    const SE2d q = Placement(h);
     join = join || ((estimates_.submap(h.submap).translation() - at).norm() >= options_.join_min_separation &&
-                    (p.translation() - q.translation()).norm() <= options_.global_rival_distance &&
-                    std::abs(WrapAngle(p.theta() - q.theta())) <= options_.global_rival_angle);
+                    PlaceAlike(h, l));
   }
   if (!join) return;
   joined_[static_cast<std::size_t>(t)] = true;
-  // The closures that agree with this placement join it; the others are dropped.
+  // The closures that agree with this one join it; the others are dropped.
   for (const LoopClosure& h : held) {
-    const SE2d q = Placement(h);
-    if ((p.translation() - q.translation()).norm() > options_.global_rival_distance ||
-        std::abs(WrapAngle(p.theta() - q.theta())) > options_.global_rival_angle) {
-      continue;
-    }
+    if (!PlaceAlike(h, l)) continue;
     out->push_back(h);
     for (int m : scans_[static_cast<std::size_t>(h.scan)].submaps) Link(m, h.submap);
   }

@@ -151,9 +151,16 @@ struct ConstraintBuilderOptions {
   double global_rival_distance = 1;
   double global_rival_angle = 0.1;
   /// A trajectory not yet joined joins once confirmed closures to two joined submaps whose
-  /// origins lie at least this far apart (m) place it alike (within global_rival_*): one room
-  /// confirms a match to a room like it; the corridor outside it does not.
+  /// origins lie at least this far apart (m) place it alike: one room confirms a match to a
+  /// room like it; the corridor outside it does not. Alike: the motion between their two scans
+  /// that the closures imply is local SLAM's within global_rival_* plus the drift local SLAM
+  /// may have gathered between them, join_drift (m per m driven) and join_drift_angle (rad per
+  /// m driven): the trajectory is not optimised before it joins. Local SLAM's drift against
+  /// the optimised runs (95th percentile over stretches of 20-150 m): 1.1-1.6% and 0.04-0.11
+  /// rad on intel and aces, up to 20% on fr079 at its odometry's fault (benchmarks/RESULTS.md).
   double join_min_separation = 5;
+  double join_drift = 0.02;
+  double join_drift_angle = 0.0005;
   double global_angular_step = 0.00872664625997165;  ///< rad (0.5 degrees)
   /// Background search threads (0: search in the caller's thread); by default the machine's
   /// cores. The result does not depend on it.
@@ -292,8 +299,8 @@ class ConstraintBuilder2D {
   /// Makes candidate c a loop closure (into `out`) and joins its submaps; one that would join
   /// a trajectory waits in HoldJoin.
   void Confirm(int c, std::vector<LoopClosure>* out);
-  /// Where closure l puts the origin of its scan's trajectory's local frame (the graph's frame).
-  SE2d Placement(const LoopClosure& l) const;
+  /// Closures a and b of one trajectory not yet joined place it alike (join_drift).
+  bool PlaceAlike(const LoopClosure& a, const LoopClosure& b) const;
   /// Holds a confirmed closure of trajectory t (not joined) to a joined submap until another,
   /// to a submap join_min_separation away, places t alike; then gives every held closure that
   /// agrees (into `out`) and marks t joined.
