@@ -85,8 +85,8 @@ detect() {
 # The relations of the uncropped log that lie wholly before or wholly after the cut (stamps
 # as in the uncropped log: the gap kept), and each run scored on them.
 merge() {
-  echo "| log | kidnaps declared at | joined | relations error, kidnapped / uncropped (m, deg) | ratio |"
-  echo "|---|---|---|---|---|"
+  echo "| log | kidnaps declared at | each new trajectory | relations error, kidnapped / uncropped (m, deg) | ratio | within trajectories: ratio (relations) |"
+  echo "|---|---|---|---|---|---|"
   for log in intel aces fr079; do
     local raw="$D/raw/$log.clf.gz" rel="$D/raw/$log.relations"
     local full="$OUT/merge-$log"
@@ -103,13 +103,24 @@ merge() {
     cut1=$(awk -v f="$first" -v a="${CUT_AT[$log]}" 'BEGIN { printf "%.3f", f + a + 30 }')
     awk -v a="$cut0" -v b="$cut1" '!(($1 < a && $2 > a) || ($1 < b && $2 > b) || ($1 >= a && $1 <= b) || ($2 >= a && $2 <= b))' \
       "$rel" > "$dir/relations"
-    local k u joined
-    k=$("$T" lidar-eval "$dir/trajectory.tum" "$dir/relations" | awk '/^translational error/ {t = $3} /^rotational error/ {r = $3} END {print t, r}')
-    u=$("$T" lidar-eval "$full/trajectory.tum" "$dir/relations" | awk '/^translational error/ {t = $3} /^rotational error/ {r = $3} END {print t, r}')
-    joined=$(grep -o 'joined the map at scan [0-9]* ([^)]*)\|never joined the map' "$dir/run.log" | head -1)
-    echo "| $log-gap | $(declared "$dir") | ${joined:--} | $k / $u | $(echo "$k $u" | awk '{ printf "%.2f", $1 / $3 }') |"
+    # Of those, the ones within one trajectory of the kidnapped run (crossing no declared kidnap,
+    # true or false): where trajectories stayed apart, what joined shows here.
+    awk 'NR == FNR { if ($1 != "#" && $3 != t) { starts[n++] = $2; t = $3 } next }
+      { for (i = 1; i < n; ++i) if (($1 < starts[i]) != ($2 < starts[i])) next; print }' \
+      "$dir/trajectory.csv" "$dir/relations" > "$dir/relations-within"
+    local k u kw uw joined
+    k=$(score "$dir/trajectory.tum" "$dir/relations")
+    u=$(score "$full/trajectory.tum" "$dir/relations")
+    kw=$(score "$dir/trajectory.tum" "$dir/relations-within")
+    uw=$(score "$full/trajectory.tum" "$dir/relations-within")
+    joined=$(grep -o 'trajectory [0-9]* starts there; [^:]*' "$dir/run.log" | sed 's/ starts there;/:/' | paste -sd ';' -)
+    echo "| $log-gap | $(declared "$dir") | ${joined:--} | $k / $u | $(ratio "$k" "$u") | $(ratio "$kw" "$uw") ($(wc -l < "$dir/relations-within")) |"
   done
 }
+
+# Mean translational and rotational relation errors of a trajectory: "m deg".
+score() { "$T" lidar-eval "$1" "$2" | awk '/^translational error/ {t = $3} /^rotational error/ {r = $3} END {print t, r}'; }
+ratio() { echo "$1 $2" | awk '{ printf "%.2f", $1 / $3 }'; }
 
 case $MODE in
   detect) detect ;;
