@@ -20,7 +20,9 @@ namespace {
 std::int64_t OverlapCell(const Eigen::Vector2d& p) {
   const std::int64_t x = static_cast<std::int64_t>(std::floor(p.x() * 10));
   const std::int64_t y = static_cast<std::int64_t>(std::floor(p.y() * 10));
-  return (x << 32) ^ (y & 0xffffffff);
+  // Shifted as unsigned: a negative cell index shifted left is undefined behaviour.
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(x) << 32) ^
+                                   (static_cast<std::uint64_t>(y) & 0xffffffffu));
 }
 
 // The relocation search (LocalSlam2D::Relocate): rotations in 0.5 degree steps all the way
