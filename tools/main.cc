@@ -9,6 +9,29 @@
 #include "tether/tools/command.h"
 #include "tether/tools/option_checks.h"
 
+// The commands, one line each, in the order --help lists them: X(Name) is the function
+// tether::MakeNameCommand() that the command's own file in tools/src/ defines.
+#define TETHER_COMMANDS(X) \
+  X(Optimize)              \
+  X(Simulate)              \
+  X(Plugins)               \
+  X(CheckPlugin)           \
+  X(Bench)                 \
+  X(Replay)                \
+  X(EkfDemo)               \
+  X(Lidar)                 \
+  X(LidarEval)             \
+  X(LidarDegrade)          \
+  X(Localize)              \
+  X(Mcl)                   \
+  X(MclDemo)               \
+  X(MclBench)
+
+namespace tether {
+#define TETHER_DECLARE_COMMAND(Name) std::unique_ptr<Command> Make##Name##Command();
+TETHER_COMMANDS(TETHER_DECLARE_COMMAND)
+}  // namespace tether
+
 int main(int argc, char** argv) {
   // A reader that goes away (`tether optimize ... | head -1`) must not end the run: writes to
   // it fail quietly and the outputs are still written. A file-size limit (ulimit -f) becomes
@@ -17,13 +40,8 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
 
   std::vector<std::unique_ptr<tether::Command>> commands;
-  for (auto make :
-       {tether::MakeOptimizeCommand, tether::MakeSimulateCommand, tether::MakePluginsCommand,
-        tether::MakeCheckPluginCommand, tether::MakeBenchCommand, tether::MakeReplayCommand, tether::MakeEkfDemoCommand,
-        tether::MakeLidarCommand, tether::MakeLidarEvalCommand, tether::MakeLidarDegradeCommand,
-        tether::MakeLocalizeCommand, tether::MakeMclCommand, tether::MakeMclDemoCommand, tether::MakeMclBenchCommand}) {
-    commands.push_back(make());
-  }
+#define TETHER_MAKE_COMMAND(Name) commands.push_back(tether::Make##Name##Command());
+  TETHER_COMMANDS(TETHER_MAKE_COMMAND)
   CLI::App app{"tether: factor-graph optimisation for SLAM"};
   app.require_subcommand(1);
   for (const auto& c : commands) c->Add(app);

@@ -28,9 +28,7 @@ std::string StandardLayout(const FactorType& t) {
   const std::size_t n = t.variable_types.size();
   for (std::size_t i = 0; i < n; ++i) s += (i ? " id" : "id") + std::to_string(i + 1);
   std::string m = t.measurement_layout;
-  if (m.empty() && n > 0 && AmbientDim(t.variable_types.back()) == t.measurement_size) {
-    m = ParameterNames(t.variable_types.back());
-  }
+  if (VarType last; m.empty() && MeasurementIsAValue(t, &last)) m = ParameterNames(last);
   if (m.empty()) {
     for (int i = 0; i < t.measurement_size; ++i) m += (i ? " m" : "m") + std::to_string(i + 1);
   }
@@ -49,6 +47,15 @@ std::string UnloadHint(const FactorType& holder) {
 }
 
 }  // namespace
+
+bool MeasurementIsAValue(const FactorType& t, VarType* type) {
+  if (t.variable_types.empty()) return false;
+  const VarType last = t.variable_types.back();
+  if (AmbientDim(last) != t.measurement_size) return false;
+  if (!t.measurement_layout.empty() && t.measurement_layout != ParameterNames(last)) return false;
+  if (type != nullptr) *type = last;
+  return true;
+}
 
 void AppendDouble(std::string* s, double v) {
   // std::to_chars without a format gives the shortest text that reads back as the same double.

@@ -36,21 +36,14 @@ constexpr double kHuge = 1e150;
 
 bool Usable(const Pt& p) { return std::abs(p.x) < kHuge && std::abs(p.y) < kHuge; }  // false for NaN
 
-/// What one Values contributes to the picture, in world coordinates.
-struct Layer {
-  std::vector<std::vector<Pt>> runs;  // trajectory pieces
-  std::vector<Pt> landmarks;
-  std::vector<std::pair<Pt, Pt>> loops;
-  bool present = false;
-};
-
 bool Consecutive(Key a, Key b) { return (a > b ? a - b : b - a) == 1; }
 
 /// Every variable layout starts with x, y (variable.h), so the projection is the first two.
 Pt XY(const double* p) { return Pt{p[0], p[1]}; }
 
-Layer Extract(const Values& values, const FactorGraph& graph, const std::unordered_set<Key>& linked, bool with_loops) {
-  Layer layer;
+PlotLayer Extract(const Values& values, const FactorGraph& graph, const std::unordered_set<Key>& linked,
+                  std::vector<std::pair<Pt, Pt>>* loops) {
+  PlotLayer layer;
   layer.present = true;
   std::vector<std::pair<Key, Pt>> poses;
   poses.reserve(values.size());
@@ -69,14 +62,14 @@ Layer Extract(const Values& values, const FactorGraph& graph, const std::unorder
     if (!joined) layer.runs.emplace_back();
     layer.runs.back().push_back(poses[i].second);
   }
-  if (with_loops) {
+  if (loops != nullptr) {
     for (const auto& f : graph.factors()) {
       const std::vector<Key>& keys = f->keys();
       if (keys.size() != 2 || keys[0] == keys[1] || Consecutive(keys[0], keys[1])) continue;
       if (!values.Has(keys[0]) || !values.Has(keys[1])) continue;
       if (!IsPose(values.TypeOf(keys[0])) || !IsPose(values.TypeOf(keys[1]))) continue;
       const Pt a = XY(values.Params(keys[0])), b = XY(values.Params(keys[1]));
-      if (Usable(a) && Usable(b)) layer.loops.emplace_back(a, b);
+      if (Usable(a) && Usable(b)) loops->emplace_back(a, b);
     }
   }
   return layer;
@@ -116,8 +109,8 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   return RenderSvg(graph, before, after, nullptr, options);
 }
 
-std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
-                      const PlotOptions& options) {
+PlotScene BuildPlotScene(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                         const PlotOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("RenderSvg: " + why);
 
@@ -127,17 +120,46 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
     const std::vector<Key>& keys = f->keys();
     if (keys.size() == 2 && Consecutive(keys[0], keys[1])) linked.insert(std::min(keys[0], keys[1]));
   }
-  const bool loops_from_after = after != nullptr;
-  Layer lb, la, lt;
-  if (truth != nullptr) lt = Extract(*truth, graph, linked, false);
-  lt.landmarks.clear();
-  if (before != nullptr) lb = Extract(*before, graph, linked, options.draw_loop_closures && !loops_from_after);
-  if (after != nullptr) la = Extract(*after, graph, linked, options.draw_loop_closures);
-  if (!options.draw_landmarks) {
-    lb.landmarks.clear();
-    la.landmarks.clear();
+  PlotScene scene;
+  const bool loops = options.draw_loop_closures;
+  if (truth != nullptr) scene.truth = Extract(*truth, graph, linked, nullptr);
+  scene.truth.landmarks.clear();
+  if (before != nullptr) {
+    scene.before = Extract(*before, graph, linked, loops && after == nullptr ? &scene.loop_closures : nullptr);
   }
-  const std::vector<std::pair<Pt, Pt>>& loops = loops_from_after ? la.loops : lb.loops;
+  if (after != nullptr) scene.after = Extract(*after, graph, linked, loops ? &scene.loop_closures : nullptr);
+  if (!options.draw_landmarks) {
+    scene.before.landmarks.clear();
+    scene.after.landmarks.clear();
+  }
+  // With a ground truth, each trajectory's ATE (rigid alignment; trajectory_error.h) follows its label.
+  auto ate_label = [&](const Values* v, const std::string& text) {
+    if (v == nullptr || truth == nullptr || !options.show_ate) return text;
+    const TrajectoryError e = AbsoluteTrajectoryError(*v, *truth);
+    return e.poses == 0 ? text : text + " (ATE " + FormatMetres(e.rmse) + ")";
+  };
+  scene.truth.label = options.truth_label;
+  scene.before.label = ate_label(before, options.before_label);
+  scene.after.label = ate_label(after, options.after_label);
+  scene.truth.colour = kTruthColour;
+  scene.before.colour = scene.before.landmark_colour = kBeforeColour;
+  scene.after.colour = kAfterColour;
+  scene.after.landmark_colour = kLandmarkColour;
+  scene.loop_colour = kLoopColour;
+  scene.start_colour = kStartColour;
+  const PlotLayer& first = !scene.after.runs.empty() ? scene.after : scene.before;
+  if (!first.runs.empty()) {
+    scene.has_start = true;
+    scene.start = first.runs[0][0];
+  }
+  return scene;
+}
+
+std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                      const PlotOptions& options) {
+  const PlotScene scene = BuildPlotScene(graph, before, after, truth, options);
+  const PlotLayer &lb = scene.before, &la = scene.after, &lt = scene.truth;
+  const std::vector<std::pair<Pt, Pt>>& loops = scene.loop_closures;
 
   // Bounds of everything drawn.
   double min_x = HUGE_VAL, max_x = -HUGE_VAL, min_y = HUGE_VAL, max_y = -HUGE_VAL;
@@ -147,7 +169,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
     min_y = std::min(min_y, p.y);
     max_y = std::max(max_y, p.y);
   };
-  for (const Layer* l : {&lb, &la, &lt}) {
+  for (const PlotLayer* l : {&lb, &la, &lt}) {
     for (const auto& run : l->runs)
       for (const Pt& p : run) grow(p);
     for (const Pt& p : l->landmarks) grow(p);
@@ -180,7 +202,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
   frame.ox = kMargin + 0.5 * (plot_w - dx * frame.scale);
   frame.oy = top + 0.5 * (plot_h - dy * frame.scale);
 
-  auto trajectory = [&](const Layer& l) {
+  auto trajectory = [&](const PlotLayer& l) {
     PathData d;
     for (const auto& run : l.runs) {
       d.MoveTo(frame(run[0]));
@@ -189,7 +211,7 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
     }
     return d;
   };
-  auto squares = [&](const Layer& l) {
+  auto squares = [&](const PlotLayer& l) {
     PathData d;
     for (const Pt& w : l.landmarks) {
       const Pt p = frame(w);
@@ -232,9 +254,8 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
              &svg);
   AppendPath(squares(lb), "landmarks-before", "fill=\"" + std::string(kBeforeColour) + "\"", &svg);
   AppendPath(squares(la), "landmarks", "fill=\"" + std::string(kLandmarkColour) + "\"", &svg);
-  const Layer& first = !la.runs.empty() ? la : lb;
-  if (!first.runs.empty()) {
-    const Pt s = frame(first.runs[0][0]);
+  if (scene.has_start) {
+    const Pt s = frame(scene.start);
     svg += "<circle class=\"start\" cx=\"" + Num(s.x) + "\" cy=\"" + Num(s.y) + "\" r=\"3.5\" fill=\"none\" stroke=\"" +
            kStartColour + "\" stroke-width=\"1.5\"/>\n";
   }
@@ -252,15 +273,9 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
            Num(legend_y) + "\" stroke=\"" + colour + "\" stroke-width=\"" + Num(stroke_width) + "\"/>\n";
     label(text);
   };
-  // With a ground truth, each trajectory's ATE (rigid alignment; trajectory_error.h) follows its label.
-  auto ate_label = [&](const Values* v, const std::string& text) {
-    if (truth == nullptr || !options.show_ate) return text;
-    const TrajectoryError e = AbsoluteTrajectoryError(*v, *truth);
-    return e.poses == 0 ? text : text + " (ATE " + FormatMetres(e.rmse) + ")";
-  };
-  if (lt.present) line_item(kTruthColour, 4.0, options.truth_label);
-  if (lb.present) line_item(kBeforeColour, 2.0, ate_label(before, options.before_label));
-  if (la.present) line_item(kAfterColour, 2.0, ate_label(after, options.after_label));
+  if (lt.present) line_item(kTruthColour, 4.0, lt.label);
+  if (lb.present) line_item(kBeforeColour, 2.0, lb.label);
+  if (la.present) line_item(kAfterColour, 2.0, la.label);
   if (!loops.empty()) line_item(kLoopColour, 1.0, "loop closures");
   if (!la.landmarks.empty() || !lb.landmarks.empty()) {
     svg += "<rect x=\"" + Num(x + 9.0) + "\" y=\"" + Num(legend_y - 2.0) + "\" width=\"4\" height=\"4\" fill=\"" +

@@ -148,15 +148,21 @@ lidar::LaserScan MakeScan(const DoubleArray& ranges, double angle_min, double an
                           double range_min, double range_max, const py::object& odometry,
                           const py::object& laser_offset);
 
-void BindErrors(py::module_& m);
-void BindGeometry(py::module_& m);
-void BindGraph(py::module_& m);
-void BindPythonFactor(py::module_& m);
-void BindSolve(py::module_& m);
-void BindFrontends(py::module_& m);
-void BindLidar(py::module_& m);
-void BindEvaluation(py::module_& m);
-void BindLocalization(py::module_& m);
+/// One part of the module: each binding file adds its part with one line after its bind
+/// function,
+///   TETHER_PYTHON_PART(80, BindLocalization);
+/// and module.cc binds every part in the order of the numbers (a part whose classes another
+/// part uses as base classes or default arguments comes first; the built-in parts use 0-80).
+/// So a new front-end's binding is its own file and nothing else (the build takes every file
+/// in python_bindings/src).
+class ModulePart {
+ public:
+  using Bind = void (*)(py::module_&);
+  ModulePart(int order, const char* name, Bind bind);
+  /// Binds every part into `m`, in order (equal numbers by name).
+  static void BindAll(py::module_& m);
+};
+#define TETHER_PYTHON_PART(order, bind) static const ::tether::python::ModulePart kModulePart##bind(order, #bind, &bind)
 
 }  // namespace python
 }  // namespace tether

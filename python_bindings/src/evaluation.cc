@@ -1,5 +1,6 @@
 // Measuring and drawing results: the absolute trajectory error and the SVG plot of a graph's
 // trajectory, the same code `tether optimize --ground-truth --plot` uses.
+#include <cmath>
 #include <optional>
 
 #include "common.h"
@@ -30,6 +31,111 @@ std::string Render(const FactorGraph& graph, const Values* before, const Values*
   }
   py::gil_scoped_release release;
   return RenderSvg(graph, before, after, truth, options);
+}
+
+// The x and the y of the runs one after another, a NaN between two runs: one line for matplotlib.
+std::pair<DoubleArray, DoubleArray> RunsXY(const std::vector<std::vector<svg::Pt>>& runs) {
+  std::size_t n = 0;
+  for (const auto& r : runs) n += r.size() + 1;
+  const py::ssize_t size = static_cast<py::ssize_t>(n == 0 ? 0 : n - 1);
+  DoubleArray x(size), y(size);
+  double *px = x.mutable_data(), *py_ = y.mutable_data();
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (i > 0) *px++ = NAN, *py_++ = NAN;
+    for (const svg::Pt& q : runs[i]) *px++ = q.x, *py_++ = q.y;
+  }
+  return {x, y};
+}
+
+// Draws the scene on a matplotlib Axes (a new figure where `ax` is None); the Axes.
+py::object DrawWithMatplotlib(const PlotScene& scene, const PlotOptions& options, py::object ax) {
+  using namespace pybind11::literals;
+  if (ax.is_none()) {
+    const py::module_ plt = py::module_::import("matplotlib.pyplot");
+    const double w = options.width_px / 100.0;
+    const double h = options.height_px > 0 ? options.height_px / 100.0 : 0.75 * w;
+    ax = plt.attr("subplots")("figsize"_a = py::make_tuple(w, h)).cast<py::tuple>()[1];
+  }
+  const auto line = [&ax](const PlotLayer& l, double width, int z) {
+    if (!l.present) return;
+    const auto [x, y] = RunsXY(l.runs);
+    ax.attr("plot")(x, y, "color"_a = l.colour, "linewidth"_a = width, "label"_a = l.label, "zorder"_a = z,
+                    "solid_capstyle"_a = "round");
+  };
+  line(scene.truth, 4.0, 1);
+  line(scene.before, 1.2, 2);
+  line(scene.after, 1.2, 3);
+  if (!scene.loop_closures.empty()) {
+    std::vector<std::vector<svg::Pt>> segments;
+    for (const auto& [a, b] : scene.loop_closures) segments.push_back({a, b});
+    const auto [x, y] = RunsXY(segments);
+    ax.attr("plot")(x, y, "color"_a = scene.loop_colour, "linewidth"_a = 0.5, "alpha"_a = 0.6,
+                    "label"_a = "loop closures", "zorder"_a = 4);
+  }
+  for (const PlotLayer* l : {&scene.before, &scene.after}) {
+    if (l->landmarks.empty()) continue;
+    const auto [x, y] = RunsXY({l->landmarks});
+    ax.attr("scatter")(x, y, "s"_a = 9, "marker"_a = "s", "color"_a = l->landmark_colour, "zorder"_a = 5,
+                       "label"_a = l == &scene.after || scene.after.landmarks.empty() ? "landmarks" : "_nolegend_");
+  }
+  if (scene.has_start) {
+    ax.attr("plot")(scene.start.x, scene.start.y, "marker"_a = "o", "markerfacecolor"_a = "none",
+                    "color"_a = scene.start_colour, "label"_a = "start", "zorder"_a = 6);
+  }
+  ax.attr("set_aspect")("equal", "adjustable"_a = "datalim");
+  if (!options.title.empty()) ax.attr("set_title")(options.title);
+  ax.attr("legend")("loc"_a = "best", "fontsize"_a = "small");
+  return ax;
+}
+
+bool HaveMatplotlib() {
+  try {
+    py::module_::import("matplotlib");
+    return true;
+  } catch (const py::error_already_set& e) {
+    if (!e.matches(PyExc_ImportError)) throw;
+    return false;
+  }
+}
+
+py::object Plot(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                const PlotOptions& options, const py::object& ax, const std::string& path, const std::string& backend) {
+  if (backend != "auto" && backend != "matplotlib" && backend != "svg") {
+    throw InvalidArgument("unknown plot backend '" + backend + "'; use auto, matplotlib or svg");
+  }
+  const bool matplotlib = backend == "matplotlib" || (backend == "auto" && HaveMatplotlib());
+  if (!matplotlib) {
+    if (!ax.is_none()) {
+      throw InvalidArgument(
+          "an Axes (ax) needs matplotlib, which is not installed (Debian: apt-get install "
+          "python3-matplotlib); without ax the plot is drawn as SVG");
+    }
+    const std::string svg = Render(graph, before, after, truth, options);
+    if (!path.empty()) {
+      OutputFile file(path, "plot");
+      file.Stage(svg);
+      file.Commit();
+    }
+    return py::str(svg);
+  }
+  if (backend == "matplotlib" && !HaveMatplotlib()) {
+    throw InvalidArgument(
+        "backend 'matplotlib': matplotlib is not installed (Debian: apt-get install "
+        "python3-matplotlib); backend 'svg' draws the same picture as SVG");
+  }
+  PlotScene scene;
+  {
+    const InUse::Scope graph_read(&graph, "FactorGraph", "plot", InUse::Access::kRead);
+    std::optional<InUse::Scope> reads[3];
+    const Values* all[3] = {before, after, truth};
+    for (int i = 0; i < 3; ++i) {
+      if (all[i] != nullptr) reads[i].emplace(all[i], "Values", "plot", InUse::Access::kRead);
+    }
+    scene = BuildPlotScene(graph, before, after, truth, options);
+  }
+  py::object axes = DrawWithMatplotlib(scene, options, ax);
+  if (!path.empty()) axes.attr("figure").attr("savefig")(path);
+  return axes;
 }
 
 }  // namespace
@@ -85,6 +191,14 @@ void BindEvaluation(py::module_& m) {
       py::arg("truth") = nullptr, py::arg("options") = PlotOptions(),
       "plot_svg written to `path` through a temporary file renamed into place (never half a file).");
 
+  m.def("plot", &Plot, py::arg("graph"), py::arg("before") = nullptr, py::arg("after") = nullptr,
+        py::arg("truth") = nullptr, py::arg("options") = PlotOptions(), py::arg("ax") = py::none(),
+        py::arg("path") = "", py::arg("backend") = "auto",
+        "The plotting helper: what plot_svg draws (the start grey, its first pose marked as the start, the result "
+        "blue, the truth a green band, loop closures, landmarks, the ATE in the labels). With matplotlib (Debian's "
+        "python3-matplotlib; backend 'auto' uses it where it is installed) it draws on `ax` (a new figure's Axes "
+        "where None), saves to `path` where given, and returns the Axes; otherwise (backend 'svg') it returns the "
+        "SVG text and writes it to `path` where given.");
   py::class_<FactorTypeCheck>(m, "FactorTypeCheck", "One factor type's Jacobian check at random points.")
       .def_readonly("type", &FactorTypeCheck::type)
       .def_readonly("trials", &FactorTypeCheck::trials)
@@ -108,6 +222,7 @@ void BindEvaluation(py::module_& m) {
       "Checks the Jacobians of the named factor types (a loaded plugin's LoadedPlugin.type_names, or built-in "
       "ones) against central differences at random points, as `tether check-plugin` does.");
 }
+TETHER_PYTHON_PART(70, BindEvaluation);
 
 }  // namespace python
 }  // namespace tether

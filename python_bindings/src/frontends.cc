@@ -342,6 +342,7 @@ void BindFrontends(py::module_& m) {
       "(graph, initial, ground_truth) of a simulated world, as `tether simulate` makes it: 'manhattan' (SE2 "
       "grid walk), 'sphere' (SE3), 'landmarks' (SE2 poses and 2D points).");
 }
+TETHER_PYTHON_PART(50, BindFrontends);
 
 }  // namespace python
 }  // namespace tether

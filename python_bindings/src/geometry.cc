@@ -171,6 +171,7 @@ void BindGeometry(py::module_& m) {
       .def("__mul__", [](const SE3d& a, const Eigen::Vector3d& p) { return Eigen::Vector3d(a * p); })
       .def("__repr__", [](const SE3d& p) { return Repr(p); });
 }
+TETHER_PYTHON_PART(10, BindGeometry);
 
 }  // namespace python
 }  // namespace tether

@@ -367,7 +367,21 @@ void BindFactors(py::module_& m) {
                                for (VarType t : f.variable_types()) names.emplace_back(ToString(t));
                                return names;
                              })
-      .def("measurement", &Factor::Measurement, "The measurement in the type's file layout.")
+      .def("measurement", &Factor::Measurement, "The measurement in the type's file layout, as a list of numbers.")
+      .def_property_readonly(
+          "measured",
+          [](const Factor& f) -> py::object {
+            const std::vector<double> z = f.Measurement();
+            const FactorType* t = DefaultRegistry().FindByName(f.type_name());
+            VarType type;
+            if (t != nullptr && MeasurementIsAValue(*t, &type) && static_cast<int>(z.size()) == AmbientDim(type)) {
+              return ToPython(type, z.data());
+            }
+            return CopyToArray(z.data(), static_cast<int>(z.size()));
+          },
+          "The measurement as a value: an SE2 or SE3 where it is a relative pose or a pose prior (so "
+          "x_i * f.measured predicts x_j), a point array where it is a point; otherwise the numbers of its file "
+          "layout as an array.")
       .def_property("noise", &Factor::noise, &Factor::set_noise)
       .def_property(
           "loss", [](const Factor& f) { return std::const_pointer_cast<LossFunction>(f.shared_loss()); },
@@ -625,6 +639,7 @@ void BindGraph(py::module_& m) {
   BindFactors(m);
   BindFactorGraph(m);
 }
+TETHER_PYTHON_PART(20, BindGraph);
 
 }  // namespace python
 }  // namespace tether

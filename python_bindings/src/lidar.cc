@@ -401,6 +401,7 @@ void BindLidar(py::module_& m) {
           "The run's saved state as a LidarState (after finish()).");
   BindSavedMaps(li);
 }
+TETHER_PYTHON_PART(60, BindLidar);
 
 }  // namespace python
 }  // namespace tether

@@ -843,6 +843,7 @@ void BindLocalization(py::module_& m) {
   BindFilter(lo);
   BindRun(lo);
 }
+TETHER_PYTHON_PART(80, BindLocalization);
 
 }  // namespace python
 }  // namespace tether

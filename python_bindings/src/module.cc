@@ -1,6 +1,8 @@
 // The Python module `tether`: the entry point, tether's errors as Python exceptions, and the
 // conversions every other part of the module shares.
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include "common.h"
 #include "tether/core/version.h"
@@ -160,6 +162,30 @@ void FromPython(VarType t, const py::handle& obj, double* out, const std::string
 
 namespace {
 
+struct Part {
+  int order;
+  const char* name;
+  ModulePart::Bind bind;
+};
+std::vector<Part>& Parts() {
+  static std::vector<Part> parts;  // filled while the module's library is loaded
+  return parts;
+}
+
+}  // namespace
+
+ModulePart::ModulePart(int order, const char* name, Bind bind) { Parts().push_back({order, name, bind}); }
+
+void ModulePart::BindAll(py::module_& m) {
+  std::vector<Part> parts = Parts();
+  std::sort(parts.begin(), parts.end(), [](const Part& a, const Part& b) {
+    return a.order != b.order ? a.order < b.order : std::string(a.name) < b.name;
+  });
+  for (const Part& p : parts) p.bind(m);
+}
+
+namespace {
+
 // The Python classes of tether's errors; created once, alive for the process.
 struct ErrorTypes {
   py::handle error, parse, invalid, io, plugin, rank, in_use;
@@ -220,6 +246,7 @@ void BindErrors(py::module_& m) {
     }
   });
 }
+TETHER_PYTHON_PART(0, BindErrors);
 
 }  // namespace python
 }  // namespace tether
@@ -231,13 +258,5 @@ PYBIND11_MODULE(tether, m) {
       "Gauss-Newton / Levenberg-Marquardt / dog-leg over sparse Cholesky or QR, an incremental smoother, "
       "marginal covariances, EKF/UKF-SLAM front-ends). Arrays are float64 NumPy arrays; keys are ints.";
   m.attr("__version__") = TETHER_VERSION_STRING;
-  tp::BindErrors(m);
-  tp::BindGeometry(m);
-  tp::BindGraph(m);
-  tp::BindPythonFactor(m);
-  tp::BindSolve(m);
-  tp::BindFrontends(m);
-  tp::BindLidar(m);
-  tp::BindEvaluation(m);
-  tp::BindLocalization(m);
+  tp::ModulePart::BindAll(m);
 }

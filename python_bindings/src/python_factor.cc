@@ -188,6 +188,7 @@ void BindPythonFactor(py::module_& m) {
            py::arg("keys"), py::arg("types"), py::arg("dim"), py::arg("error"), py::arg("noise"),
            py::arg("jacobians") = py::none(), py::arg("name") = "PythonFactor", py::arg("step") = 1e-6);
 }
+TETHER_PYTHON_PART(30, BindPythonFactor);
 
 }  // namespace python
 }  // namespace tether

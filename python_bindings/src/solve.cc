@@ -365,14 +365,48 @@ void BindPipeline(py::module_& m) {
       .def_readonly("optimized", &PipelineResult::optimized)
       .def_readonly("summary", &PipelineResult::summary)
       .def_readonly("values", &PipelineResult::values)
-      .def_readonly("written", &PipelineResult::written);
+      .def_readonly("truth", &PipelineResult::truth, "the ground truth as read (with ground_truth)")
+      .def_readonly("start_error", &PipelineResult::start_error,
+                    "TrajectoryError of the file's start against the ground truth")
+      .def_readonly("result_error", &PipelineResult::result_error,
+                    "TrajectoryError of the result against the ground truth")
+      .def_property_readonly(
+          "covariances",
+          [](const PipelineResult& r) {
+            py::dict d;
+            for (std::size_t i = 0; i < r.covariances.keys.size(); ++i) {
+              d[py::int_(r.covariances.keys[i])] = r.covariances.matrices[i];
+            }
+            return d;
+          },
+          "{key: covariance matrix} (with covariance), in the variable's tangent coordinates")
+      .def_readonly("written", &PipelineResult::written, "every output was written")
+      .def_readonly("written_paths", &PipelineResult::written_paths,
+                    "the files written: graph, rejected closures, covariances, plot")
+      .def_readonly("output_notes", &PipelineResult::output_notes,
+                    "notes on an earlier interrupted commit finished or undone");
   m.def(
       "run_pipeline",
       [](const std::string& input, const std::string& output, const std::string& init, const SolverOptions& solver,
-         const std::vector<std::string>& robust, const std::string& format, bool keep_initial) {
+         const std::vector<std::string>& robust, const std::string& format, bool keep_initial,
+         const py::object& covariance, const std::string& covariance_output, const std::string& plot,
+         const std::string& ground_truth) {
         PipelineOptions po;
         po.input = input;
         po.output = output;
+        po.covariance = !covariance.is_none();
+        if (py::isinstance<py::str>(covariance)) {
+          if (covariance.cast<std::string>() != "all") {
+            throw InvalidArgument("covariance is None, 'all' or a sequence of keys, got '" +
+                                  covariance.cast<std::string>() + "'");
+          }
+        } else if (po.covariance) {
+          const KeyArray keys = CheckedKeys(covariance, "covariance");
+          po.covariance_keys.assign(keys.data(), keys.data() + keys.size());
+        }
+        po.covariance_output = covariance_output;
+        po.plot_output = plot;
+        po.ground_truth = ground_truth;
         po.init = NamedFrom<InitMethod>(init, "initialisation");
         po.solver = solver;
         po.read.format = NamedFrom<FileFormat>(format, "file format");
@@ -397,8 +431,12 @@ void BindPipeline(py::module_& m) {
       },
       py::arg("input"), py::arg("output") = "", py::arg("init") = "chordal", py::arg("options") = SolverOptions(),
       py::arg("robust") = std::vector<std::string>(), py::arg("format") = "auto", py::arg("keep_initial") = false,
-      "What `tether optimize` does: read, initialise, optimise, write (where output is given). Never raises "
-      "for a bad file: the result's status and message say what happened (as the CLI's exit code does).");
+      py::arg("covariance") = py::none(), py::arg("covariance_output") = "", py::arg("plot") = "",
+      py::arg("ground_truth") = "",
+      "What `tether optimize` does: read, initialise, optimise, and write every output together (all or none): "
+      "the graph (output), the marginal covariances (covariance: 'all' or keys; to covariance_output, default "
+      "OUTPUT.cov), an SVG (plot), and with ground_truth the trajectory errors (start_error, result_error). Never "
+      "raises for a bad file: the result's status and message say what happened (as the CLI's exit code does).");
 }
 
 void BindPlugins(py::module_& m) {
@@ -436,6 +474,7 @@ void BindSolve(py::module_& m) {
   BindPipeline(m);
   BindPlugins(m);
 }
+TETHER_PYTHON_PART(40, BindSolve);
 
 }  // namespace python
 }  // namespace tether

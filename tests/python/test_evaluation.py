@@ -4,6 +4,7 @@ names that come from the library's one table of enum names."""
 import math
 import re
 import subprocess
+import sys
 
 import pytest
 
@@ -67,6 +68,51 @@ def test_the_plot_is_the_commands_plot(tmp_path, cli):
         bad = tether.PlotOptions()
         bad.width_px = 10
         tether.plot_svg(graph, after=result, options=bad)
+
+
+def test_plot_helper_draws_with_matplotlib_where_installed(tmp_path):
+    mpl = pytest.importorskip("matplotlib", reason="python3-matplotlib is not installed")
+    mpl.use("Agg")
+    graph, initial, result, truth = _solved_world()
+    options = tether.PlotOptions()
+    options.title = "world"
+    options.before_label = "file's start"
+    options.after_label = "result"
+    path = tmp_path / "p.png"
+    ax = tether.plot(graph, before=initial, after=result, truth=truth, options=options, path=str(path))
+    assert ax.get_title() == "world"
+    labels = [line.get_label() for line in ax.get_lines()]
+    ate = tether.absolute_trajectory_error(result, truth).rmse
+    assert labels[0] == "ground truth" and labels[1].startswith("file's start (ATE ")
+    assert labels[2].startswith("result (ATE ") and ate > 0
+    assert "loop closures" in labels and labels[-1] == "start"
+    # The result's line is its poses in key order (one run: odometry joins them all).
+    after = ax.get_lines()[2]
+    xs = after.get_xdata()
+    assert len(xs) == 200
+    assert xs[17] == pytest.approx(result.at(17).x) and after.get_ydata()[17] == pytest.approx(result.at(17).y)
+    assert path.read_bytes().startswith(b"\x89PNG")
+    # On an Axes the caller made, nothing else is made.
+    import matplotlib.pyplot as plt
+
+    fig, mine = plt.subplots()
+    assert tether.plot(graph, after=result, ax=mine) is mine
+    plt.close("all")
+
+
+def test_plot_helper_falls_back_to_svg(tmp_path, monkeypatch):
+    graph, initial, result, truth = _solved_world()
+    svg = tether.plot(graph, before=initial, after=result, truth=truth, backend="svg", path=str(tmp_path / "p.svg"))
+    assert svg == tether.plot_svg(graph, before=initial, after=result, truth=truth)
+    assert (tmp_path / "p.svg").read_text() == svg
+    # Without matplotlib, 'auto' draws the SVG; asking for matplotlib says how to get it.
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    assert tether.plot(graph, after=result) == tether.plot_svg(graph, after=result)
+    with pytest.raises(tether.InvalidArgument, match="python3-matplotlib"):
+        tether.plot(graph, after=result, backend="matplotlib")
+    with pytest.raises(tether.InvalidArgument, match="auto, matplotlib or svg"):
+        tether.plot(graph, after=result, backend="png")
 
 
 def test_enum_options_take_the_tables_names():

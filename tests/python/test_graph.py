@@ -127,6 +127,31 @@ def test_factor_evaluate_linearize_and_losses():
     assert f.measurement() == [1.0, 0.0, 0.0]
 
 
+def test_measured_composes_with_poses():
+    # Read back from a graph, a factor is a plain Factor: its measurement is still a value that
+    # composes with the poses (a relative pose an SE2, a pose prior an SE2, a point an array).
+    graph, _, truth = tether.simulate("landmarks", poses=30, seed=3, landmarks=20)
+    kinds = set()
+    for i in range(len(graph)):
+        f = graph[i]
+        z = f.measured
+        if f.type_name == "BetweenSE2":
+            assert isinstance(z, tether.SE2)
+            a, b = f.keys
+            predicted = truth[a] * z
+            assert abs(predicted.x - truth[b].x) < 0.2 and abs(predicted.y - truth[b].y) < 0.2
+            assert [z.x, z.y, z.theta] == pytest.approx(f.measurement(), abs=1e-12)
+        else:
+            assert isinstance(z, np.ndarray) and z.shape == (len(f.measurement()),)
+            np.testing.assert_allclose(z, f.measurement())
+        kinds.add(f.type_name)
+    assert "BetweenSE2" in kinds and len(kinds) >= 2
+    prior = tether.make_factor("PriorSE2", [0], [1.0, 2.0, 0.5], tether.SqrtInformation.identity(3))
+    assert isinstance(prior.measured, tether.SE2) and prior.measured.y == 2.0
+    rb = tether.make_factor("RangeBearing2", [0, 1], [3.0, 0.25], tether.SqrtInformation.identity(2))
+    assert isinstance(rb.measured, np.ndarray) and list(rb.measured) == [3.0, 0.25]
+
+
 def test_graph_handles_remove_and_copies():
     g = tether.FactorGraph()
     n = tether.SqrtInformation.identity(3)

@@ -43,6 +43,30 @@ def test_parse_error_names_file_and_line(tmp_path):
     assert not result.ok() and result.status == "bad-input" and "bad.g2o:3" in result.message
 
 
+def test_pipeline_writes_every_output_together(tmp_path):
+    graph, initial, truth = tether.simulate("manhattan", poses=80, seed=7)
+    tether.write_g2o(str(tmp_path / "in.g2o"), graph, initial)
+    tether.write_g2o(str(tmp_path / "truth.g2o"), graph, truth)
+    out, plot = tmp_path / "out.g2o", tmp_path / "plot.svg"
+    result = tether.run_pipeline(str(tmp_path / "in.g2o"), output=str(out), covariance=[4, 9], plot=str(plot),
+                                 ground_truth=str(tmp_path / "truth.g2o"))
+    assert result.ok(), result.message
+    assert result.written_paths == [str(out), str(out) + ".cov", str(plot)]
+    assert sorted(result.covariances) == [4, 9] and result.covariances[9].shape == (3, 3)
+    marginals = tether.Marginals(result.graph, result.values)
+    np.testing.assert_allclose(result.covariances[9], marginals.marginal(9), rtol=1e-9)
+    assert result.result_error.poses == 80 and result.result_error.rmse < 0.5 * result.start_error.rmse
+    assert plot.read_text().startswith("<svg") and "ground truth" in plot.read_text()
+    # A stage after the solve that fails replaces none of the files.
+    out.write_text("old\n")
+    failed = tether.run_pipeline(str(tmp_path / "in.g2o"), output=str(out), covariance=[4, 99999], plot=str(plot))
+    assert failed.status == "bad-input" and "99999" in failed.message and not failed.written
+    assert out.read_text() == "old\n" and plot.read_text().startswith("<svg")
+    with pytest.raises(tether.InvalidArgument, match="covariance is None, 'all' or a sequence of keys"):
+        tether.run_pipeline(str(tmp_path / "in.g2o"), output=str(out), covariance="some")
+    assert tether.run_pipeline(str(tmp_path / "in.g2o"), covariance="all").status == "invalid-options"
+
+
 def test_write_and_read_back(tmp_path):
     graph, initial, _ = tether.simulate("manhattan", poses=50, seed=7)
     out = tmp_path / "m.g2o"

@@ -1,5 +1,6 @@
 #include "tether/tools/command.h"
 
+#include <cctype>
 #include <ostream>
 
 #include "tether/core/error.h"
@@ -52,6 +53,27 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
     }
   }
   return true;
+}
+
+}  // namespace tether
+
+namespace tether {
+
+std::string WithFlags(std::string why, const std::vector<FieldFlag>& fields) {
+  for (const auto& [field, flag] : fields) {
+    const std::string name = field;
+    for (std::size_t at = why.find(name); at != std::string::npos; at = why.find(name, at + 1)) {
+      const std::size_t end = at + name.size();
+      const auto word = [&why](std::size_t i) {
+        return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_';
+      };
+      if ((at > 0 && word(at - 1)) || (end < why.size() && word(end))) continue;
+      const std::string shown = " (" + std::string(flag) + ")";
+      why.insert(end, shown);
+      at = end + shown.size() - 1;
+    }
+  }
+  return why;
 }
 
 }  // namespace tether

@@ -121,24 +121,6 @@ bool Given(const LidarCommand& cmd, const char* flag) {
   return std::find(cmd.given.begin(), cmd.given.end(), flag) != cmd.given.end();
 }
 
-// `why` with the flag after each field name it mentions: "huber_delta (--huber) must ...".
-std::string WithFlags(std::string why) {
-  for (const auto& [field, flag] : kFieldFlags) {
-    const std::string name = field;
-    for (std::size_t at = why.find(name); at != std::string::npos; at = why.find(name, at + 1)) {
-      const std::size_t end = at + name.size();
-      const auto word = [&why](std::size_t i) {
-        return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_';
-      };
-      if ((at > 0 && word(at - 1)) || (end < why.size() && word(end))) continue;
-      const std::string shown = " (" + std::string(flag) + ")";
-      why.insert(end, shown);
-      at = end + shown.size() - 1;
-    }
-  }
-  return why;
-}
-
 // The command's own rules (the options' rules are checked once, by their IsValid); false after
 // saying why.
 bool ResolveLidarOptions(LidarCommand* cmd, std::ostream& err) {
@@ -169,7 +151,7 @@ bool ResolveLidarOptions(LidarCommand* cmd, std::ostream& err) {
   }
   std::string why;
   if (!cmd->options.IsValid(&why) || !cmd->read.IsValid(&why)) {
-    err << "tether lidar: " << WithFlags(why) << "\n";
+    err << "tether lidar: " << WithFlags(why, kFieldFlags) << "\n";
     return false;
   }
   return true;

@@ -53,6 +53,16 @@ GraphCounts Count(const Values& v) {
   return c;
 }
 
+// The pipeline's fields its messages name, with the flags that set them.
+constexpr FieldFlag kFieldFlags[] = {
+    {"output", "-o"},
+    {"rejected_output", "--rejected-out"},
+    {"covariance", "--covariance"},
+    {"covariance_output", "--covariance-out"},
+    {"gnc", "--gnc"},
+    {"switchable", "--switchable"},
+};
+
 // The step strategy's and the linear solver's names (a plugin's are known once it is loaded),
 // the robust rules (a plugin's loss likewise) and the rules between the solve's options, checked
 // once, by PipelineOptions::IsValid; false after saying why.
@@ -79,19 +89,16 @@ bool ResolveOptions(const OptimizeCommand& cmd, PipelineOptions* po, std::ostrea
   if (po->switchable) po->switchable_options.SetSolver(po->solver);
   std::string why;
   if (!po->IsValid(&why)) {
-    err << "tether optimize: " << why << "\n";
+    err << "tether optimize: " << WithFlags(why, kFieldFlags) << "\n";
     return false;
   }
   return true;
 }
 
-// --gnc, --switchable: the rejected loop closures, counted, and staged as g2o lines into
-// `file` where there is one.
-void ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, const Registry& registry,
-                    OutputFile* file, std::ostream& out) {
-  const bool gnc = cmd.pipeline.gnc;
+// --gnc, --switchable: the rejected loop closures, counted.
+void ReportRejected(const PipelineOptions& po, const PipelineResult& result, std::ostream& out) {
+  const bool gnc = po.gnc;
   const std::vector<std::size_t>& rejected = gnc ? result.gnc.rejected : result.switchable.rejected;
-  const std::vector<double>& weights = gnc ? result.gnc.weights : result.switchable.weights;
   char seconds[32];
   std::snprintf(seconds, sizeof seconds, "%.3f s", gnc ? result.gnc.seconds : result.switchable.seconds);
   if (gnc) {
@@ -99,37 +106,20 @@ void ReportRejected(const OptimizeCommand& cmd, const PipelineResult& result, co
     std::snprintf(phases, sizeof phases, "start %d iterations %.3f s, %d stages %.3f s, %d in doubt, final %.3f s; ",
                   result.gnc.start_iterations, result.gnc.start_seconds, result.gnc.stages, result.gnc.stages_seconds,
                   result.gnc.doubtful, result.gnc.final_seconds);
-    out << "gnc (" << cmd.pipeline.gnc_options.kernel << ", from " << cmd.pipeline.gnc_options.start << "): " << phases;
+    out << "gnc (" << po.gnc_options.kernel << ", from " << po.gnc_options.start << "): " << phases;
   } else {
     out << "switchable constraints: ";
   }
   out << rejected.size() << " of " << (gnc ? result.gnc.loop_closures : result.switchable.loop_closures)
       << " loop closures rejected (weight below "
       << (gnc ? GncOptions().reject_below : SwitchableOptions().reject_below) << "), " << seconds << "\n";
-  if (file == nullptr) return;
-  std::string text;
-  for (std::size_t i : rejected) {
-    char weight[64];
-    std::snprintf(weight, sizeof weight, "# factor %zu, weight %.3g\n", i, weights[i]);
-    text += weight;
-    try {
-      text += registry.Write(result.file.graph.at(i)) + "\n";
-    } catch (const Error& e) {
-      text += "# (no g2o form: " + std::string(e.what()) + ")\n";
-    }
-  }
-  file->Stage(text);
 }
 
-// --covariance: "all", or comma-separated ids into `keys`; false after saying why.
-bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std::ostream& err) {
-  if (cmd.covariance.empty()) return true;
-  if (cmd.pipeline.output.empty() && cmd.covariance_output.empty()) {
-    err << "tether optimize: --covariance needs -o OUTPUT (the covariances go to OUTPUT.cov) or --covariance-out\n";
-    return false;
-  }
-  if (cmd.covariance == "all") return true;
-  std::stringstream ss(cmd.covariance);
+// --covariance: "all", or comma-separated ids into the pipeline's keys; false after saying why.
+bool ParseCovarianceKeys(const std::string& text, PipelineOptions* po, std::ostream& err) {
+  po->covariance = !text.empty();
+  if (text.empty() || text == "all") return true;
+  std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
     std::size_t used = 0;
@@ -143,91 +133,9 @@ bool ParseCovarianceKeys(const OptimizeCommand& cmd, std::vector<Key>* keys, std
       err << "tether optimize: --covariance takes comma-separated variable ids or all; '" << item << "' is not an id\n";
       return false;
     }
-    keys->push_back(static_cast<Key>(id));
+    po->covariance_keys.push_back(static_cast<Key>(id));
   }
   return true;
-}
-
-// The marginal covariances at the solution, staged into `file`; 0, or 1 after saying why (an
-// id that has none, a singular system).
-int StageCovariances(const OptimizeCommand& cmd, const PipelineResult& result, std::vector<Key> keys, OutputFile* file,
-                     std::ostream& out, std::ostream& err) {
-  CovarianceOptions options;
-  if (cmd.linear == "ldlt" || cmd.linear == "qr") options.linear_solver = cmd.linear;
-  options.num_threads = cmd.pipeline.solver.num_threads;
-  try {
-    using Clock = std::chrono::steady_clock;
-    const Clock::time_point t0 = Clock::now();
-    const Marginals marginals(result.file.graph, result.values, options);
-    const Clock::time_point t1 = Clock::now();
-    if (cmd.covariance == "all") keys = marginals.free_keys();
-    const std::vector<Eigen::MatrixXd> cov = marginals.MarginalsOf(keys);
-    const Clock::time_point t2 = Clock::now();
-    file->Stage([&](std::ostream& s) { WriteCovariances(s, result.values, keys, cov); });
-    const auto sec = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
-    char buf[240];
-    std::snprintf(buf, sizeof buf,
-                  "covariance of %zu variables in %.4f s: linearise %.4f s, factorise %.4f s, marginals %.4f s\n",
-                  keys.size(), sec(t2 - t0), marginals.linearize_seconds(), marginals.factorize_seconds(),
-                  sec(t2 - t1));
-    out << buf << "covariance method: " << marginals.Description() << "\n";
-  } catch (const IoError&) {
-    throw;
-  } catch (const Error& e) {
-    err << "error: covariance: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
-}
-
-// Every output of `tether optimize`, checked before anything runs (paths usable, none naming
-// an input or another output) and committed together once everything is staged.
-struct OptimizeOutputs {
-  OutputSet set;
-  OutputFile* graph = nullptr;
-  OutputFile* plot = nullptr;
-  OutputFile* rejected = nullptr;
-  OutputFile* covariance = nullptr;
-};
-
-// 0, or the exit code after saying why: 2 for an output the arguments cannot have (an empty
-// path, two outputs or an input and an output on one file), 4 for a path that cannot be written.
-int PrepareOutputs(const OptimizeCommand& cmd, OptimizeOutputs* o, std::ostream& err) {
-  return CheckOutputs(
-      "optimize", o->set,
-      [&] {
-        o->set.AddInput(cmd.pipeline.input, "input graph");
-        o->set.AddInput(cmd.ground_truth, "ground truth");
-        for (const std::string& p : cmd.plugins) o->set.AddInput(p, "plugin");
-        if (!cmd.pipeline.output.empty()) o->graph = &o->set.Add(cmd.pipeline.output, "optimised graph");
-        if (!cmd.plot.empty()) o->plot = &o->set.Add(cmd.plot, "plot");
-        if (cmd.pipeline.gnc || cmd.pipeline.switchable) {
-          const std::string path = !cmd.rejected_output.empty()   ? cmd.rejected_output
-                                   : !cmd.pipeline.output.empty() ? cmd.pipeline.output + ".rejected.g2o"
-                                                                  : "";
-          if (!path.empty()) o->rejected = &o->set.Add(path, "rejected loop closures");
-        }
-        if (!cmd.covariance.empty() && (!cmd.pipeline.output.empty() || !cmd.covariance_output.empty())) {
-          const std::string path = cmd.covariance_output.empty() ? cmd.pipeline.output + ".cov" : cmd.covariance_output;
-          o->covariance = &o->set.Add(path, "covariances");
-        }
-      },
-      err);
-}
-
-// Commits every staged output and says so; 0, or kExitWriteFailed after saying why (nothing is
-// then written).
-int CommitOutputs(OutputSet* set, const std::vector<const OutputFile*>& files, std::ostream& out, std::ostream& err) {
-  try {
-    set->CommitAll();
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "\n";
-    return kExitWriteFailed;
-  }
-  for (const OutputFile* f : files) {
-    if (f != nullptr && f->committed()) out << "wrote " << f->path() << "\n";
-  }
-  return 0;
 }
 
 // The lines printed between the pipeline's stages, and the iteration table.
@@ -263,48 +171,26 @@ PipelineHooks PrintingHooks(const OptimizeCommand& cmd, PipelineOptions* po, std
   return hooks;
 }
 
-// The absolute trajectory error of the file's start and of the result against the truth.
-void ReportTrajectoryError(const OptimizeCommand& cmd, const PipelineResult& result, const Values& truth,
-                           std::ostream& out, std::ostream& err) {
-  const TrajectoryError start = AbsoluteTrajectoryError(result.file.values, truth);
-  const TrajectoryError end = AbsoluteTrajectoryError(result.values, truth);
-  if (end.poses == 0) {
-    err << "warning: " << cmd.ground_truth << " has no pose of " << cmd.pipeline.input
-        << "; no absolute trajectory error\n";
-    return;
+// What the pipeline computed after the solve, and the files it wrote.
+void PrintResult(const PipelineOptions& po, const PipelineResult& result, std::ostream& out, std::ostream& err) {
+  if (!result.optimized || !result.summary.IsSolutionUsable()) return;
+  if (po.gnc || po.switchable) ReportRejected(po, result, out);
+  const PipelineCovariances& c = result.covariances;
+  if (!c.method.empty()) {
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "covariance of %zu variables in %.4f s: linearise %.4f s, factorise %.4f s, marginals %.4f s\n",
+                  c.keys.size(), c.seconds, c.linearize_seconds, c.factorize_seconds, c.marginals_seconds);
+    out << buf << "covariance method: " << c.method << "\n";
   }
-  out << "absolute trajectory error against " << cmd.ground_truth << " (" << end.poses
-      << " poses, after a rigid alignment): start " << FormatMetres(start.rmse) << ", result " << FormatMetres(end.rmse)
-      << "\n";
-}
-
-// Stages every output of a successful run; 0, or the exit code after saying why (nothing is
-// then written).
-int StageOutputs(const OptimizeCommand& cmd, const PipelineResult& result, const std::vector<Key>& covariance_keys,
-                 const Values* truth, OptimizeOutputs* outputs, std::ostream& out, std::ostream& err) {
-  const Registry& registry = DefaultRegistry();
-  try {
-    if (outputs->graph != nullptr) {
-      outputs->graph->Stage([&](std::ostream& s) { WriteG2o(s, result.values, result.file.graph, registry); });
-    }
-    if (cmd.pipeline.gnc || cmd.pipeline.switchable) ReportRejected(cmd, result, registry, outputs->rejected, out);
-    if (outputs->covariance != nullptr) {
-      const int rc = StageCovariances(cmd, result, covariance_keys, outputs->covariance, out, err);
-      if (rc != 0) return rc;
-    }
-    if (truth != nullptr) ReportTrajectoryError(cmd, result, *truth, out, err);
-    if (outputs->plot != nullptr) {
-      PlotOptions plot;
-      plot.title = cmd.pipeline.input;
-      plot.before_label = "file's start";
-      plot.after_label = "result";
-      outputs->plot->Stage(RenderSvg(result.file.graph, &result.file.values, &result.values, truth, plot));
-    }
-  } catch (const Error& e) {
-    err << "error: " << e.what() << "; nothing was written\n";
-    return kExitWriteFailed;
+  if (!po.ground_truth.empty() && result.result_error.poses == 0) {
+    err << "warning: " << po.ground_truth << " has no pose of " << po.input << "; no absolute trajectory error\n";
+  } else if (!po.ground_truth.empty()) {
+    out << "absolute trajectory error against " << po.ground_truth << " (" << result.result_error.poses
+        << " poses, after a rigid alignment): start " << FormatMetres(result.start_error.rmse) << ", result "
+        << FormatMetres(result.result_error.rmse) << "\n";
   }
-  return kExitOk;
+  for (const std::string& path : result.written_paths) out << "wrote " << path << "\n";
 }
 
 }  // namespace
@@ -327,38 +213,18 @@ int ExitCodeOf(PipelineStatus status) {
 
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
   PipelineOptions po = cmd.pipeline;
-  if (!po.gnc && !po.switchable && !cmd.rejected_output.empty()) {
-    err << "tether optimize: --rejected-out needs --gnc or --switchable\n";
-    return kExitUsage;
-  }
-  OptimizeOutputs outputs;
-  if (const int rc = PrepareOutputs(cmd, &outputs, err); rc != 0) return rc;
-  po.output.clear();  // the graph is staged with the other outputs and committed with them
   PluginLoader loader(DefaultRegistry());
   if (!LoadPlugins(cmd.plugins, &loader, out, err)) return kExitPluginFailed;
+  if (!ParseCovarianceKeys(cmd.covariance, &po, err)) return kExitUsage;
   if (!ResolveOptions(cmd, &po, err)) return kExitUsage;
-  std::vector<Key> covariance_keys;
-  if (!ParseCovarianceKeys(cmd, &covariance_keys, err)) return kExitUsage;
-  GraphFile truth;
-  if (!cmd.ground_truth.empty()) {
-    try {
-      truth = ReadGraphFile(cmd.ground_truth, DefaultRegistry());
-    } catch (const Error& e) {
-      err << "error: " << e.what() << "\n";
-      return kExitBadInput;
-    }
-  }
   const PipelineHooks hooks = PrintingHooks(cmd, &po, out, err);
-  // The file's start is needed only to draw it or to measure its error.
-  po.keep_intermediate_values = !cmd.plot.empty() || !cmd.ground_truth.empty();
+  po.plot.before_label = "file's start";
+  po.plot.after_label = "result";
   const PipelineResult result = RunPipeline(po, DefaultRegistry(), hooks);
-  if (!result.ok()) {
-    err << "error: " << result.message << "\n";
-    return ExitCodeOf(result.status);
-  }
-  const Values* gt = cmd.ground_truth.empty() ? nullptr : &truth.values;
-  if (const int rc = StageOutputs(cmd, result, covariance_keys, gt, &outputs, out, err); rc != 0) return rc;
-  return CommitOutputs(&outputs.set, {outputs.graph, outputs.rejected, outputs.covariance, outputs.plot}, out, err);
+  for (const std::string& note : result.output_notes) err << "note: " << note << "\n";
+  PrintResult(po, result, out, err);
+  if (!result.ok()) err << "error: " << result.message << "\n";
+  return ExitCodeOf(result.status);
 }
 
 namespace {
@@ -385,7 +251,7 @@ void OptimizeCli::Add(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--covariance", cmd_.covariance,
                   "After the solve, marginal covariances of these ids (comma-separated) or of all");
-  AddPath(sub, "--covariance-out", &cmd_.covariance_output, "Covariance file (default: OUTPUT.cov)")
+  AddPath(sub, "--covariance-out", &po.covariance_output, "Covariance file (default: OUTPUT.cov)")
       ->needs("--covariance");
   AddEnumOption(sub, "--init", &po.init, "The initial guess");
   sub->add_option("--max-iterations", so.max_iterations, "Iteration limit")->capture_default_str();
@@ -403,8 +269,8 @@ void OptimizeCli::Add(CLI::App& app) {
                 "iSAM files: sqrt-information (iSAM's reading of the numbers) or covariance (GTSAM's)");
   AddEnumOption(sub, "--repair-information", &po.read.repair,
                 "What to do with information matrices that are not positive definite");
-  AddPath(sub, "--plot", &cmd_.plot, "Write an SVG of the file's start and the result (and the ground truth)");
-  AddPath(sub, "--ground-truth", &cmd_.ground_truth,
+  AddPath(sub, "--plot", &po.plot_output, "Write an SVG of the file's start and the result (and the ground truth)");
+  AddPath(sub, "--ground-truth", &po.ground_truth,
           "g2o file with the true values: report the absolute trajectory error of the start and the result, and "
           "draw the truth in --plot");
   sub->add_flag("-q,--quiet", cmd_.quiet, "No iteration table");
@@ -441,7 +307,7 @@ void OptimizeCli::AddRobustOptions(CLI::App* sub) {
                   "dimension; 1 is Sünderhauf's)")
       ->capture_default_str()
       ->needs(switchable);
-  AddPath(sub, "--rejected-out", &cmd_.rejected_output,
+  AddPath(sub, "--rejected-out", &po.rejected_output,
           "With --gnc or --switchable: write the rejected loop closures here (default: OUTPUT.rejected.g2o)");
 }
 

@@ -77,6 +77,12 @@ struct FactorType {
   std::size_t StandardFieldCount() const { return variable_types.size() + measurement_size + dim * (dim + 1) / 2; }
 };
 
+/// True where `t`'s measurement is a value of its last variable's type (a relative pose, a
+/// pose prior, a point seen from a pose): as many numbers as that type's parameters and no
+/// layout of its own, or that type's parameter names; `type` (may be null) is then that type.
+/// The rule the standard layout's messages use to name the measurement's fields.
+bool MeasurementIsAValue(const FactorType& t, VarType* type);
+
 /// A registry entry for the TypedFactor (or AutoDiffFactor) F in the standard layout: name,
 /// residual size and variable types come from the class itself.
 template <class F>

@@ -20,8 +20,11 @@
 // coordinates are not finite are left out. Coordinates are written in pixels rounded to 0.01,
 // as relative path commands, so 100k poses make a file of a few megabytes with a few elements.
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "tether/core/factor_graph.h"
+#include "tether/core/svg_writer.h"
 #include "tether/core/values.h"
 
 namespace tether {
@@ -54,6 +57,30 @@ std::string RenderSvg(const FactorGraph& graph, const Values* before, const Valu
 /// The same with the ground truth drawn too (`truth` may be null).
 std::string RenderSvg(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
                       const PlotOptions& options = {});
+
+/// What one set of values contributes to the picture, in world coordinates (metres).
+struct PlotLayer {
+  bool present = false;                    ///< the values were given
+  std::vector<std::vector<svg::Pt>> runs;  ///< the trajectory: runs of poses joined by odometry
+  std::vector<svg::Pt> landmarks;          ///< the other variables (none for the truth)
+  std::string label;                       ///< the legend's text (with the ATE, as above)
+  std::string colour;                      ///< "#rrggbb" of the trajectory
+  std::string landmark_colour;             ///< "#rrggbb" of the landmarks
+};
+
+/// Everything a plot draws, in world coordinates: what RenderSvg draws, for any other
+/// renderer (Python's tether.plot draws it with matplotlib).
+struct PlotScene {
+  PlotLayer truth, before, after;
+  std::vector<std::pair<svg::Pt, svg::Pt>> loop_closures;  ///< the segments, as above
+  std::string loop_colour, start_colour;
+  bool has_start = false;
+  svg::Pt start;  ///< the first pose drawn (of `after`, else of `before`)
+};
+
+/// The scene of RenderSvg's arguments. Throws InvalidArgument for invalid options.
+PlotScene BuildPlotScene(const FactorGraph& graph, const Values* before, const Values* after, const Values* truth,
+                         const PlotOptions& options = {});
 
 /// Writes RenderSvg's output to `path`, through a temporary file renamed into place, so a
 /// failure never leaves half a file. Throws IoError naming `path` when it cannot be written.

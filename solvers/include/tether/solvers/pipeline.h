@@ -12,6 +12,7 @@
 //
 // The stages are also callable one at a time (ReadProblem, InitializeProblem, OptimizeProblem,
 // WriteProblem); they throw where RunPipeline reports. docs/pipeline.md has more.
+#include <Eigen/Core>
 #include <functional>
 #include <string>
 #include <vector>
@@ -19,6 +20,8 @@
 #include "tether/core/graph_io.h"
 #include "tether/core/registry.h"
 #include "tether/core/robust_rules.h"
+#include "tether/core/svg_plot.h"
+#include "tether/core/trajectory_error.h"
 #include "tether/core/values.h"
 #include "tether/solvers/gnc.h"
 #include "tether/solvers/initialize.h"
@@ -41,11 +44,33 @@ struct PipelineOptions {
   SolverOptions solver;
   /// Where to write the optimised graph as g2o; empty (the default): nothing is written.
   /// Written only when the solve succeeds, through a temporary file renamed into place.
+  /// Every output of a run (this one and the four below) is checked before the input is read
+  /// and committed together once all are made: all are written, or none is replaced.
   std::string output;
+  /// With gnc or switchable: where to write the loop closures they reject, as g2o lines each
+  /// after a comment with its factor index and weight. Empty (the default): `output` +
+  /// ".rejected.g2o" where `output` is given, else nothing.
+  std::string rejected_output;
+  /// Marginal covariances at the solution (covariance.h), written by WriteCovariances. Off by
+  /// default. They use the solve's linear solver where it is ldlt or qr (cholmod otherwise)
+  /// and its threads; a singular system (a free gauge) ends the run as kBadInput.
+  bool covariance = false;
+  /// With covariance: the variables, in this order; empty (the default): every free variable.
+  std::vector<Key> covariance_keys;
+  /// With covariance: the file; empty (the default): `output` + ".cov" (one of the two is needed).
+  std::string covariance_output;
+  /// A g2o file of the true values (empty: none): the result gets the absolute trajectory
+  /// error of the file's start and of the result, and the plot draws the truth.
+  std::string ground_truth;
+  /// Where to write an SVG of the file's start and the result (and the truth); empty: none.
+  std::string plot_output;
+  /// How the plot is drawn; an empty title is the input's path.
+  PlotOptions plot;
   /// Keep the file's own start (PipelineResult::file.values) and the solve's start
   /// (PipelineResult::initial) beside the result: two more copies of the values, for plots
   /// and comparisons. Off (the default): the values are moved from stage to stage, the
-  /// result's `values` is the only copy, and `file.values` and `initial` are left empty.
+  /// result's `values` is the only copy, and `file.values` and `initial` are left empty
+  /// (a plot or a ground truth keeps them: both need the file's start).
   bool keep_intermediate_values = false;
   /// Robust loss rules applied to the graph after reading (tether/core/robust_rules.h; empty:
   /// none, every factor plain least squares). A tag no registered type has is
@@ -62,13 +87,26 @@ struct PipelineOptions {
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
+  /// The files the options name: the rejected closures' and the covariances' after their
+  /// defaults (empty where none is written).
+  std::string RejectedPath() const;
+  std::string CovariancePath() const;
+};
+
+/// What the covariance stage computed (PipelineOptions::covariance).
+struct PipelineCovariances {
+  std::vector<Key> keys;                  ///< the variables, in the file's order
+  std::vector<Eigen::MatrixXd> matrices;  ///< one per key, in its tangent coordinates
+  double seconds = 0;                     ///< the whole stage
+  double linearize_seconds = 0, factorize_seconds = 0, marginals_seconds = 0;
+  std::string method;  ///< Marginals::Description()
 };
 
 /// How a pipeline run ended.
 enum class PipelineStatus {
   kOk,              ///< solved (a usable SolverStatus) and the output, if any, written
   kInvalidOptions,  ///< PipelineOptions::IsValid failed; nothing was read
-  kBadInput,        ///< the file could not be read or initialised; nothing written
+  kBadInput,        ///< a file could not be read, the graph initialised or its covariances computed; nothing written
   kSolveFailed,     ///< the solver's status is not usable (summary says why); nothing written
   kWriteFailed,     ///< the output cannot be written (checked before reading) or writing it failed; nothing written
 };
@@ -106,8 +144,20 @@ struct PipelineResult {
   /// The solver's values (the result where the solve succeeded; the last good values
   /// otherwise).
   Values values;
-  /// The output file was written.
+  /// With PipelineOptions::ground_truth: the truth as read, and the absolute trajectory
+  /// error of the file's start and of the result against it (poses == 0 where they share no
+  /// pose).
+  Values truth;
+  TrajectoryError start_error, result_error;
+  /// With PipelineOptions::covariance: what was computed.
+  PipelineCovariances covariances;
+  /// Every output was written (there was at least one).
   bool written = false;
+  /// The files written, in the order graph, rejected closures, covariances, plot.
+  std::vector<std::string> written_paths;
+  /// Notes on the outputs' folders, to print: an earlier run's commit that was interrupted
+  /// and has now been finished or undone (OutputSet::Notes).
+  std::vector<std::string> output_notes;
 
   bool ok() const { return status == PipelineStatus::kOk; }
 };
@@ -129,10 +179,16 @@ InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMeth
 SolverSummary OptimizeProblem(const FactorGraph& graph, Values* values, const SolverOptions& options);
 /// Writes the graph with `values` as g2o to `path` (temporary file renamed). Throws IoError.
 void WriteProblem(const std::string& path, const FactorGraph& graph, const Values& values, const Registry& registry);
+/// The loop closures GNC or the switches rejected (`indices` into `graph`, `weights` by factor
+/// index), as g2o lines each after a comment with its index and weight: the text of
+/// PipelineOptions::rejected_output.
+std::string RejectedClosuresText(const FactorGraph& graph, const std::vector<std::size_t>& indices,
+                                 const std::vector<double>& weights, const Registry& registry);
 
-/// Reads, initialises, optimises and writes, as `tether optimize` does. Bad options, a bad
-/// file and an output that cannot be written are reported in the result's status and message,
-/// never thrown (only what is not a tether::Error, such as std::bad_alloc, escapes).
+/// Reads, initialises, optimises, computes what was asked (covariances, trajectory error) and
+/// writes every output together, as `tether optimize` does. Bad options, a bad file and an
+/// output that cannot be written are reported in the result's status and message, never
+/// thrown (only what is not a tether::Error, such as std::bad_alloc, escapes).
 PipelineResult RunPipeline(const PipelineOptions& options, const Registry& registry, const PipelineHooks& hooks = {});
 
 }  // namespace tether

@@ -2,8 +2,8 @@
 // One subcommand of the `tether` program. A command binds its flags straight into the options
 // struct of the library call it makes, runs that call and prints its report; tools/main.cc is
 // only the table of commands. Adding a command: a file in tools/src/ with a class derived from
-// Command and a Make...Command function, and one line in tools/main.cc's table
-// (docs/architecture.md).
+// Command and a function tether::MakeNameCommand() returning it, and X(Name) in tools/main.cc's
+// table (docs/architecture.md).
 #include <CLI/CLI.hpp>
 #include <iosfwd>
 #include <memory>
@@ -63,20 +63,14 @@ CLI::Option* AddEnumOption(CLI::App* app, const std::string& flags, E* value, co
   return o;
 }
 
-/// The commands, in the order --help lists them.
-std::unique_ptr<Command> MakeOptimizeCommand();
-std::unique_ptr<Command> MakeSimulateCommand();
-std::unique_ptr<Command> MakePluginsCommand();
-std::unique_ptr<Command> MakeCheckPluginCommand();
-std::unique_ptr<Command> MakeBenchCommand();
-std::unique_ptr<Command> MakeReplayCommand();
-std::unique_ptr<Command> MakeEkfDemoCommand();
-std::unique_ptr<Command> MakeLidarCommand();
-std::unique_ptr<Command> MakeLidarEvalCommand();
-std::unique_ptr<Command> MakeLidarDegradeCommand();
-std::unique_ptr<Command> MakeLocalizeCommand();
-std::unique_ptr<Command> MakeMclCommand();
-std::unique_ptr<Command> MakeMclDemoCommand();
-std::unique_ptr<Command> MakeMclBenchCommand();
+/// A field of a library options struct and the flag that sets it.
+using FieldFlag = std::pair<const char*, const char*>;
+/// `why` (an options struct's IsValid message) with the flag after each field name it mentions
+/// as a whole word: "huber_delta must ..." becomes "huber_delta (--huber) must ...".
+std::string WithFlags(std::string why, const std::vector<FieldFlag>& fields);
+template <std::size_t N>
+std::string WithFlags(std::string why, const FieldFlag (&fields)[N]) {
+  return WithFlags(std::move(why), std::vector<FieldFlag>(fields, fields + N));
+}
 
 }  // namespace tether

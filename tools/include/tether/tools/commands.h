@@ -23,31 +23,25 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
 /// cannot be written. `command` names the command in messages ("optimize").
 int CheckOutputs(const std::string& command, OutputSet& set, const std::function<void()>& add, std::ostream& err);
 
-/// `tether optimize`: the pipeline's options (bound to the flags directly) and what the command
-/// adds around the pipeline: plugins, the plot, the trajectory error, covariances, the rejected
-/// closures.
+/// `tether optimize`: the pipeline's options (bound to the flags directly: input, outputs,
+/// plot, ground truth, covariances, robust rules, GNC or switchable constraints) and the few
+/// words the command parses before the pipeline can take them.
 struct OptimizeCommand {
-  /// Input, output, reading, initialisation, robust rules, GNC or switchable constraints. The
-  /// solver's settings are in pipeline.solver, except its names (below).
+  /// Everything the run does and writes. The solver's settings are in pipeline.solver, except
+  /// its names (below).
   PipelineOptions pipeline;
   /// The step strategy's and the linear solver's names: a plugin's are known once it is loaded.
   std::string solver = "lm";       ///< gn | lm | dogleg | ceres | a plugin's
   std::string linear = "cholmod";  ///< cholmod | ldlt | qr | a plugin's
-  std::string plot;                ///< SVG with the file's start, the result (and the truth) (optional)
-  std::string ground_truth;        ///< g2o file with the true values: ATE reported and drawn (optional)
   bool quiet = false;              ///< no iteration table
   /// Robust loss rules, SELECTOR=KERNEL:SCALE (loop=huber:1.0, all=cauchy:2, EDGE_SE2=dcs:1;
   /// tether/core/robust_rules.h), applied in order after reading (parsed into pipeline.robust
   /// once the plugins are loaded).
   std::vector<std::string> robust;
-  /// With GNC or switchable constraints: the rejected loop closures as g2o lines (default:
-  /// OUTPUT.rejected.g2o where -o is given).
-  std::string rejected_output;
   std::vector<std::string> plugins;  ///< plugins to load first (paths or names)
   /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
-  /// free variable); empty: none. Written to covariance_output (default: output + ".cov").
+  /// free variable); empty: none. Parsed into pipeline.covariance and covariance_keys.
   std::string covariance;
-  std::string covariance_output;
 };
 
 struct PluginsListCommand {
