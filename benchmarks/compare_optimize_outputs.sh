@@ -5,8 +5,8 @@
 # every file and the exit code agree.
 #   usage: benchmarks/compare_optimize_outputs.sh BEFORE_TETHER AFTER_TETHER
 set -euo pipefail
-before=$1
-after=$2
+before=$(realpath "$1")
+after=$(realpath "$2")
 data="$(cd "$(dirname "$0")/../../shared/datasets/g2o" 2>/dev/null && pwd || true)"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

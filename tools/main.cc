@@ -25,7 +25,8 @@
   X(Localize)              \
   X(Mcl)                   \
   X(MclDemo)               \
-  X(MclBench)
+  X(MclBench)              \
+  X(Odometry)
 
 namespace tether {
 #define TETHER_DECLARE_COMMAND(Name) std::unique_ptr<Command> Make##Name##Command();

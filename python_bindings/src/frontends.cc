@@ -10,6 +10,7 @@
 #include "tether/frontends/ekf/ukf_slam.h"
 #include "tether/frontends/odometry/diff_drive.h"
 #include "tether/frontends/odometry/odometry_front_end.h"
+#include "tether/frontends/odometry/odometry_run.h"
 #include "tether/frontends/simulation/simulate.h"
 
 namespace tether {
@@ -69,6 +70,8 @@ void BindOdometry(py::module_& od) {
                                          "Composes controls into one relative motion with its covariance.")
       .def(py::init<const odometry::OdometryNoise&>(), py::arg("noise") = odometry::OdometryNoise())
       .def("add", &odometry::MotionIntegrator::Add, py::arg("u"), py::arg("dt"))
+      .def("add_motion", &odometry::MotionIntegrator::AddMotion, py::arg("delta"), py::arg("dt"),
+           "A measured SE2 motion, composed exactly, with its arc control's covariance.")
       .def_property_readonly("relative", &odometry::MotionIntegrator::relative)
       .def_property_readonly("covariance", &odometry::MotionIntegrator::covariance)
       .def("information", &odometry::MotionIntegrator::Information)
@@ -86,6 +89,8 @@ void BindOdometry(py::module_& od) {
       .def(py::init<const odometry::OdometryFrontEndOptions&>(),
            py::arg("options") = odometry::OdometryFrontEndOptions())
       .def("add", &odometry::OdometryFrontEnd::Add, py::arg("u"), py::arg("dt"), "True where a new pose was made.")
+      .def("add_motion", &odometry::OdometryFrontEnd::AddMotion, py::arg("delta"), py::arg("dt"),
+           "A measured SE2 motion (wheel odometry's pose change); True where a new pose was made.")
       .def(
           "take_new",
           [](odometry::OdometryFrontEnd& f) {
@@ -97,6 +102,28 @@ void BindOdometry(py::module_& od) {
           "(factors, values) made since the last call, for IncrementalSmoother.update.")
       .def_property_readonly("trajectory", &odometry::OdometryFrontEnd::trajectory)
       .def("pose_key", &odometry::OdometryFrontEnd::PoseKey, py::arg("i"));
+  od.def("control_between", &odometry::ControlBetween, py::arg("start"), py::arg("end"), py::arg("dt"),
+         "The control (v, w) that carries a robot from start to end along one arc in dt seconds.");
+  py::class_<odometry::OdometryReport>(od, "OdometryReport")
+      .def_readonly("messages", &odometry::OdometryReport::messages)
+      .def_readonly("steps", &odometry::OdometryReport::steps)
+      .def_readonly("merged", &odometry::OdometryReport::merged)
+      .def_readonly("sideways", &odometry::OdometryReport::sideways)
+      .def_readonly("poses", &odometry::OdometryReport::poses)
+      .def_readonly("distance", &odometry::OdometryReport::distance)
+      .def_readonly("turned", &odometry::OdometryReport::turned)
+      .def_readonly("duration", &odometry::OdometryReport::duration)
+      .def("__str__", &odometry::OdometryReport::Summary);
+  od.def(
+      "run_track",
+      [](const std::vector<double>& stamps, const std::vector<SE2d>& poses,
+         const odometry::OdometryFrontEndOptions& options) {
+        odometry::OdometryRunResult r = odometry::RunOdometry(stamps, poses, options);
+        return py::make_tuple(std::move(r.graph), std::move(r.values), std::move(r.stamps), std::move(r.report));
+      },
+      py::arg("stamps"), py::arg("poses"), py::arg("options") = odometry::OdometryFrontEndOptions(),
+      "A whole odometry track (stamps, SE2 poses) through the front-end, as `tether odometry` runs it: (graph, "
+      "values, stamps of the graph's poses, report). Each step becomes the arc's control (control_between).");
 }
 
 template <class Filter>

@@ -13,6 +13,7 @@
 #include "tether/core/error.h"
 #include "tether/factors/between_se2.h"
 #include "tether/frontends/odometry/odometry_front_end.h"
+#include "tether/frontends/odometry/odometry_run.h"
 #include "tether/solvers/incremental_smoother.h"
 
 namespace tether {
@@ -194,6 +195,95 @@ TEST(OdometryFrontEndTest, EmitsPosesAndFactorsTheSmootherTakes) {
   OdometryFrontEndOptions bad;
   bad.controls_per_pose = 0;
   EXPECT_THROW(OdometryFrontEnd{bad}, InvalidArgument);
+}
+
+// The arc's control carries the robot exactly to a pose an arc reaches, forwards and
+// backwards, turning either way and going straight.
+TEST(OdometryRunTest, TheArcsControlReachesTheNextPose) {
+  const SE2d start(2, -1, 0.7);
+  for (const Control u : {Control{0.8, 0.3}, Control{-0.5, 0.2}, Control{1.2, -1.5}, Control{0.4, 0.0},
+                          Control{-0.3, 0.0}, Control{0.0, 0.9}}) {
+    for (double dt : {0.05, 0.5, 2.0}) {
+      const SE2d end = Move(start, u, dt);
+      const Control back = ControlBetween(start, end, dt);
+      EXPECT_NEAR(back.v, u.v, 1e-9) << u.v << " " << u.w << " " << dt;
+      EXPECT_NEAR(back.w, u.w, 1e-9) << u.v << " " << u.w << " " << dt;
+      const SE2d again = Move(start, back, dt);
+      EXPECT_NEAR(again.x(), end.x(), 1e-9);
+      EXPECT_NEAR(again.y(), end.y(), 1e-9);
+    }
+  }
+  EXPECT_THROW(ControlBetween(start, start, 0), InvalidArgument);
+  EXPECT_THROW(ControlBetween(start, start, std::nan("")), InvalidArgument);
+}
+
+// A track driven by arcs: the graph's poses are the track's (every third), each factor's
+// measurement is what the poses say (chi2 0 at the dead-reckoned values), a stamp that does
+// not advance is merged into the next step, and bad tracks are refused by index.
+TEST(OdometryRunTest, ATrackBecomesThePoseGraphOfItsPoses) {
+  std::vector<double> stamps;
+  std::vector<SE2d> poses;
+  SE2d p(1, 2, -0.4);
+  double t = 10;
+  for (int k = 0; k < 61; ++k) {
+    stamps.push_back(t);
+    poses.push_back(p);
+    const Control u{0.5 + 0.01 * k, 0.3 * std::sin(0.2 * k)};
+    p = Move(p, u, 0.1);
+    t += 0.1;
+  }
+  stamps.insert(stamps.begin() + 31, stamps[30]);  // a repeated message, stamp not advancing
+  poses.insert(poses.begin() + 31, poses[30]);
+  OdometryFrontEndOptions o;
+  o.controls_per_pose = 3;
+  o.letter = '\0';
+  const OdometryRunResult r = RunOdometry(stamps, poses, o);
+  EXPECT_EQ(r.report.messages, 62);
+  EXPECT_EQ(r.report.merged, 1);
+  EXPECT_EQ(r.report.steps, 60);
+  EXPECT_EQ(r.report.poses, 21);
+  EXPECT_EQ(r.report.sideways, 0);
+  EXPECT_NEAR(r.report.duration, 6.0, 1e-9);
+  ASSERT_EQ(r.trajectory.size(), 21u);
+  ASSERT_EQ(r.stamps.size(), 21u);
+  for (int i = 0; i < 21; ++i) {
+    const std::size_t k = static_cast<std::size_t>(3 * i + (i > 10 ? 1 : 0));  // the merged message shifts them
+    EXPECT_NEAR(r.trajectory[static_cast<std::size_t>(i)].x(), poses[k].x(), 1e-9) << i;
+    EXPECT_NEAR(r.trajectory[static_cast<std::size_t>(i)].theta(), poses[k].theta(), 1e-9) << i;
+    EXPECT_DOUBLE_EQ(r.stamps[static_cast<std::size_t>(i)], stamps[k]) << i;
+    EXPECT_TRUE(r.values.Has(Key(i)));
+  }
+  EXPECT_EQ(r.graph.size(), 21u);  // the prior and 20 BetweenSE2
+  EXPECT_NEAR(r.graph.Chi2(r.values), 0.0, 1e-12);
+  double driven = 0;
+  for (int k = 0; k < 60; ++k) driven += 0.1 * (0.5 + 0.01 * k);
+  EXPECT_NEAR(r.report.distance, driven, 1e-9);
+  EXPECT_NE(r.report.Summary().find("1 stamps that did not advance merged"), std::string::npos);
+
+  // A step with a sideways part (no arc has one) is kept as measured and counted.
+  std::vector<SE2d> slipping = poses;
+  for (std::size_t k = 40; k < slipping.size(); ++k) slipping[k] = slipping[k] * SE2d(0.0, 0.05, 0.0);
+  const OdometryRunResult slip = RunOdometry(stamps, slipping, o);
+  EXPECT_EQ(slip.report.sideways, 1);
+  EXPECT_NEAR(slip.graph.Chi2(slip.values), 0.0, 1e-12);
+  EXPECT_NEAR(slip.trajectory.back().y(), slipping.back().y(), 1e-9);
+  EXPECT_NE(slip.report.Summary().find("1 steps moved sideways"), std::string::npos) << slip.report.Summary();
+
+  std::vector<double> back = stamps;
+  back[5] = 0;
+  EXPECT_THROW(RunOdometry(back, poses, o), InvalidArgument);
+  std::vector<SE2d> nan = poses;
+  nan[7] = SE2d(std::nan(""), 0, 0);
+  try {
+    RunOdometry(stamps, nan, o);
+    ADD_FAILURE() << "a NaN pose was taken";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("pose 7"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(RunOdometry({1.0}, {SE2d()}, o), InvalidArgument);
+  EXPECT_THROW(RunOdometry({1.0, 2.0}, {SE2d()}, o), InvalidArgument);
+  o.controls_per_pose = 0;
+  EXPECT_THROW(RunOdometry(stamps, poses, o), InvalidArgument);
 }
 
 }  // namespace

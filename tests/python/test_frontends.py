@@ -110,3 +110,25 @@ def test_the_ekf_demo_experiment_from_python(cli):
     assert cells(ekf_row)[:-2] == cells(cli_row)[:-2] and cells(ekf_row)[-1] == cells(cli_row)[-1]
     svg = ekf.experiment_svg(1, False, 1, setup)
     assert svg.startswith("<svg") and "EKF" in svg
+
+
+def test_odometry_track_becomes_a_pose_graph():
+    # A track driven by arcs: run_track gives the graph of every second pose, at chi2 0, and
+    # control_between recovers each arc's control.
+    pose, stamps, poses = tether.SE2(1, 2, 0.3), [], []
+    for k in range(41):
+        stamps.append(5.0 + 0.2 * k)
+        poses.append(pose)
+        pose = tether.odometry.move(pose, tether.odometry.Control(0.6, 0.4 * math.cos(0.3 * k)), 0.2)
+    u = tether.odometry.control_between(poses[3], poses[4], 0.2)
+    assert u.v == pytest.approx(0.6) and u.w == pytest.approx(0.4 * math.cos(0.9))
+    options = tether.odometry.OdometryFrontEndOptions()
+    options.controls_per_pose = 2
+    graph, values, graph_stamps, report = tether.odometry.run_track(stamps, poses, options)
+    assert report.poses == 21 and report.steps == 40 and report.merged == 0
+    assert len(values) == 21 and len(graph) == 21 and graph_stamps[-1] == pytest.approx(stamps[-1])
+    assert graph.chi2(values) == pytest.approx(0, abs=1e-9)
+    assert report.distance == pytest.approx(0.6 * 0.2 * 40)
+    assert "21 poses in the graph" in str(report)
+    with pytest.raises(tether.InvalidArgument, match="at least two"):
+        tether.odometry.run_track([1.0], [tether.SE2()])

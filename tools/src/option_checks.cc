@@ -24,6 +24,12 @@ const OptionRange kRanges[] = {
     {"optimize", "--threads", 1, 256},
     {"optimize", "--max-reuse-iterations", 0, 1e6},
     {"optimize", "--switch-prior-sigma", 0, 1e6},
+    // odometry
+    {"odometry", "--controls-per-pose", 1, 1e6},
+    {"odometry", "--v-sigma", 0, 1e3},
+    {"odometry", "--w-sigma", 0, 1e3},
+    {"odometry", "--floor-sigma", 1e-6, 1e3},
+    {"odometry", "--prior-sigma", 0, 1e6},
     // simulate
     {"simulate", "--poses", 1, 1e8},
     {"simulate", "--scans", 1, 1e7},

@@ -116,6 +116,20 @@ MotionIntegrator::MotionIntegrator(const OdometryNoise& noise) : noise_(noise) {
   }
 }
 
+Control ControlBetween(const SE2d& from, const SE2d& to, double dt) {
+  if (!(dt > 0 && std::isfinite(dt))) throw InvalidArgument("ControlBetween: dt must be positive and finite");
+  const SE2d d = from.Inverse() * to;
+  const double a = d.theta();
+  const double chord = std::hypot(d.x(), d.y());
+  // An arc turning by a has chord 2 r sin(a/2) and length r a: length = chord (a/2) / sin(a/2).
+  const double half = 0.5 * a;
+  const double ratio = std::abs(half) < 1e-6 ? 1.0 + half * half / 6.0 : half / std::sin(half);
+  const double length = chord * ratio;
+  // Forwards where the chord points ahead of the robot, backwards where it points behind it.
+  const double sign = std::cos(std::atan2(d.y(), d.x()) - half) < 0 ? -1.0 : 1.0;
+  return Control{sign * length / dt, a / dt};
+}
+
 void MotionIntegrator::Add(const Control& u, double dt) {
   if (!PositiveFinite(dt) || !std::isfinite(u.v) || !std::isfinite(u.w)) {
     throw InvalidArgument("a control needs finite v, w and a positive, finite dt");
@@ -123,6 +137,18 @@ void MotionIntegrator::Add(const Control& u, double dt) {
   Eigen::Matrix3d f;
   Eigen::Matrix<double, 3, 2> g;
   relative_ = Move(relative_, u, dt, &f, &g);
+  covariance_ = f * covariance_ * f.transpose() + g * noise_.control * g.transpose();
+  covariance_ = 0.5 * (covariance_ + covariance_.transpose()).eval();
+  ++steps_;
+}
+
+void MotionIntegrator::AddMotion(const SE2d& delta, double dt) {
+  const Control u = ControlBetween(SE2d(), delta, dt);  // throws for a bad dt
+  if (!std::isfinite(u.v) || !std::isfinite(u.w)) throw InvalidArgument("a motion needs a finite pose change");
+  Eigen::Matrix3d f;
+  Eigen::Matrix<double, 3, 2> g;
+  Move(relative_, u, dt, &f, &g);
+  relative_ = relative_ * delta;
   covariance_ = f * covariance_ * f.transpose() + g * noise_.control * g.transpose();
   covariance_ = 0.5 * (covariance_ + covariance_.transpose()).eval();
   ++steps_;

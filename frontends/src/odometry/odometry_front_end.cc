@@ -27,6 +27,15 @@ Key OdometryFrontEnd::PoseKey(int i) const { return Symbol(options_.letter, stat
 
 bool OdometryFrontEnd::Add(const Control& u, double dt) {
   integrator_.Add(u, dt);
+  return MaybeMakePose();
+}
+
+bool OdometryFrontEnd::AddMotion(const SE2d& delta, double dt) {
+  integrator_.AddMotion(delta, dt);
+  return MaybeMakePose();
+}
+
+bool OdometryFrontEnd::MaybeMakePose() {
   if (integrator_.steps() < options_.controls_per_pose) return false;
   const int i = static_cast<int>(trajectory_.size());
   trajectory_.push_back(trajectory_.back() * integrator_.relative());

@@ -57,6 +57,13 @@ Eigen::Vector3d RelativeMotion(const Control& u, double dt, Eigen::Matrix<double
 SE2d Move(const SE2d& pose, const Control& u, double dt, Eigen::Matrix3d* d_pose = nullptr,
           Eigen::Matrix<double, 3, 2>* d_control = nullptr);
 
+/// The control that moves a robot from `from` to `to` along one arc in dt seconds (dt > 0):
+/// w = dtheta / dt, and v the arc's length over dt, negative where the robot went backwards.
+/// A sideways part of the motion, which no arc has, is left out: the arc runs through the
+/// chord's length with the step's heading change. Throws InvalidArgument unless dt is positive
+/// and finite.
+Control ControlBetween(const SE2d& from, const SE2d& to, double dt);
+
 /// True for a symmetric, finite, positive semi-definite covariance of (v, w).
 bool IsControlCovariance(const Eigen::Matrix2d& c);
 
@@ -82,6 +89,10 @@ class MotionIntegrator {
   explicit MotionIntegrator(const OdometryNoise& noise = {});
   /// Adds one control over dt seconds. Throws InvalidArgument for dt <= 0 or non-finite input.
   void Add(const Control& u, double dt);
+  /// Adds a measured motion over dt seconds (a wheel odometry's pose change, in the robot's
+  /// frame at its start): composed exactly, with the covariance the control that makes it
+  /// along an arc (ControlBetween) propagates. Throws InvalidArgument as Add does.
+  void AddMotion(const SE2d& delta, double dt);
   /// The relative pose since the last Reset (identity before any Add).
   const SE2d& relative() const { return relative_; }
   /// Its covariance (rank 2 after one step, without the floor).

@@ -40,6 +40,9 @@ class OdometryFrontEnd {
   explicit OdometryFrontEnd(const OdometryFrontEndOptions& options = {});
   /// Adds a control over dt seconds; true where it completed a new pose.
   bool Add(const Control& u, double dt);
+  /// Adds a measured motion over dt seconds (MotionIntegrator::AddMotion); true where it
+  /// completed a new pose.
+  bool AddMotion(const SE2d& delta, double dt);
   /// Moves the factors and values made since the last call into `factors` and `values` (the
   /// first call also carries the start and its prior).
   void TakeNew(FactorGraph* factors, Values* values);
@@ -48,6 +51,7 @@ class OdometryFrontEnd {
   Key PoseKey(int i) const;
 
  private:
+  bool MaybeMakePose();  // a pose and its factor once controls_per_pose steps are in
   OdometryFrontEndOptions options_;
   MotionIntegrator integrator_;
   std::vector<SE2d> trajectory_;
