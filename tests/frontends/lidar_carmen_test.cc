@@ -415,6 +415,26 @@ TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {
   EXPECT_NE(ErrorOf<ParseError>([&] { ReadCarmenLog(crc); }).find("the compressed data is damaged"), std::string::npos);
   EXPECT_NE(ErrorOf<IoError>([&] { ReadCarmenLog(P("none.clf")); }).find("none.clf: cannot open the log"),
             std::string::npos);
+  // Bytes after the gzip data that are not gzip are refused, naming how many; zero padding and
+  // a second member (as `cat a.gz b.gz` makes) are read as gzip -d reads them.
+  const LidarLog whole = ReadCarmenLog(gz);
+  ASSERT_EQ(whole.scans.size(), 2000u);
+  const std::string garbage = Write("garbage.gz", bytes + "trailing junk\n");
+  const std::string m = ErrorOf<ParseError>([&] { ReadCarmenLog(garbage); });
+  EXPECT_NE(m.find(garbage + ":"), std::string::npos) << m;
+  EXPECT_NE(m.find("14 bytes after the end of the gzip data are not gzip"), std::string::npos) << m;
+  EXPECT_EQ(ReadCarmenLog(Write("padded.gz", bytes + std::string(512, '\0'))).scans.size(), 2000u);
+  std::string second;
+  for (int i = 2000; i < 2100; ++i) second += Odom(10 + i, i * 0.1, 0, 0) + Flaser(10.5 + i);
+  const std::string more = WriteGz("more.gz", second);
+  std::string more_bytes;
+  {
+    std::ifstream in(more, std::ios::binary);
+    more_bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const LidarLog both = ReadCarmenLog(Write("both.gz", bytes + more_bytes));
+  ASSERT_EQ(both.scans.size(), 2100u);
+  EXPECT_DOUBLE_EQ(both.scans.back().stamp, 10.5 + 2099);
   EXPECT_NE(ErrorOf<IoError>([&] { ReadLidarLog(P("none.clf")); }).find("cannot open the log"), std::string::npos);
 }
 

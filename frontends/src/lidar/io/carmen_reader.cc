@@ -2,8 +2,10 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -20,28 +22,136 @@ namespace lidar {
 
 namespace {
 
-// Lines of a plain or gzip file through zlib (gzopen reads plain files unchanged), of any length.
-// Read in blocks with gzread (gzgets cannot tell a NUL byte inside a line from the line's end,
-// and would join the two halves of such a line to the next one).
+// The bytes of a plain or a gzip file, read in blocks from any file a path names (a pipe
+// too: nothing seeks). A gzip file may hold several members, one after another, as `gzip -d`
+// reads them; anything after the last member that is neither another member nor zero padding
+// is refused by name (it used to be dropped without a word).
+class LogBytes {
+ public:
+  explicit LogBytes(const std::string& path) : path_(path), file_(std::fopen(path.c_str(), "rb")) {
+    if (file_ == nullptr) {
+      const int err = errno;
+      throw IoError(path + ": cannot open the log (" + (err != 0 ? std::strerror(err) : "out of memory") + ")");
+    }
+    in_.resize(1 << 17);
+    Refill();
+    gzip_ = Starts(kGzipMagic);
+    if (gzip_ && inflateInit2(&z_, 15 + 16) != Z_OK) {
+      std::fclose(file_);
+      throw IoError(path + ": cannot read the log (zlib could not start)");
+    }
+  }
+  ~LogBytes() {
+    if (gzip_) inflateEnd(&z_);
+    std::fclose(file_);
+  }
+  LogBytes(const LogBytes&) = delete;
+  LogBytes& operator=(const LogBytes&) = delete;
+
+  // Up to `n` bytes of the log into `out`; 0 at its end. `line` is the last line read, for
+  // messages. Throws ParseError on damaged or trailing gzip data, IoError where it cannot read.
+  std::size_t Read(char* out, std::size_t n, long line) {
+    line_ = line;
+    if (!gzip_) {
+      if (begin_ == end_ && !Refill()) return 0;
+      const std::size_t k = std::min(n, end_ - begin_);
+      std::memcpy(out, &in_[begin_], k);
+      begin_ += k;
+      return k;
+    }
+    z_.next_out = reinterpret_cast<Bytef*>(out);
+    z_.avail_out = static_cast<uInt>(n);
+    while (z_.avail_out == n) {
+      if (member_done_ && !NextMember(line)) break;
+      if (begin_ == end_ && !Refill()) Damaged(line, "unexpected end of file");
+      z_.next_in = reinterpret_cast<Bytef*>(&in_[begin_]);
+      z_.avail_in = static_cast<uInt>(end_ - begin_);
+      const int rc = inflate(&z_, Z_NO_FLUSH);
+      begin_ = end_ - z_.avail_in;
+      if (rc == Z_STREAM_END) {
+        member_done_ = true;
+      } else if (rc != Z_OK && !(rc == Z_BUF_ERROR && begin_ == end_)) {
+        Damaged(line, z_.msg != nullptr ? z_.msg : "error " + std::to_string(rc));
+      }
+    }
+    return n - z_.avail_out;
+  }
+
+ private:
+  static constexpr unsigned char kGzipMagic[2] = {0x1f, 0x8b};
+
+  // After a member: true where another one follows (ready to inflate), false at the end of the
+  // file (or of its zero padding); throws for other trailing data.
+  bool NextMember(long line) {
+    while (end_ - begin_ < 2 && Refill(true)) {
+    }
+    if (begin_ == end_) return false;
+    if (Starts(kGzipMagic)) {
+      inflateReset(&z_);
+      member_done_ = false;
+      return true;
+    }
+    std::size_t trailing = 0, nonzero = 0;
+    do {
+      for (std::size_t i = begin_; i < end_; ++i) nonzero += in_[i] != '\0';
+      trailing += end_ - begin_;
+      begin_ = end_;
+    } while (Refill());
+    if (nonzero == 0) return false;  // zero padding after the last member, as tape blocks leave
+    throw ParseError(path_ + ":" + std::to_string(line + 1) + ": " + std::to_string(trailing) +
+                     " bytes after the end of the gzip data are not gzip (trailing data: the file was damaged "
+                     "or appended to); `gzip -dc` shows what the gzip data holds");
+  }
+
+  bool Starts(const unsigned char (&magic)[2]) const {
+    return end_ - begin_ >= 2 && static_cast<unsigned char>(in_[begin_]) == magic[0] &&
+           static_cast<unsigned char>(in_[begin_ + 1]) == magic[1];
+  }
+
+  // Reads more of the file after what is left (kept at the front with `keep`); false at its end.
+  bool Refill(bool keep = false) {
+    std::size_t left = 0;
+    if (keep && begin_ < end_) {
+      left = end_ - begin_;
+      std::memmove(&in_[0], &in_[begin_], left);
+    }
+    begin_ = 0;
+    end_ = left;
+    const std::size_t got = std::fread(&in_[left], 1, in_.size() - left, file_);
+    if (got == 0 && std::ferror(file_)) {
+      throw IoError(path_ + ": cannot read the log after line " + std::to_string(line_) + " (" + std::strerror(errno) +
+                    ")");
+    }
+    end_ += got;
+    return got > 0;
+  }
+
+  [[noreturn]] void Damaged(long line, const std::string& what) const {
+    throw ParseError(path_ + ":" + std::to_string(line + 1) + ": the compressed data is damaged (zlib: " + what +
+                     "); the file is truncated or corrupt");
+  }
+
+  std::string path_;
+  std::FILE* file_;
+  std::string in_;
+  std::size_t begin_ = 0, end_ = 0;  // the unread input: in_[begin_, end_)
+  bool gzip_ = false;
+  bool member_done_ = false;
+  z_stream z_{};
+  long line_ = 0;  // the last line read, for messages
+};
+
+// Lines of a log (LogBytes), of any length: a NUL byte inside a line is an error, not its end.
 class GzLines {
  public:
   /// The longest line read: a scan of kMaxBeams ranges and as many remissions fits in it.
   static constexpr std::size_t kMaxLineBytes = std::size_t(32) << 20;
 
-  explicit GzLines(const std::string& path) : path_(path), file_(gzopen(path.c_str(), "rb")) {
-    if (file_ == nullptr) {
-      const int err = errno;
-      throw IoError(path + ": cannot open the log (" + (err != 0 ? std::strerror(err) : "out of memory") + ")");
-    }
-    gzbuffer(file_, 1 << 17);
-  }
-  ~GzLines() { gzclose(file_); }
-  GzLines(const GzLines&) = delete;
-  GzLines& operator=(const GzLines&) = delete;
+  explicit GzLines(const std::string& path) : path_(path), bytes_(path) {}
 
   // The next line without its end-of-line; false at the end. Throws ParseError on a damaged
-  // gzip stream (truncated, bad checksum) or a NUL byte, naming the line; IoError where the
-  // file cannot be read.
+  // gzip stream (truncated, bad checksum, trailing data) or a NUL byte, naming the line;
+  // IoError where the file cannot be read.
   bool Next(std::string* line) {
     line->clear();
     for (;;) {
@@ -84,24 +194,14 @@ class GzLines {
   bool Fill() {
     if (eof_) return false;
     buffer_.resize(1 << 16);
-    const int n = gzread(file_, &buffer_[0], static_cast<unsigned>(buffer_.size()));
-    int code = Z_OK;
-    const char* message = gzerror(file_, &code);
-    if (code == Z_ERRNO || (n < 0 && code == Z_OK)) {
-      throw IoError(path_ + ": cannot read the log after line " + std::to_string(line_) + " (" + std::strerror(errno) +
-                    ")");
-    }
-    if (code != Z_OK) {
-      throw ParseError(path_ + ":" + std::to_string(line_ + 1) + ": the compressed data is damaged (zlib: " + message +
-                       "); the file is truncated or corrupt");
-    }
-    buffer_.resize(static_cast<std::size_t>(n));
+    const std::size_t n = bytes_.Read(&buffer_[0], buffer_.size(), line_);
+    buffer_.resize(n);
     if (n == 0) eof_ = true;
     return n > 0;
   }
 
   std::string path_;
-  gzFile file_;
+  LogBytes bytes_;
   std::string buffer_;
   std::size_t begin_ = 0;
   bool eof_ = false;
