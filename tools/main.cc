@@ -55,11 +55,13 @@ int main(int argc, char** argv) {
   for (const auto& c : commands) {
     if (!c->Selected()) continue;
     if (const int rc = c->CheckPaths(std::cerr); rc != 0) return rc;
+    // A library message that names an option's field names the flag too.
+    tether::FlagNamingStream err(std::cerr, tether::FieldFlagsOf(*c->app()));
     try {
-      return c->Run(std::cout, std::cerr);
+      return c->Run(std::cout, err);
     } catch (const std::exception& e) {
       // The commands report expected errors themselves; this is the last line of defence.
-      std::cerr << "error: " << e.what() << "\n";
+      err << "error: " << e.what() << "\n";
       return tether::kExitBadInput;
     }
   }

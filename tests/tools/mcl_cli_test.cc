@@ -89,7 +89,13 @@ TEST_F(MclCliTest, ErrorsNameTheFileAndWriteNothing) {
   EXPECT_EQ(r.code, 2) << r.output;
   r = Tether("mcl " + P("m.log") + " --map " + P("m.yaml") + " -o " + P("out") + " --alpha-slow 0.5");
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("alpha_slow"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("alpha_slow (--alpha-slow)"), std::string::npos) << r.output;
+  // A rule between two options names both flags the user typed (the library names its fields).
+  r = Tether("mcl " + P("m.log") + " --map " + P("m.yaml") + " -o " + P("out") +
+             " --kld --min-particles 900 --max-particles 500");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("min_particles (--min-particles) <= max_particles (--max-particles)"), std::string::npos)
+      << r.output;
   r = Tether("mcl " + P("m.log") + " --map " + P("m.yaml") + " -o " + P("out") + " --initial-pose=1,2");
   EXPECT_EQ(r.code, 2) << r.output;
 }

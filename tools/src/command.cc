@@ -60,20 +60,63 @@ bool LoadPlugins(const std::vector<std::string>& plugins, PluginLoader* loader, 
 namespace tether {
 
 std::string WithFlags(std::string why, const std::vector<FieldFlag>& fields) {
-  for (const auto& [field, flag] : fields) {
-    const std::string name = field;
+  for (const auto& [name, flag] : fields) {
+    const std::string shown = " (" + flag + ")";
     for (std::size_t at = why.find(name); at != std::string::npos; at = why.find(name, at + 1)) {
       const std::size_t end = at + name.size();
       const auto word = [&why](std::size_t i) {
-        return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_';
+        // A flag's dashes join its words too: "hops" in "--local-hops" is no field.
+        return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_' || why[i] == '-';
       };
       if ((at > 0 && word(at - 1)) || (end < why.size() && word(end))) continue;
-      const std::string shown = " (" + std::string(flag) + ")";
+      if (why.compare(end, shown.size(), shown) == 0) continue;  // named already
       why.insert(end, shown);
       at = end + shown.size() - 1;
     }
   }
   return why;
+}
+
+std::vector<FieldFlag> FieldFlagsOf(const CLI::App& sub) {
+  std::vector<FieldFlag> fields;
+  for (const CLI::Option* o : sub.get_options()) {
+    for (const std::string& name : o->get_lnames()) {
+      if (name.find('-') == std::string::npos) continue;
+      std::string field = name;
+      for (char& c : field) c = c == '-' ? '_' : c;
+      fields.emplace_back(field, "--" + name);
+    }
+  }
+  return fields;
+}
+
+FlagNamingStream::FlagNamingStream(std::ostream& to, std::vector<FieldFlag> fields)
+    : std::ostream(nullptr), buffer_(to, std::move(fields)) {
+  rdbuf(&buffer_);
+}
+
+FlagNamingStream::~FlagNamingStream() { buffer_.Flush(); }
+
+void FlagNamingStream::Buffer::Flush() {
+  if (!line_.empty()) to_ << WithFlags(std::move(line_), fields_);
+  line_.clear();
+  to_.flush();
+}
+
+FlagNamingStream::Buffer::int_type FlagNamingStream::Buffer::overflow(int_type c) {
+  if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+  line_.push_back(traits_type::to_char_type(c));
+  if (line_.back() == '\n') {
+    to_ << WithFlags(std::move(line_), fields_);
+    line_.clear();
+  }
+  return c;
+}
+
+int FlagNamingStream::Buffer::sync() {
+  // A flush mid-line waits for the line's end, so a field is never cut from its flag.
+  to_.flush();
+  return 0;
 }
 
 }  // namespace tether

@@ -54,7 +54,7 @@ GraphCounts Count(const Values& v) {
 }
 
 // The pipeline's fields its messages name, with the flags that set them.
-constexpr FieldFlag kFieldFlags[] = {
+constexpr std::pair<const char*, const char*> kFieldFlags[] = {
     {"output", "-o"},
     {"rejected_output", "--rejected-out"},
     {"covariance", "--covariance"},

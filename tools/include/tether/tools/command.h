@@ -7,6 +7,8 @@
 #include <CLI/CLI.hpp>
 #include <iosfwd>
 #include <memory>
+#include <ostream>
+#include <streambuf>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +36,8 @@ class Command {
   virtual int Run(std::ostream& out, std::ostream& err) = 0;
   /// True when the parse selected this command.
   bool Selected() const { return app_ != nullptr && app_->parsed(); }
+  /// The subcommand (after Add).
+  const CLI::App* app() const { return app_; }
   /// After the parse: an output flag given an empty path (`-o "$UNSET"`) is refused, naming the
   /// flag; 0 or kExitUsage.
   int CheckPaths(std::ostream& err) const;
@@ -64,13 +68,44 @@ CLI::Option* AddEnumOption(CLI::App* app, const std::string& flags, E* value, co
 }
 
 /// A field of a library options struct and the flag that sets it.
-using FieldFlag = std::pair<const char*, const char*>;
+using FieldFlag = std::pair<std::string, std::string>;
 /// `why` (an options struct's IsValid message) with the flag after each field name it mentions
-/// as a whole word: "huber_delta must ..." becomes "huber_delta (--huber) must ...".
+/// as a whole word: "huber_delta must ..." becomes "huber_delta (--huber) must ..." (once: a
+/// field already followed by its flag is left as it is).
 std::string WithFlags(std::string why, const std::vector<FieldFlag>& fields);
 template <std::size_t N>
-std::string WithFlags(std::string why, const FieldFlag (&fields)[N]) {
+std::string WithFlags(std::string why, const std::pair<const char*, const char*> (&fields)[N]) {
   return WithFlags(std::move(why), std::vector<FieldFlag>(fields, fields + N));
 }
+/// The fields a subcommand's flags name by themselves: --local-batch-gap sets local_batch_gap.
+/// Flags of two words or more only (a one-word name such as "seed" is too common a word to
+/// look for in a message).
+std::vector<FieldFlag> FieldFlagsOf(const CLI::App& sub);
+
+/// An output stream that writes each line to `to` with WithFlags(line, fields) applied: the
+/// program's error stream, so that a library message naming an option's field names the flag
+/// the user typed too. What is left of a line is written when the stream is destroyed.
+class FlagNamingStream : public std::ostream {
+ public:
+  FlagNamingStream(std::ostream& to, std::vector<FieldFlag> fields);
+  ~FlagNamingStream() override;
+
+ private:
+  class Buffer : public std::streambuf {
+   public:
+    Buffer(std::ostream& to, std::vector<FieldFlag> fields) : to_(to), fields_(std::move(fields)) {}
+    void Flush();
+
+   protected:
+    int_type overflow(int_type c) override;
+    int sync() override;
+
+   private:
+    std::ostream& to_;
+    std::vector<FieldFlag> fields_;
+    std::string line_;
+  };
+  Buffer buffer_;
+};
 
 }  // namespace tether
