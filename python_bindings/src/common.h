@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "tether/core/error.h"
+#include "tether/core/factor_graph.h"
 #include "tether/core/se2.h"
 #include "tether/core/values.h"
 #include "tether/core/variable.h"
@@ -45,37 +46,62 @@ void FromPython(VarType t, const py::handle& obj, double* out, const std::string
 VarType VarTypeByName(const std::string& name);
 
 /// The first Python exception raised by a callable that C++ code called (a Python factor, an
-/// iteration callback). The C++ code sees a tether::Error and unwinds; the binding that made
-/// the C++ call raises the original Python exception with Rethrow().
+/// iteration callback), kept for the call that ran that C++ code. The C++ code sees a
+/// tether::Error and unwinds; the binding that made the C++ call raises the original Python
+/// exception. Each call keeps its own (a Scope on the calling thread, nested calls each theirs),
+/// so two threads whose callables raise at once each get their own exception; Python factors
+/// run on the calling thread (HasPythonFactor: optimize and Marginals do not spread a graph that
+/// holds one over worker threads).
 class PendingPythonError {
  public:
-  /// Keeps the exception being handled (call inside a catch block, with the GIL held).
-  static void Keep();
-  static void Clear();
-  /// Rethrows the kept exception, if any (with the GIL held).
-  static void RethrowIfAny();
+  /// The slot of one call, on the thread that makes it; the slot in use until it is destroyed.
+  class Scope {
+   public:
+    Scope() : outer_(current_) { current_ = &error_; }
+    ~Scope() { current_ = outer_; }
+    Scope(const Scope&) = delete;
+    Scope& operator=(const Scope&) = delete;
+    /// Rethrows the kept exception, if any (with the GIL held).
+    void RethrowIfAny() {
+      std::exception_ptr e;
+      e.swap(error_);
+      if (e) std::rethrow_exception(e);
+    }
+
+   private:
+    std::exception_ptr error_;
+    std::exception_ptr* outer_;
+  };
+  /// Keeps the exception being handled for the call running on this thread (call inside a
+  /// catch block, with the GIL held). Outside any call nothing is kept: the C++ error that
+  /// follows says what happened.
+  static void Keep() {
+    if (current_ != nullptr && !*current_) *current_ = std::current_exception();
+  }
 
  private:
-  static std::mutex mutex_;
-  static std::exception_ptr error_;
+  static thread_local std::exception_ptr* current_;
 };
+
+/// True where `graph` holds a factor written in Python (python_factor.cc).
+bool HasPythonFactor(const FactorGraph& graph);
 
 /// Runs f (a C++ call that may call Python callables) and raises the first Python exception
 /// those raised, in preference to the C++ error it caused.
 template <class F>
 auto Guarded(F&& f) -> decltype(f()) {
-  PendingPythonError::Clear();
+  PendingPythonError::Scope scope;
   try {
     if constexpr (std::is_void_v<decltype(f())>) {
       f();
-      PendingPythonError::RethrowIfAny();
+      scope.RethrowIfAny();
     } else {
       auto result = f();
-      PendingPythonError::RethrowIfAny();
+      scope.RethrowIfAny();
       return result;
     }
   } catch (...) {
-    PendingPythonError::RethrowIfAny();
+    scope.RethrowIfAny();
     throw;
   }
 }

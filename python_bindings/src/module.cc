@@ -12,8 +12,7 @@
 namespace tether {
 namespace python {
 
-std::mutex PendingPythonError::mutex_;
-std::exception_ptr PendingPythonError::error_;
+thread_local std::exception_ptr* PendingPythonError::current_ = nullptr;
 std::mutex InUse::mutex_;
 std::unordered_map<const void*, InUse::Use> InUse::uses_;
 
@@ -51,28 +50,6 @@ void InUse::Check(const void* object, const char* type, Access access) {
   throw InUseError(std::string("this ") + type + " is in use by a running " + u.by +
                    " (in another thread, or its own callback or Python factor); " +
                    (access == Access::kWrite ? "change" : "read") + " it after that call returns, or use a copy");
-}
-
-void PendingPythonError::Keep() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!error_) error_ = std::current_exception();
-}
-
-void PendingPythonError::Clear() {
-  std::exception_ptr old;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    old.swap(error_);
-  }
-}
-
-void PendingPythonError::RethrowIfAny() {
-  std::exception_ptr e;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    e.swap(error_);
-  }
-  if (e) std::rethrow_exception(e);
 }
 
 KeyArray CheckedKeys(const py::object& keys, const std::string& what) {

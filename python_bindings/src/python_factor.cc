@@ -147,6 +147,13 @@ class PythonFactor : public Factor {
 
 }  // namespace
 
+bool HasPythonFactor(const FactorGraph& graph) {
+  for (const auto& f : graph.factors()) {
+    if (dynamic_cast<const PythonFactor*>(f.get()) != nullptr) return true;
+  }
+  return false;
+}
+
 void BindPythonFactor(py::module_& m) {
   py::class_<PythonFactor, Factor, std::shared_ptr<PythonFactor>>(
       m, "PythonFactor",

@@ -55,6 +55,8 @@ SolverSummary OptimizeFromPython(const FactorGraph& graph, Values& values, Solve
     options.keep_going = [&callback](const IterationSummary& it) { return CallPython(callback, it); };
   }
   InUse::Check(&values, "Values", InUse::Access::kWrite);
+  // Python factors raise into this call's own slot, on this thread (PendingPythonError).
+  if (options.num_threads > 1 && HasPythonFactor(graph)) options.num_threads = 1;
   const InUse::Scope reading(&graph, "FactorGraph", "optimize", InUse::Access::kRead);
   const InUse::Scope writing(&values, "Values", "optimize", InUse::Access::kWrite);
   return Guarded([&] {
@@ -197,7 +199,8 @@ void BindMarginalsAndSmoother(py::module_& m) {
   py::class_<Marginals>(m, "Marginals",
                         "Marginal covariances at the given values (in tangent coordinates, the order of "
                         "box-plus). The graph and values must stay unchanged while it is used.")
-      .def(py::init([](const FactorGraph& g, const Values& v, const CovarianceOptions& o) {
+      .def(py::init([](const FactorGraph& g, const Values& v, CovarianceOptions o) {
+             if (o.num_threads > 1 && HasPythonFactor(g)) o.num_threads = 1;  // as optimize
              const InUse::Scope graph_read(&g, "FactorGraph", "Marginals", InUse::Access::kRead);
              const InUse::Scope values_read(&v, "Values", "Marginals", InUse::Access::kRead);
              return Guarded([&] {

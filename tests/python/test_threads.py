@@ -252,3 +252,49 @@ def test_a_callback_may_not_update_the_smoother_it_runs_in():
     v.insert(1, tether.SE2(0.5, 0, 0))
     smoother.update(g, v)
     assert "in use by a running IncrementalSmoother.update" in state["error"]
+
+
+def test_two_threads_whose_python_factors_raise_at_once_each_get_their_own():
+    # Each solve keeps the exception its own factor raised, even when both raise at the same
+    # time and the solve asked for worker threads (a graph holding a Python factor is
+    # linearised on the calling thread).
+    class Raised(Exception):
+        pass
+
+    class First(Raised):
+        pass
+
+    class Second(Raised):
+        pass
+
+    def solve_raising(kind, seen, rounds):
+        g, v = ring(200, seed=3)
+        calls = {"n": 0}
+
+        def residual(x):
+            calls["n"] += 1
+            if calls["n"] > 5:
+                time.sleep(0.0005)  # let the other thread's factor run in between
+                raise kind(kind.__name__)
+            return np.zeros(3)
+
+        g.add(tether.PythonFactor([5, 50], ["SE2", "SE2"], 3, residual, tether.SqrtInformation.identity(3)))
+        options = tether.SolverOptions()
+        options.num_threads = 2
+        for _ in range(rounds):
+            calls["n"] = 0
+            try:
+                tether.optimize(g, v.copy(), options=options)
+                seen.append("no exception")
+            except Raised as e:
+                seen.append(type(e).__name__)
+
+    first, second = [], []
+    a = threading.Thread(target=solve_raising, args=(First, first, 20))
+    b = threading.Thread(target=solve_raising, args=(Second, second, 20))
+    a.start()
+    b.start()
+    a.join()
+    b.join()
+    assert first == ["First"] * 20
+    assert second == ["Second"] * 20
