@@ -17,6 +17,7 @@
 # build-fuzz/corpus/ is kept from run to run (delete it to start from the seeds alone).
 #
 # TETHER_FUZZ_ROUNDTRIP=0 fuzzes the readers alone (no write and read back of what was read).
+# TETHER_FUZZ_TARGETS="carmen g2o" runs only those targets (default: all six, one after another).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
@@ -56,6 +57,10 @@ if [ -d "$datasets" ]; then
     # (the reader stops early: zcat's SIGPIPE is expected, not a failure)
     { printf '\000'; zcat -f "$f" | head -n 40 || true; } > "$work/corpus/carmen/seed_$(basename "$f")"
     { printf '\010'; zcat -f "$f" | grep -m 12 -E '^(ODOM|FLASER|ROBOTLASER1)' || true; } > "$work/corpus/carmen/seed_gz_$(basename "$f")"
+    # Raw gzip bytes (two members, then trailing data) for the reader's own inflate to meet damaged.
+    { printf '\000'; zcat -f "$f" | grep -m 6 -E '^(ODOM|FLASER|ROBOTLASER1)' | gzip -c || true
+      zcat -f "$f" | grep -m 3 -E '^(ODOM|FLASER)' | gzip -c || true; printf 'junk'; } \
+      > "$work/corpus/carmen/seed_rawgz_$(basename "$f")"
   done < <(find "$datasets/lidar" -type f \( -name '*.clf*' -o -name '*.log*' \) 2> /dev/null)
   # BR lines start after the poses in example.graph: seed them from the middle too.
   if [ -f "$datasets/landmarks/example.graph" ]; then
@@ -165,7 +170,7 @@ DICT
 status=0
 echo "round trip (write and read back): $([ "${TETHER_FUZZ_ROUNDTRIP:-1}" = 0 ] && echo off || echo on)"
 printf '%-10s %8s %12s %9s %6s %6s %7s %9s\n' target seconds executions exec/s cov ft corpus findings
-for t in g2o toro isam carmen lidar_text lidar_state; do
+for t in ${TETHER_FUZZ_TARGETS:-g2o toro isam carmen lidar_text lidar_state}; do
   log="$work/fuzz_$t.log"
   dict="$work/tags.dict"
   [ "$t" = carmen ] && dict="$work/carmen.dict"
