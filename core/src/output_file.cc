@@ -642,6 +642,28 @@ void OutputSet::CommitAll() {
   CommitFiles(files, devices);
 }
 
+namespace {
+
+// Links `target` to `*backup`; true on success. Another process may rename a file over the
+// target at the same moment, and Linux then refuses the link (ENOENT: the inode it found has
+// just lost its last name) though the target stands: the link is tried again on what is there
+// now. Where the target is really gone, there is no old file to keep: `*backup` is cleared.
+bool KeepOldFile(const std::string& target, std::string* backup) {
+  for (int attempt = 0; attempt < 1000; ++attempt) {
+    if (::link(target.c_str(), backup->c_str()) == 0) return true;
+    if (errno != ENOENT) return false;
+    struct stat st;
+    if (::lstat(target.c_str(), &st) != 0) {
+      backup->clear();
+      return true;
+    }
+  }
+  errno = ENOENT;
+  return false;
+}
+
+}  // namespace
+
 void OutputSet::CommitFiles(const std::vector<OutputFile*>& files, const std::vector<OutputFile*>& devices) {
   std::vector<CommitRecord> records;
   std::string journal;
@@ -675,7 +697,7 @@ void OutputSet::CommitFiles(const std::vector<OutputFile*>& files, const std::ve
     }
     journal = WriteJournal(DirName(records.front().target), records);
     for (CommitRecord& r : records) {
-      if (r.backup.empty() || ::link(r.target.c_str(), r.backup.c_str()) == 0) continue;
+      if (r.backup.empty() || KeepOldFile(r.target, &r.backup)) continue;
       const int err = errno;
       throw IoError("'" + r.target + "': cannot keep the old file under another name while the new set of outputs " +
                     "is put in place (" + ErrText(err) + "); " + Hint(err));
