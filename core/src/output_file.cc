@@ -301,10 +301,11 @@ std::vector<std::string> RecoverInterruptedCommits(const std::string& folder) {
         // Finished: the new files stand; only the old ones and leftovers go.
         if (!r.backup.empty()) ::unlink(r.backup.c_str());
         ::unlink(r.temp.c_str());
-      } else if (!r.backup.empty()) {
-        std::rename(r.backup.c_str(), r.target.c_str());
+      } else if (!r.backup.empty() && (std::rename(r.backup.c_str(), r.target.c_str()) == 0 || errno != ENOENT)) {
         ::unlink(r.temp.c_str());
       } else {
+        // (A backup the journal names but that is not there: the target had vanished when the
+        // old file was to be kept, so there was none.)
         // No old file: the target is the new one where it was renamed already, else absent.
         struct stat t, n;
         if (::stat(r.temp.c_str(), &n) != 0 && ::stat(r.target.c_str(), &t) == 0) ::unlink(r.target.c_str());

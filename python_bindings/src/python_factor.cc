@@ -1,8 +1,9 @@
 // PythonFactor: a factor whose error (and optionally Jacobians) is a Python callable.
 //
-// The solver may call Evaluate with the GIL released (optimize releases it) and from its
-// worker threads (num_threads > 1): Evaluate takes the GIL for the call, so Python factors
-// are evaluated one at a time while the C++ factors of the same graph run in parallel. The
+// The solver calls Evaluate with the GIL released (optimize releases it); Evaluate takes the GIL
+// for the call. optimize and Marginals linearise a graph that holds a Python factor on the
+// calling thread (HasPythonFactor), so that an exception it raises is kept for that call
+// (PendingPythonError); a C++ caller with worker threads still gets a safe, serial call. The
 // callables live in one shared, immutable holder, so copying the factor (graphs copy their
 // factors) never touches a Python reference count without the GIL.
 #include <cmath>

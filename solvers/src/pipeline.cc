@@ -105,6 +105,7 @@ struct PipelineOutputs {
 void AddOutputs(const PipelineOptions& options, PipelineOutputs* o) {
   o->set.AddInput(options.input, "input graph");
   if (!options.ground_truth.empty()) o->set.AddInput(options.ground_truth, "ground truth");
+  for (const std::string& path : options.other_inputs) o->set.AddInput(path, "input");
   if (!options.output.empty()) o->graph = &o->set.Add(options.output, "optimised graph");
   if (!options.plot_output.empty()) o->plot = &o->set.Add(options.plot_output, "plot");
   if (const std::string path = options.RejectedPath(); !path.empty()) {
@@ -196,8 +197,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   try {
     AddOutputs(options, &outputs);
   } catch (const IoError& e) {
+    r.output_notes = outputs.set.Notes();
     return stop(PipelineStatus::kWriteFailed, std::string(e.what()) + "; nothing was read");
   } catch (const Error& e) {
+    r.output_notes = outputs.set.Notes();
     return stop(PipelineStatus::kInvalidOptions, e.what());
   }
   r.output_notes = outputs.set.Notes();

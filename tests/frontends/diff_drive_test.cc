@@ -280,6 +280,15 @@ TEST(OdometryRunTest, ATrackBecomesThePoseGraphOfItsPoses) {
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("pose 7"), std::string::npos) << e.what();
   }
+  // Steps after the last full pose make one more: the graph ends at the track's last pose.
+  OdometryFrontEndOptions seven = o;
+  seven.controls_per_pose = 7;
+  const OdometryRunResult tail = RunOdometry(stamps, poses, seven);
+  EXPECT_EQ(tail.report.poses, 10);  // 60 steps: 8 poses of 7, one of 4, and the start
+  EXPECT_NEAR(tail.trajectory.back().x(), poses.back().x(), 1e-9);
+  EXPECT_DOUBLE_EQ(tail.stamps.back(), stamps.back());
+  EXPECT_NEAR(tail.graph.Chi2(tail.values), 0.0, 1e-12);
+  EXPECT_THROW(RunOdometry({1.0, 1.0, 1.0}, {SE2d(), SE2d(1, 0, 0), SE2d(2, 0, 0)}, o), InvalidArgument);
   EXPECT_THROW(RunOdometry({1.0}, {SE2d()}, o), InvalidArgument);
   EXPECT_THROW(RunOdometry({1.0, 2.0}, {SE2d()}, o), InvalidArgument);
   o.controls_per_pose = 0;

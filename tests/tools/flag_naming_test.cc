@@ -18,6 +18,9 @@ TEST(FlagNamingTest, EachFieldGetsItsFlagOnceAndOnlyAsAWholeWord) {
   // "hops" inside local_hops is not the field hops; a field already named is left alone.
   EXPECT_EQ(WithFlags("local_hops (--local-hops) and hops", fields), "local_hops (--local-hops) and hops (--hops)");
   EXPECT_EQ(WithFlags("nothing here", fields), "nothing here");
+  // A path or a file name is left as it is; a field ending a sentence is named.
+  EXPECT_EQ(WithFlags("cannot open data/local_hops.g2o", fields), "cannot open data/local_hops.g2o");
+  EXPECT_EQ(WithFlags("check local_hops.", fields), "check local_hops (--local-hops).");
 }
 
 TEST(FlagNamingTest, ASubcommandsFlagsOfTwoWordsNameTheirFields) {

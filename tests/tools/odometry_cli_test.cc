@@ -27,19 +27,22 @@ TEST_F(OdometryCliTest, TheLogsOdometryBecomesAPoseGraphAndItsTrajectory) {
       Tether("odometry " + P("o.log") + " -o " + P("g.g2o") + " --trajectory " + P("t.tum") + " --controls-per-pose 2");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("odometry: 120 poses over "), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("; 60 poses in the graph"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; 61 poses in the graph"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("wrote " + P("g.g2o") + " and " + P("t.tum")), std::string::npos) << r.output;
-  // The graph: ids 0..59, the prior and a BetweenSE2 per pose, its poses those of the log's
-  // odometry (every second message), so the dead-reckoned values have chi2 0.
+  // The graph: ids 0..60, the prior and a BetweenSE2 per pose, its poses those of the log's
+  // odometry (every second message, and the last: 119 steps), so the dead-reckoned values have
+  // chi2 0.
   const GraphFile g = ReadGraphFile(P("g.g2o"), DefaultRegistry());
-  ASSERT_EQ(g.values.size(), 60u);
-  EXPECT_EQ(g.graph.size(), 60u);
+  ASSERT_EQ(g.values.size(), 61u);
+  EXPECT_EQ(g.graph.size(), 61u);
   EXPECT_LT(g.graph.Chi2(g.values), 1e-9);
   const lidar::LidarLog log = lidar::ReadCarmenLog(P("o.log"));
   const std::vector<lidar::StampedPose2>& odom = log.odometry.Sorted();
   ASSERT_EQ(odom.size(), 120u);
   const std::vector<lidar::StampedPose2> tum = lidar::ReadTumFile(P("t.tum"));
-  ASSERT_EQ(tum.size(), 60u);
+  ASSERT_EQ(tum.size(), 61u);
+  EXPECT_NEAR((tum[60].pose.translation() - odom[119].pose.translation()).norm(), 0, 1e-6);
+  EXPECT_NEAR(tum[60].stamp, odom[119].stamp, 1e-6);
   for (std::size_t i = 0; i < 60; ++i) {
     const lidar::StampedPose2& want = odom[i == 0 ? 0 : 2 * i];
     EXPECT_NEAR(tum[i].stamp, want.stamp, 1e-6) << i;

@@ -69,6 +69,8 @@ std::string WithFlags(std::string why, const std::vector<FieldFlag>& fields) {
         return std::isalnum(static_cast<unsigned char>(why[i])) || why[i] == '_' || why[i] == '-';
       };
       if ((at > 0 && word(at - 1)) || (end < why.size() && word(end))) continue;
+      // Nor in a path or a file name: data/ground_truth.g2o names no field.
+      if ((at > 0 && why[at - 1] == '/') || (end + 1 < why.size() && why[end] == '.' && word(end + 1))) continue;
       if (why.compare(end, shown.size(), shown) == 0) continue;  // named already
       why.insert(end, shown);
       at = end + shown.size() - 1;

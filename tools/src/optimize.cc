@@ -213,6 +213,7 @@ int ExitCodeOf(PipelineStatus status) {
 
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
   PipelineOptions po = cmd.pipeline;
+  po.other_inputs = cmd.plugins;  // an output may not name a plugin it loads
   PluginLoader loader(DefaultRegistry());
   if (!LoadPlugins(cmd.plugins, &loader, out, err)) return kExitPluginFailed;
   if (!ParseCovarianceKeys(cmd.covariance, &po, err)) return kExitUsage;

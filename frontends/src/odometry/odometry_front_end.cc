@@ -35,15 +35,25 @@ bool OdometryFrontEnd::AddMotion(const SE2d& delta, double dt) {
   return MaybeMakePose();
 }
 
+bool OdometryFrontEnd::Flush() {
+  if (integrator_.steps() == 0) return false;
+  MakePose();
+  return true;
+}
+
 bool OdometryFrontEnd::MaybeMakePose() {
   if (integrator_.steps() < options_.controls_per_pose) return false;
+  MakePose();
+  return true;
+}
+
+void OdometryFrontEnd::MakePose() {
   const int i = static_cast<int>(trajectory_.size());
   trajectory_.push_back(trajectory_.back() * integrator_.relative());
   pending_values_.Insert(PoseKey(i), trajectory_.back());
   pending_factors_.Add<BetweenSE2>(PoseKey(i - 1), PoseKey(i), integrator_.relative(),
                                    SqrtInformation::FromInformation(integrator_.Information()));
   integrator_.Reset();
-  return true;
 }
 
 void OdometryFrontEnd::TakeNew(FactorGraph* factors, Values* values) {

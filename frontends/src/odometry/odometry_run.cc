@@ -62,6 +62,8 @@ OdometryRunResult RunOdometry(const std::vector<double>& stamps, const std::vect
     if (front_end.AddMotion(d, dt)) r.stamps.push_back(stamps[i]);
     last = i;
   }
+  if (rep.steps == 0) throw InvalidArgument("RunOdometry: no stamp of the track advances; there is no motion to take");
+  if (front_end.Flush()) r.stamps.push_back(stamps[last]);  // the steps after the last full pose
   front_end.TakeNew(&r.graph, &r.values);
   r.trajectory = front_end.trajectory();
   rep.poses = static_cast<int>(r.trajectory.size());

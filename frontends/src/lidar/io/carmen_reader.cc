@@ -33,8 +33,13 @@ class LogBytes {
       const int err = errno;
       throw IoError(path + ": cannot open the log (" + (err != 0 ? std::strerror(err) : "out of memory") + ")");
     }
-    in_.resize(1 << 17);
-    Refill();
+    try {
+      in_.resize(1 << 17);
+      Refill();
+    } catch (...) {
+      std::fclose(file_);
+      throw;
+    }
     gzip_ = Starts(kGzipMagic);
     if (gzip_ && inflateInit2(&z_, 15 + 16) != Z_OK) {
       std::fclose(file_);
@@ -52,6 +57,7 @@ class LogBytes {
   // messages. Throws ParseError on damaged or trailing gzip data, IoError where it cannot read.
   std::size_t Read(char* out, std::size_t n, long line) {
     line_ = line;
+    if (n == 0) return 0;
     if (!gzip_) {
       if (begin_ == end_ && !Refill()) return 0;
       const std::size_t k = std::min(n, end_ - begin_);

@@ -59,6 +59,8 @@ struct PipelineOptions {
   std::vector<Key> covariance_keys;
   /// With covariance: the file; empty (the default): `output` + ".cov" (one of the two is needed).
   std::string covariance_output;
+  /// Other files the run reads (plugins): no output may name one.
+  std::vector<std::string> other_inputs;
   /// A g2o file of the true values (empty: none): the result gets the absolute trajectory
   /// error of the file's start and of the result, and the plot draws the truth.
   std::string ground_truth;

@@ -43,6 +43,9 @@ class OdometryFrontEnd {
   /// Adds a measured motion over dt seconds (MotionIntegrator::AddMotion); true where it
   /// completed a new pose.
   bool AddMotion(const SE2d& delta, double dt);
+  /// Makes a pose of the steps added since the last one, fewer than controls_per_pose (the end
+  /// of a track); true where there were any.
+  bool Flush();
   /// Moves the factors and values made since the last call into `factors` and `values` (the
   /// first call also carries the start and its prior).
   void TakeNew(FactorGraph* factors, Values* values);
@@ -52,6 +55,7 @@ class OdometryFrontEnd {
 
  private:
   bool MaybeMakePose();  // a pose and its factor once controls_per_pose steps are in
+  void MakePose();       // a pose and its factor of the steps since the last
   OdometryFrontEndOptions options_;
   MotionIntegrator integrator_;
   std::vector<SE2d> trajectory_;

@@ -45,7 +45,8 @@ struct OdometryRunResult {
 };
 
 /// Runs the track (`stamps[i]` the time of `poses[i]`, not decreasing) through the front-end.
-/// The first pose is the start (options.start is replaced by it). Throws InvalidArgument for
+/// The first pose is the start (options.start is replaced by it); the steps after the last full
+/// `controls_per_pose` make one more pose, so the graph ends at the track's last pose. Throws InvalidArgument for
 /// invalid options, sizes that differ, fewer than two poses, a stamp that goes back or a pose
 /// or stamp that is not finite, naming the index.
 OdometryRunResult RunOdometry(const std::vector<double>& stamps, const std::vector<SE2d>& poses,
