@@ -400,11 +400,7 @@ TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {
   std::string text;
   for (int i = 0; i < 2000; ++i) text += Odom(10 + i, i * 0.1, 0, 0) + Flaser(10.5 + i);
   const std::string gz = WriteGz("t.gz", text);
-  std::string bytes;
-  {
-    std::ifstream in(gz, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const std::string bytes = Read("t.gz");
   const std::string cut = Write("cut.gz", bytes.substr(0, bytes.size() / 2));
   const std::string message = ErrorOf<ParseError>([&] { ReadCarmenLog(cut); });
   EXPECT_NE(message.find(cut + ":"), std::string::npos) << message;
@@ -426,12 +422,8 @@ TEST_F(CarmenErrorTest, DamagedGzipAndMissingFiles) {
   EXPECT_EQ(ReadCarmenLog(Write("padded.gz", bytes + std::string(512, '\0'))).scans.size(), 2000u);
   std::string second;
   for (int i = 2000; i < 2100; ++i) second += Odom(10 + i, i * 0.1, 0, 0) + Flaser(10.5 + i);
-  const std::string more = WriteGz("more.gz", second);
-  std::string more_bytes;
-  {
-    std::ifstream in(more, std::ios::binary);
-    more_bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  WriteGz("more.gz", second);
+  const std::string more_bytes = Read("more.gz");
   const LidarLog both = ReadCarmenLog(Write("both.gz", bytes + more_bytes));
   ASSERT_EQ(both.scans.size(), 2100u);
   EXPECT_DOUBLE_EQ(both.scans.back().stamp, 10.5 + 2099);
