@@ -18,7 +18,7 @@ namespace {
 
 using Cell = ProbabilityGrid::Cell;
 
-TEST(PrecomputationGridsTest, EachHeightIsTheMaximumOverItsWindow) {
+TEST(PrecomputationGridsTest, EachHeightBoundsItsWindowWithinOneLevel) {
   ProbabilityGrid grid(0.1, Eigen::Vector2d(-1, 2));
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> p(0.12, 0.97);
@@ -27,20 +27,34 @@ TEST(PrecomputationGridsTest, EachHeightIsTheMaximumOverItsWindow) {
       if (rng() % 5 != 0) grid.SetProbability(Cell(x, y), p(rng));  // a fifth stays unknown
     }
   }
+  // Two cells one value apart: the byte levels must still order them.
+  grid.SetProbability(Cell(30, 30), 0.5);
+  grid.SetProbability(Cell(31, 30), grid.ValueToProbability(static_cast<std::uint16_t>(grid.Value(Cell(30, 30)) + 1)));
   const PrecomputationGrids pre(grid, 5);
   ASSERT_EQ(pre.depth(), 5);
+  const double level = (grid.max_probability() - grid.min_probability()) / 255;
+  int tight = 0;
   for (int h = 0; h < 5; ++h) {
     const int w = 1 << h;
-    for (int y = -3 - w - 2; y < 14; ++y) {
-      for (int x = 4 - w - 2; x < 26; ++x) {
-        std::uint16_t expect = ProbabilityGrid::kUnknownValue;
+    for (int y = -3 - w - 2; y < 34; ++y) {
+      for (int x = 4 - w - 2; x < 34; ++x) {
+        float expect = static_cast<float>(grid.min_probability());
         for (int j = 0; j < w; ++j) {
-          for (int i = 0; i < w; ++i) expect = std::max(expect, grid.Value(Cell(x + i, y + j)));
+          for (int i = 0; i < w; ++i)
+            expect = std::max(expect, static_cast<float>(grid.Probability(Cell(x + i, y + j))));
         }
-        ASSERT_EQ(pre.Value(h, Cell(x, y)), expect) << "h " << h << " cell " << x << ", " << y;
+        const float bound = pre.Bound(h, Cell(x, y));
+        if (h == 0) {
+          ASSERT_EQ(bound, expect) << "cell " << x << ", " << y;  // exact: the leaves' scores
+        } else {
+          ASSERT_GE(bound, expect) << "h " << h << " cell " << x << ", " << y;
+          ASSERT_LE(bound, expect + level + 1e-6) << "h " << h << " cell " << x << ", " << y;
+          tight += bound < expect + 0.5 * level;
+        }
       }
     }
   }
+  EXPECT_GT(tight, 0);
   EXPECT_THROW(PrecomputationGrids(grid, 0), InvalidArgument);
 }
 
@@ -56,8 +70,6 @@ TEST(PrecomputationGridsTest, AccumulateEqualsOneOffsetAtATime) {
     }
   }
   const PrecomputationGrids pre(grid, 4);
-  std::vector<float> table(ProbabilityGrid::kMaxValue + 1);
-  for (std::size_t v = 0; v < table.size(); ++v) table[v] = static_cast<float>(0.1 + 1e-5 * static_cast<double>(v));
   std::uniform_int_distribution<int> c(-60, 110), o(-30, 30);
   std::vector<Cell> cells;
   for (int i = 0; i < 300; ++i) cells.emplace_back(c(rng), c(rng));
@@ -67,18 +79,19 @@ TEST(PrecomputationGridsTest, AccumulateEqualsOneOffsetAtATime) {
       std::vector<Cell> offsets;
       for (int j = 0; j < count; ++j) offsets.emplace_back(o(rng), o(rng));
       std::vector<float> sums(static_cast<std::size_t>(count), 0.0f);
-      pre.Accumulate(h, cells, offsets.data(), count, table, sums.data());
+      pre.Accumulate(h, cells, offsets.data(), count, sums.data());
       for (int j = 0; j < count; ++j) {
         float expect = 0;
-        for (const Cell& cell : cells) expect += table[pre.Value(h, cell + offsets[static_cast<std::size_t>(j)])];
+        for (const Cell& cell : cells) expect += pre.Bound(h, cell + offsets[static_cast<std::size_t>(j)]);
         ASSERT_EQ(sums[static_cast<std::size_t>(j)], expect) << "h " << h << " offset " << j;
       }
     }
   }
   std::vector<Cell> too_many(PrecomputationGrids::kMaxOffsets + 1, Cell::Zero());
   std::vector<float> sums(too_many.size());
-  EXPECT_THROW(pre.Accumulate(0, cells, too_many.data(), static_cast<int>(too_many.size()), table, sums.data()),
+  EXPECT_THROW(pre.Accumulate(0, cells, too_many.data(), static_cast<int>(too_many.size()), sums.data()),
                InvalidArgument);
+  EXPECT_THROW(pre.Accumulate(4, cells, too_many.data(), 1, sums.data()), InvalidArgument);
 }
 
 // A grid whose stored box is far larger than its known cells (it grew by doubling) gives the
@@ -97,7 +110,7 @@ TEST(PrecomputationGridsTest, AGrownBoxAndItsCropGiveTheSameLevels) {
   const PrecomputationGrids a(grown, 5), b(cropped, 5);
   for (int h = 0; h < 5; ++h) {
     for (int y = -20; y < 170; ++y) {
-      for (int x = -20; x < 220; ++x) ASSERT_EQ(a.Value(h, Cell(x, y)), b.Value(h, Cell(x, y))) << h;
+      for (int x = -20; x < 220; ++x) ASSERT_EQ(a.Bound(h, Cell(x, y)), b.Bound(h, Cell(x, y))) << h;
     }
   }
 }

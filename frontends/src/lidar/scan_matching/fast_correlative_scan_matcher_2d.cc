@@ -29,8 +29,25 @@ bool FastMatcherOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// The level byte of a 15-bit value: 0 for unknown, rising with the value, 255 for the largest.
+std::uint8_t LevelOf(std::uint16_t v) {
+  return static_cast<std::uint8_t>((static_cast<int>(v) * 255 + ProbabilityGrid::kMaxValue - 1) /
+                                   ProbabilityGrid::kMaxValue);
+}
+
+}  // namespace
+
 PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth) {
   if (depth < 1 || depth > 16) throw InvalidArgument("PrecomputationGrids: depth must lie in [1, 16]");
+  level0_table_.resize(ProbabilityGrid::kMaxValue + 1);
+  for (int v = 0; v <= ProbabilityGrid::kMaxValue; ++v) {
+    level0_table_[static_cast<std::size_t>(v)] =
+        static_cast<float>(grid.ValueToProbability(static_cast<std::uint16_t>(v)));
+    // Values rise with their probability: the last value of a level is its largest.
+    upper_table_[LevelOf(static_cast<std::uint16_t>(v))] = level0_table_[static_cast<std::size_t>(v)];
+  }
   const int margin = (1 << (depth - 1)) - 1;
   Cell lo, hi;
   if (grid.KnownBounds(&lo, &hi)) {
@@ -39,29 +56,36 @@ PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth)
     size_ = hi - lo + 1 + Cell(margin, margin);
   }
   const std::size_t n = static_cast<std::size_t>(size_.x()) * static_cast<std::size_t>(size_.y());
-  levels_.assign(static_cast<std::size_t>(depth), std::vector<std::uint16_t>(n, ProbabilityGrid::kUnknownValue));
+  level0_.assign(n, ProbabilityGrid::kUnknownValue);
   for (int y = 0; y < size_.y(); ++y) {
     for (int x = 0; x < size_.x(); ++x)
-      levels_[0][static_cast<std::size_t>(y * size_.x() + x)] = grid.Value(min_cell_ + Cell(x, y));
+      level0_[static_cast<std::size_t>(y * size_.x() + x)] = grid.Value(min_cell_ + Cell(x, y));
   }
+  upper_.assign(static_cast<std::size_t>(depth - 1), std::vector<std::uint8_t>(n, 0));
+  // The level byte rises with the value, so the byte of a window's largest value is the
+  // largest byte over the window.
+  const auto at = [&](int h, int x, int y) -> int {
+    if (x >= size_.x() || y >= size_.y()) return 0;
+    const std::size_t i = static_cast<std::size_t>(y * size_.x() + x);
+    return h == 0 ? LevelOf(level0_[i]) : upper_[static_cast<std::size_t>(h - 1)][i];
+  };
   for (int h = 1; h < depth; ++h) {
     // The window of height h is four windows of height h - 1, s cells apart.
     const int s = 1 << (h - 1);
-    std::vector<std::uint16_t>& top = levels_[static_cast<std::size_t>(h)];
+    std::vector<std::uint8_t>& top = upper_[static_cast<std::size_t>(h - 1)];
     for (int y = 0; y < size_.y(); ++y) {
       for (int x = 0; x < size_.x(); ++x) {
-        const Cell c = min_cell_ + Cell(x, y);
-        top[static_cast<std::size_t>(y * size_.x() + x)] =
-            std::max(std::max(Value(h - 1, c), Value(h - 1, c + Cell(s, 0))),
-                     std::max(Value(h - 1, c + Cell(0, s)), Value(h - 1, c + Cell(s, s))));
+        top[static_cast<std::size_t>(y * size_.x() + x)] = static_cast<std::uint8_t>(std::max(
+            std::max(at(h - 1, x, y), at(h - 1, x + s, y)), std::max(at(h - 1, x, y + s), at(h - 1, x + s, y + s))));
       }
     }
   }
 }
 
-void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
-                                     const std::vector<float>& table, float* sums) const {
-  if (count < 1 || count > kMaxOffsets) throw InvalidArgument("PrecomputationGrids::Accumulate: 1 to 64 offsets");
+template <typename T>
+void PrecomputationGrids::AccumulateLevel(const std::vector<T>& level, const float* table, int h,
+                                          const std::vector<Cell>& cells, const Cell* offsets, int count,
+                                          float* sums) const {
   Cell lo = offsets[0], hi = offsets[0];
   for (int j = 1; j < count; ++j) {
     lo = lo.min(offsets[j]);
@@ -70,15 +94,26 @@ void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, cons
   // Offset j's index from the index of c + lo.
   int delta[kMaxOffsets];
   for (int j = 0; j < count; ++j) delta[j] = (offsets[j].y() - lo.y()) * size_.x() + (offsets[j].x() - lo.x());
-  const std::uint16_t* values = levels_[static_cast<std::size_t>(h)].data();
+  const T* values = level.data();
   for (const Cell& c : cells) {
     const Cell a = c + lo - min_cell_, b = c + hi - min_cell_;
     if (a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y()) {
-      const std::uint16_t* at = values + a.y() * size_.x() + a.x();
+      const T* at = values + a.y() * size_.x() + a.x();
       for (int j = 0; j < count; ++j) sums[j] += table[at[delta[j]]];
     } else {
-      for (int j = 0; j < count; ++j) sums[j] += table[Value(h, c + offsets[j])];
+      for (int j = 0; j < count; ++j) sums[j] += Bound(h, c + offsets[j]);
     }
+  }
+}
+
+void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
+                                     float* sums) const {
+  if (count < 1 || count > kMaxOffsets) throw InvalidArgument("PrecomputationGrids::Accumulate: 1 to 64 offsets");
+  if (h < 0 || h >= depth()) throw InvalidArgument("PrecomputationGrids::Accumulate: no such height");
+  if (h == 0) {
+    AccumulateLevel(level0_, level0_table_.data(), h, cells, offsets, count, sums);
+  } else {
+    AccumulateLevel(upper_[static_cast<std::size_t>(h - 1)], upper_table_, h, cells, offsets, count, sums);
   }
 }
 
@@ -109,12 +144,9 @@ FastCorrelativeScanMatcher2D::FastCorrelativeScanMatcher2D(const ProbabilityGrid
                                                            const FastMatcherOptions& options)
     : grid_(grid),
       options_(options),
-      precomputed_(grid, options.IsValid(nullptr) ? options.branch_and_bound_depth : 1),
-      probability_(ProbabilityGrid::kMaxValue + 1) {
+      precomputed_(grid, options.IsValid(nullptr) ? options.branch_and_bound_depth : 1) {
   std::string why;
   if (!options_.IsValid(&why)) throw InvalidArgument("fast correlative scan matcher: " + why);
-  for (std::size_t v = 0; v < probability_.size(); ++v)
-    probability_[v] = static_cast<float>(grid.ValueToProbability(static_cast<std::uint16_t>(v)));
 }
 
 FastCorrelativeScanMatcher2D::Setup FastCorrelativeScanMatcher2D::Prepare(const SE2d& guess,
@@ -166,7 +198,7 @@ FastMatch FastCorrelativeScanMatcher2D::MatchExhaustive(const SE2d& guess, const
     std::fill(sums.begin(), sums.end(), 0.0f);
     for (std::size_t j = 0; j < offsets.size(); j += PrecomputationGrids::kMaxOffsets) {
       const int count = static_cast<int>(std::min<std::size_t>(PrecomputationGrids::kMaxOffsets, offsets.size() - j));
-      precomputed_.Accumulate(0, cells, &offsets[j], count, probability_, &sums[j]);
+      precomputed_.Accumulate(0, cells, &offsets[j], count, &sums[j]);
     }
     for (std::size_t j = 0; j < offsets.size(); ++j) {
       const float score = sums[j] / n;
@@ -264,8 +296,7 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
   const auto score = [&](int h, Node* nodes, int count) {
     float sums[PrecomputationGrids::kMaxOffsets] = {};
     for (int j = 0; j < count; ++j) offsets[j] = Cell(nodes[j].dx, nodes[j].dy);
-    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count,
-                            probability_, sums);
+    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count, sums);
     for (int j = 0; j < count; ++j) nodes[j].score = sums[j] / n;
     m.nodes += count;
   };

@@ -38,33 +38,48 @@ struct FastMatcherOptions {
   bool IsValid(std::string* why) const;
 };
 
-/// The max-filtered copies of a grid, one per height (cell values as ProbabilityGrid stores
-/// them; a cell outside the grid's stored box is unknown).
+/// The max-filtered copies of a grid, one per height, and the probabilities the search adds.
+/// Height 0 holds the grid's own 15-bit values, each read as its exact probability. Heights
+/// 1 and up hold one byte a cell: the largest value over the window, rounded up to one of 256
+/// levels, read as the largest probability of its level. So a height's probability bounds
+/// every cell below it, and lies at most one level, (max - min probability) / 255, above the
+/// true maximum: the bounds stay admissible (the search's answer is the exhaustive one) at
+/// half the memory, and the byte table fits the first-level cache.
 class PrecomputationGrids {
  public:
   /// The most offsets Accumulate takes at once.
   static constexpr int kMaxOffsets = 64;
   /// Throws InvalidArgument for depth < 1 or above 16.
   PrecomputationGrids(const ProbabilityGrid& grid, int depth);
-  int depth() const { return static_cast<int>(levels_.size()); }
-  /// max over c + [0, 2^h)^2 of the grid's values.
-  std::uint16_t Value(int h, const ProbabilityGrid::Cell& c) const {
+  int depth() const { return static_cast<int>(upper_.size()) + 1; }
+  /// Height 0: the probability of the grid's cell c (unknown: the grid's minimum). Height h:
+  /// a bound of the probabilities over c + [0, 2^h)^2, within one level above their maximum.
+  float Bound(int h, const ProbabilityGrid::Cell& c) const {
     const ProbabilityGrid::Cell d = c - min_cell_;
-    if (d.x() < 0 || d.y() < 0 || d.x() >= size_.x() || d.y() >= size_.y()) return ProbabilityGrid::kUnknownValue;
-    return levels_[static_cast<std::size_t>(h)][static_cast<std::size_t>(d.y() * size_.x() + d.x())];
+    const bool inside = d.x() >= 0 && d.y() >= 0 && d.x() < size_.x() && d.y() < size_.y();
+    const std::size_t i = inside ? static_cast<std::size_t>(d.y() * size_.x() + d.x()) : 0;
+    if (h == 0) return level0_table_[inside ? level0_[i] : ProbabilityGrid::kUnknownValue];
+    return upper_table_[inside ? upper_[static_cast<std::size_t>(h - 1)][i] : 0];
   }
-  /// For each of `count` offsets o_j (count <= kMaxOffsets), adds table[Value(h, c + o_j)] to
+  /// For each of `count` offsets o_j (count <= kMaxOffsets), adds Bound(h, c + o_j) to
   /// sums[j] over the cells c in order: the same sums as one offset at a time, with the offsets'
   /// additions independent of each other.
   void Accumulate(int h, const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets,
-                  int count, const std::vector<float>& table, float* sums) const;
+                  int count, float* sums) const;
 
  private:
+  template <typename T>
+  void AccumulateLevel(const std::vector<T>& level, const float* table, int h,
+                       const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets, int count,
+                       float* sums) const;
   // Every level covers the same box (the top level's: the grid's known cells widened by
   // 2^(depth - 1) - 1 cells below), row-major.
   ProbabilityGrid::Cell min_cell_ = ProbabilityGrid::Cell::Zero();
   ProbabilityGrid::Cell size_ = ProbabilityGrid::Cell::Zero();
-  std::vector<std::vector<std::uint16_t>> levels_;
+  std::vector<std::uint16_t> level0_;
+  std::vector<std::vector<std::uint8_t>> upper_;  // heights 1 .. depth - 1
+  std::vector<float> level0_table_;               // per 15-bit value
+  float upper_table_[256] = {};                   // per level byte
 };
 
 struct FastMatch {
@@ -139,7 +154,6 @@ class FastCorrelativeScanMatcher2D {
   const ProbabilityGrid& grid_;
   FastMatcherOptions options_;
   PrecomputationGrids precomputed_;
-  std::vector<float> probability_;  // per stored value
 };
 
 }  // namespace lidar
