@@ -3,9 +3,7 @@
 // and its refusals.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
-#include <limits>
 #include <random>
 
 #include "testing/lidar_files.h"
@@ -94,51 +92,6 @@ TEST(PrecomputationGridsTest, AccumulateEqualsOneOffsetAtATime) {
   EXPECT_THROW(pre.Accumulate(0, cells, too_many.data(), static_cast<int>(too_many.size()), sums.data()),
                InvalidArgument);
   EXPECT_THROW(pre.Accumulate(4, cells, too_many.data(), 1, sums.data()), InvalidArgument);
-}
-
-// AccumulateAbove gives up only on sums that cannot end above the cut, and leaves the others
-// bit for bit as Accumulate sums them.
-TEST(PrecomputationGridsTest, AccumulateAboveGivesUpOnlyOnSumsThatCannotPassTheCut) {
-  ProbabilityGrid grid(0.05);
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<double> high(0.8, 0.97), low(0.12, 0.3);
-  for (int y = 0; y < 80; ++y) {
-    for (int x = -40; x < 80; ++x) grid.SetProbability(Cell(x, y), x < 20 ? high(rng) : low(rng));
-  }
-  std::uniform_int_distribution<int> cx(0, 20), cy(0, 60), ox(-40, 50), oy(-5, 5);
-  std::vector<Cell> cells;
-  for (int i = 0; i < 200; ++i) cells.emplace_back(cx(rng), cy(rng));
-  for (int h = 0; h < 4; ++h) {
-    const PrecomputationGrids pre(grid, 4);
-    std::vector<Cell> offsets;
-    for (int j = 0; j < PrecomputationGrids::kMaxOffsets; ++j) offsets.emplace_back(ox(rng), oy(rng));
-    const int count = static_cast<int>(offsets.size());
-    std::vector<float> exact(offsets.size(), 0.0f), sums(offsets.size(), 0.0f);
-    pre.Accumulate(h, cells, offsets.data(), count, exact.data());
-    std::vector<float> sorted = exact;
-    std::sort(sorted.begin(), sorted.end());
-    const double cut = sorted[sorted.size() / 2];
-    bool dead[PrecomputationGrids::kMaxOffsets];
-    pre.AccumulateAbove(h, cells, offsets.data(), count, cut, sums.data(), dead);
-    int given_up = 0;
-    for (std::size_t j = 0; j < offsets.size(); ++j) {
-      if (dead[j]) {
-        ++given_up;
-        EXPECT_LE(exact[j], cut) << "h " << h << " offset " << j;
-        EXPECT_LE(sums[j], exact[j]) << "h " << h << " offset " << j;  // partial
-      } else {
-        EXPECT_EQ(sums[j], exact[j]) << "h " << h << " offset " << j;
-      }
-    }
-    EXPECT_GT(given_up, 0) << "h " << h;
-    EXPECT_LT(given_up, count / 2 + 1) << "h " << h;
-    // An infinite cut gives up on none; a cut above every sum gives up on all.
-    pre.AccumulateAbove(h, cells, offsets.data(), count, -std::numeric_limits<double>::infinity(),
-                        std::vector<float>(offsets.size(), 0.0f).data(), dead);
-    EXPECT_EQ(std::count(dead, dead + count, true), 0);
-    pre.AccumulateAbove(h, cells, offsets.data(), count, 1e9, std::vector<float>(offsets.size(), 0.0f).data(), dead);
-    EXPECT_EQ(std::count(dead, dead + count, true), count);
-  }
 }
 
 // A grid whose stored box is far larger than its known cells (it grew by doubling) gives the

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <limits>
 
 #include "tether/core/error.h"
 
@@ -49,7 +48,6 @@ PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth)
     // Values rise with their probability: the last value of a level is its largest.
     upper_table_[LevelOf(static_cast<std::uint16_t>(v))] = level0_table_[static_cast<std::size_t>(v)];
   }
-  max_term_ = *std::max_element(level0_table_.begin(), level0_table_.end());
   const int margin = (1 << (depth - 1)) - 1;
   Cell lo, hi;
   if (grid.KnownBounds(&lo, &hi)) {
@@ -86,75 +84,36 @@ PrecomputationGrids::PrecomputationGrids(const ProbabilityGrid& grid, int depth)
 
 template <typename T>
 void PrecomputationGrids::AccumulateLevel(const std::vector<T>& level, const float* table, int h,
-                                          const std::vector<Cell>& cells, const Cell* offsets, int count, double cut,
-                                          float* sums, bool* dead) const {
+                                          const std::vector<Cell>& cells, const Cell* offsets, int count,
+                                          float* sums) const {
   Cell lo = offsets[0], hi = offsets[0];
   for (int j = 1; j < count; ++j) {
     lo = lo.min(offsets[j]);
     hi = hi.max(offsets[j]);
   }
-  // The offsets still summed (`live` of them): their index j, their index from the index of
-  // c + lo, and their sum so far (written back to sums[j] when given up or done).
-  int index[kMaxOffsets], delta[kMaxOffsets];
-  float acc[kMaxOffsets];
-  int live = count;
-  for (int j = 0; j < count; ++j) {
-    index[j] = j;
-    delta[j] = (offsets[j].y() - lo.y()) * size_.x() + (offsets[j].x() - lo.x());
-    acc[j] = sums[j];
-    if (dead != nullptr) dead[j] = false;
-  }
-  // A float sum of n terms lies within about n 2^-24 of its exact value (relative): a sum is
-  // given up only where even well beyond that above its bound it stays at or below the cut.
-  const std::size_t n = cells.size();
-  const double margin = 1 + 1e-6 + 4.0 * static_cast<double>(n) * 0x1p-24;
-  const bool may_give_up = dead != nullptr && std::isfinite(cut);
-  constexpr std::size_t kBlock = 16;  // cells between checks
+  // Offset j's index from the index of c + lo.
+  int delta[kMaxOffsets];
+  for (int j = 0; j < count; ++j) delta[j] = (offsets[j].y() - lo.y()) * size_.x() + (offsets[j].x() - lo.x());
   const T* values = level.data();
-  for (std::size_t first = 0; first < n && live > 0; first += kBlock) {
-    const std::size_t last = std::min(n, first + kBlock);
-    for (std::size_t i = first; i < last; ++i) {
-      const Cell& c = cells[i];
-      const Cell a = c + lo - min_cell_, b = c + hi - min_cell_;
-      if (a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y()) {
-        const T* at = values + a.y() * size_.x() + a.x();
-        for (int l = 0; l < live; ++l) acc[l] += table[at[delta[l]]];
-      } else {
-        for (int l = 0; l < live; ++l) acc[l] += Bound(h, c + offsets[index[l]]);
-      }
+  for (const Cell& c : cells) {
+    const Cell a = c + lo - min_cell_, b = c + hi - min_cell_;
+    if (a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y()) {
+      const T* at = values + a.y() * size_.x() + a.x();
+      for (int j = 0; j < count; ++j) sums[j] += table[at[delta[j]]];
+    } else {
+      for (int j = 0; j < count; ++j) sums[j] += Bound(h, c + offsets[j]);
     }
-    if (!may_give_up || last == n) continue;
-    const double rest = static_cast<double>(n - last) * max_term_;
-    int kept = 0;
-    for (int l = 0; l < live; ++l) {
-      if ((static_cast<double>(acc[l]) + rest) * margin <= cut) {
-        dead[index[l]] = true;
-        sums[index[l]] = acc[l];
-      } else {
-        index[kept] = index[l];
-        delta[kept] = delta[l];
-        acc[kept] = acc[l];
-        ++kept;
-      }
-    }
-    live = kept;
   }
-  for (int l = 0; l < live; ++l) sums[index[l]] = acc[l];
 }
 
 void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
                                      float* sums) const {
-  AccumulateAbove(h, cells, offsets, count, -std::numeric_limits<double>::infinity(), sums, nullptr);
-}
-
-void PrecomputationGrids::AccumulateAbove(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
-                                          double cut, float* sums, bool* dead) const {
   if (count < 1 || count > kMaxOffsets) throw InvalidArgument("PrecomputationGrids::Accumulate: 1 to 64 offsets");
   if (h < 0 || h >= depth()) throw InvalidArgument("PrecomputationGrids::Accumulate: no such height");
   if (h == 0) {
-    AccumulateLevel(level0_, level0_table_.data(), h, cells, offsets, count, cut, sums, dead);
+    AccumulateLevel(level0_, level0_table_.data(), h, cells, offsets, count, sums);
   } else {
-    AccumulateLevel(upper_[static_cast<std::size_t>(h - 1)], upper_table_, h, cells, offsets, count, cut, sums, dead);
+    AccumulateLevel(upper_[static_cast<std::size_t>(h - 1)], upper_table_, h, cells, offsets, count, sums);
   }
 }
 
@@ -332,18 +291,13 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
     float score;
   };
   const float n = static_cast<float>(n_points);
-  float best = static_cast<float>(min_score);  // the best leaf's score so far
   // Scores nodes of height h that share one rotation (at most kMaxOffsets of them).
   std::vector<Cell> offsets(PrecomputationGrids::kMaxOffsets, Cell::Zero());
   const auto score = [&](int h, Node* nodes, int count) {
     float sums[PrecomputationGrids::kMaxOffsets] = {};
-    bool dead[PrecomputationGrids::kMaxOffsets];
     for (int j = 0; j < count; ++j) offsets[j] = Cell(nodes[j].dx, nodes[j].dy);
-    // A node whose score cannot end above the best so far is cut whatever its score (the best
-    // only rises): it need not be scored to the end, and sorts last.
-    precomputed_.AccumulateAbove(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count,
-                                 static_cast<double>(best) * static_cast<double>(n), sums, dead);
-    for (int j = 0; j < count; ++j) nodes[j].score = dead[j] ? -1.0f : sums[j] / n;
+    precomputed_.Accumulate(h, s.cells[static_cast<std::size_t>(nodes[0].k + s.k_max)], offsets.data(), count, sums);
+    for (int j = 0; j < count; ++j) nodes[j].score = sums[j] / n;
     m.nodes += count;
   };
   // Whether every candidate of a node of height h is near the exclusion's centre: its
@@ -372,6 +326,7 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
     }
   }
   std::stable_sort(roots.begin(), roots.end(), by_score);
+  float best = static_cast<float>(min_score);
   Node best_node{0, 0, 0, 0};
   bool stop = false;
   // Depth first: a node whose bound is not above the best leaf so far is cut, and so are the

@@ -66,18 +66,12 @@ class PrecomputationGrids {
   /// additions independent of each other.
   void Accumulate(int h, const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets,
                   int count, float* sums) const;
-  /// Accumulate, giving up on an offset once its sum can no longer end above `cut`, even with
-  /// every cell left at the largest probability (and a margin for the rounding of float sums):
-  /// dead[j] is then set and sums[j] is partial. The other sums are Accumulate's to the bit.
-  /// Branch and bound cuts such a node whatever its exact score.
-  void AccumulateAbove(int h, const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets,
-                       int count, double cut, float* sums, bool* dead) const;
 
  private:
   template <typename T>
   void AccumulateLevel(const std::vector<T>& level, const float* table, int h,
                        const std::vector<ProbabilityGrid::Cell>& cells, const ProbabilityGrid::Cell* offsets, int count,
-                       double cut, float* sums, bool* dead) const;
+                       float* sums) const;
   // Every level covers the same box (the top level's: the grid's known cells widened by
   // 2^(depth - 1) - 1 cells below), row-major.
   ProbabilityGrid::Cell min_cell_ = ProbabilityGrid::Cell::Zero();
@@ -86,7 +80,6 @@ class PrecomputationGrids {
   std::vector<std::vector<std::uint8_t>> upper_;  // heights 1 .. depth - 1
   std::vector<float> level0_table_;               // per 15-bit value
   float upper_table_[256] = {};                   // per level byte
-  float max_term_ = 0;                            // the largest probability of any height
 };
 
 struct FastMatch {
