@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 
 #include "tether/core/error.h"
 
@@ -95,15 +94,43 @@ void PrecomputationGrids::AccumulateLevel(const std::vector<T>& level, const flo
   int delta[kMaxOffsets];
   for (int j = 0; j < count; ++j) delta[j] = (offsets[j].y() - lo.y()) * size_.x() + (offsets[j].x() - lo.x());
   const T* values = level.data();
-  for (const Cell& c : cells) {
+  const auto inside = [&](const Cell& c) {
     const Cell a = c + lo - min_cell_, b = c + hi - min_cell_;
-    if (a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y()) {
-      const T* at = values + a.y() * size_.x() + a.x();
-      for (int j = 0; j < count; ++j) sums[j] += table[at[delta[j]]];
+    return a.x() >= 0 && a.y() >= 0 && b.x() < size_.x() && b.y() < size_.y() ? values + a.y() * size_.x() + a.x()
+                                                                              : nullptr;
+  };
+  if (count == 4) {
+    // A node's four children (the common case): four sums the compiler keeps in registers.
+    float s0 = sums[0], s1 = sums[1], s2 = sums[2], s3 = sums[3];
+    for (const Cell& c : cells) {
+      if (const T* at = inside(c)) {
+        s0 += table[at[delta[0]]];
+        s1 += table[at[delta[1]]];
+        s2 += table[at[delta[2]]];
+        s3 += table[at[delta[3]]];
+      } else {
+        s0 += Bound(h, c + offsets[0]);
+        s1 += Bound(h, c + offsets[1]);
+        s2 += Bound(h, c + offsets[2]);
+        s3 += Bound(h, c + offsets[3]);
+      }
+    }
+    sums[0] = s0;
+    sums[1] = s1;
+    sums[2] = s2;
+    sums[3] = s3;
+    return;
+  }
+  float acc[kMaxOffsets];
+  std::copy(sums, sums + count, acc);
+  for (const Cell& c : cells) {
+    if (const T* at = inside(c)) {
+      for (int j = 0; j < count; ++j) acc[j] += table[at[delta[j]]];
     } else {
-      for (int j = 0; j < count; ++j) sums[j] += Bound(h, c + offsets[j]);
+      for (int j = 0; j < count; ++j) acc[j] += Bound(h, c + offsets[j]);
     }
   }
+  std::copy(acc, acc + count, sums);
 }
 
 void PrecomputationGrids::Accumulate(int h, const std::vector<Cell>& cells, const Cell* offsets, int count,
@@ -328,36 +355,44 @@ FastMatch FastCorrelativeScanMatcher2D::Search(const Setup& s, const SE2d& guess
   std::stable_sort(roots.begin(), roots.end(), by_score);
   float best = static_cast<float>(min_score);
   Node best_node{0, 0, 0, 0};
-  bool stop = false;
-  // Depth first: a node whose bound is not above the best leaf so far is cut, and so are the
-  // nodes after it (they are sorted).
-  const std::function<void(const std::vector<Node>&, int)> search = [&](const std::vector<Node>& nodes, int h) {
-    for (const Node& node : nodes) {
-      if (stop || !(node.score > best)) return;
-      if (excluded(node, h)) continue;
-      if (h == 0) {
-        best = node.score;
-        best_node = node;
-        m.found = true;
-        stop = exclude != nullptr;
-        continue;
-      }
-      const int half = 1 << (h - 1);
-      std::vector<Node> children;
-      children.reserve(4);
-      for (int ox : {0, half}) {
-        for (int oy : {0, half}) {
-          const int dx = node.dx + ox, dy = node.dy + oy;
-          if (dx > s.w || dy > s.w) continue;
-          children.push_back(Node{node.k, dx, dy, 0});
-        }
-      }
-      score(h - 1, children.data(), static_cast<int>(children.size()));
-      std::stable_sort(children.begin(), children.end(), by_score);
-      search(children, h - 1);
-    }
+  // Depth first, siblings in order of their bound: a node whose bound is not above the best
+  // leaf so far is cut (its later siblings, no better, are cut as they come up).
+  struct Entry {
+    Node node;
+    int h;
   };
-  search(roots, top);
+  std::vector<Entry> stack;
+  stack.reserve(roots.size() + 4 * static_cast<std::size_t>(top) + 4);
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back(Entry{*it, top});
+  while (!stack.empty()) {
+    const Entry e = stack.back();
+    stack.pop_back();
+    const Node& node = e.node;
+    if (!(node.score > best) || excluded(node, e.h)) continue;
+    if (e.h == 0) {
+      best = node.score;
+      best_node = node;
+      m.found = true;
+      if (exclude != nullptr) break;  // a rival exists: that is all the question asks
+      continue;
+    }
+    const int half = 1 << (e.h - 1);
+    Node children[4];
+    int count = 0;
+    for (int ox : {0, half}) {
+      for (int oy : {0, half}) {
+        const int dx = node.dx + ox, dy = node.dy + oy;
+        if (dx > s.w || dy > s.w) continue;
+        children[count++] = Node{node.k, dx, dy, 0};
+      }
+    }
+    score(e.h - 1, children, count);
+    // Highest bound first, ties in the order made (a stable insertion sort).
+    for (int i = 1; i < count; ++i) {
+      for (int j = i; j > 0 && by_score(children[j], children[j - 1]); --j) std::swap(children[j], children[j - 1]);
+    }
+    for (int i = count - 1; i >= 0; --i) stack.push_back(Entry{children[i], e.h - 1});
+  }
   if (m.found) {
     m.score = best_node.score;
     m.pose = s.Pose(guess, best_node.k, best_node.dx, best_node.dy, grid_.resolution());
