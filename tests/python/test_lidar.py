@@ -1,7 +1,9 @@
 """tether.lidar.LidarSlam2D: scans from NumPy arrays, poses and the map back as arrays, and the
 same files as `tether lidar`, byte for byte."""
 import math
+import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -294,3 +296,34 @@ def test_saved_state_and_localisation(tmp_path):
     bad.write_bytes(bytes(data))
     with pytest.raises(tether.ParseError, match="bad.tether"):
         tether.lidar.read_state(str(bad))
+
+
+def test_the_bag_library_is_loaded_only_to_read_a_bag(tmp_path, datasets_dir, cli):
+    """ROS 1's bag library, and the twenty-odd libraries it pulls in, are a module loaded at the
+    first bag read: importing tether or running a command that reads no bag does not load them."""
+    bag = datasets_dir / "lidar" / "bags" / "fr079.bag"
+    if not bag.is_file():
+        pytest.skip(f"{bag} is absent")
+    code = ("import sys, tether\n"
+            "def loaded():\n"
+            "    return 'librosbag_storage' in open('/proc/self/maps').read()\n"
+            "before = loaded()\n"
+            "try:\n"
+            "    tether.lidar.choose_sensor(sys.argv[1], max_scans=20)\n"
+            "except Exception as e:\n"
+            "    print('unsupported' if 'without ROS 1 bag support' in str(e) else repr(e))\n"
+            "    sys.exit(0)\n"
+            "print(before, loaded())\n")
+    out = subprocess.run([sys.executable, "-c", code, str(bag)], capture_output=True, text=True, check=True)
+    if out.stdout.strip() == "unsupported":
+        pytest.skip("this tether was built without ROS 1 bag support")
+    assert out.stdout.split() == ["False", "True"], out.stdout + out.stderr
+    # The program: the dynamic loader's own account of what it loads (glibc's LD_DEBUG=files).
+    env = dict(os.environ, LD_DEBUG="files")
+    run = subprocess.run([cli, "optimize", "--help"], capture_output=True, text=True, env=env)
+    assert run.returncode == 0 and "file=" in run.stderr
+    assert "librosbag_storage" not in run.stderr
+    run = subprocess.run([cli, "lidar", str(bag), "-o", str(tmp_path / "out"), "--max-scans", "20", "-q"],
+                         capture_output=True, text=True, env=env)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "libtether_rosbag.so" in run.stderr and "librosbag_storage" in run.stderr
