@@ -14,8 +14,9 @@ struct CliRun {
   std::string output;  // stdout and stderr together
 };
 
-inline CliRun Tether(const std::string& args) {
-  const std::string cmd = std::string(TETHER_CLI) + " " + args + " 2>&1";
+/// `env`: shell variable assignments put before the program (e.g. "LD_LIBRARY_PATH=/tmp/x").
+inline CliRun Tether(const std::string& args, const std::string& env = "") {
+  const std::string cmd = (env.empty() ? "" : env + " ") + std::string(TETHER_CLI) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];

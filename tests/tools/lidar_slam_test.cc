@@ -188,6 +188,32 @@ TEST_F(LidarSlamTest, ABagWithoutMessagesOnTheOdometryTopicWarns) {
   EXPECT_EQ(quiet.output.find("warning"), std::string::npos) << quiet.output;
 }
 
+// The bag reader's ROS part is a module loaded beside libtether_frontends at the first bag read:
+// where it is missing, reading a bag fails with exit 1 naming the module and what to do, and a
+// CARMEN log still reads. (A copy of libtether_frontends in a folder without the module, found
+// first through LD_LIBRARY_PATH, stands for an installation that lost it.)
+TEST_F(LidarSlamTest, AMissingBagModuleIsAClearError) {
+  const std::string bag = testing::LidarDataset("bags/fr079.bag");
+  if (bag.empty()) GTEST_SKIP() << "dataset lidar/bags/fr079.bag absent (../shared/datasets not beside the repository)";
+  if (!lidar::RosBagSupported()) GTEST_SKIP() << testing::kNoBagSupport;
+  const std::filesystem::path lib =
+      std::filesystem::path(TETHER_CLI).parent_path().parent_path() / "frontends" / "libtether_frontends.so";
+  if (!std::filesystem::exists(lib)) GTEST_SKIP() << lib << " absent (not a build tree)";
+  const std::filesystem::path lone = P("lone");
+  std::filesystem::create_directories(lone);
+  std::filesystem::copy_file(lib, lone / lib.filename());
+  const std::string env = "LD_LIBRARY_PATH=" + lone.string();
+  const auto r = Tether("lidar " + bag + " -o " + P("no_module") + " -q --max-scans 5", env);
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("ROS 1 bag support could not be loaded: " + (lone / "libtether_rosbag.so").string()),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("rebuild tether"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(P("no_module") + "/trajectory.tum"));
+  const auto carmen = Tether("lidar " + Write("room.log", RoomLog()) + " -o " + P("carmen") + " -q --max-scans 5", env);
+  EXPECT_EQ(carmen.code, 0) << carmen.output;
+}
+
 // The scanner's class: chosen from the log (FLASER lines: 80 m, sick, the defaults), given by
 // --sensor, and explicit flags kept over the preset's values.
 TEST_F(LidarSlamTest, TheSensorClassFromTheLogOrTheFlag) {
