@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "tether/core/version.h"
 #include "tether/tools/command.h"
 #include "tether/tools/option_checks.h"
 
@@ -34,6 +35,7 @@ TETHER_COMMANDS(TETHER_DECLARE_COMMAND)
 }  // namespace tether
 
 int main(int argc, char** argv) {
+  tether::MarkMainEntered();  // first: the start-up is what ran before this line
   // A reader that goes away (`tether optimize ... | head -1`) must not end the run: writes to
   // it fail quietly and the outputs are still written. A file-size limit (ulimit -f) becomes
   // an error naming the file, not a signal that leaves it half written.
@@ -44,6 +46,7 @@ int main(int argc, char** argv) {
 #define TETHER_MAKE_COMMAND(Name) commands.push_back(tether::Make##Name##Command());
   TETHER_COMMANDS(TETHER_MAKE_COMMAND)
   CLI::App app{"tether: factor-graph optimisation for SLAM"};
+  app.set_version_flag("--version", "tether " TETHER_VERSION_STRING);
   app.require_subcommand(1);
   for (const auto& c : commands) c->Add(app);
   tether::AddOptionChecks(&app);

@@ -204,12 +204,14 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
     return stop(PipelineStatus::kInvalidOptions, e.what());
   }
   r.output_notes = outputs.set.Notes();
+  auto t0 = std::chrono::steady_clock::now();
   try {
     if (!options.ground_truth.empty()) r.truth = ReadGraphFile(options.ground_truth, registry).values;
     r.file = ReadProblem(options, registry);
   } catch (const Error& e) {
     return stop(PipelineStatus::kBadInput, e.what());
   }
+  r.times.read = SecondsSince(t0);
   ApplyRobustRules(options.robust, registry, &r.file.graph);
   if (hooks.on_read) hooks.on_read(r.file);
 
@@ -218,16 +220,20 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   const bool keep = options.keep_intermediate_values || !options.plot_output.empty() || !options.ground_truth.empty();
   Values values = keep ? r.file.values : std::move(r.file.values);
   if (!keep) r.file.values = Values();
+  t0 = std::chrono::steady_clock::now();
   try {
     r.init = InitializeProblem(r.file.graph, &values, options.init, options.input);
   } catch (const Error& e) {
     return stop(PipelineStatus::kBadInput, e.what());
   }
+  r.times.initialize = SecondsSince(t0);
   r.initialized = true;
   if (keep) r.initial = values;
   if (hooks.on_initialized) hooks.on_initialized(r.init);
 
+  t0 = std::chrono::steady_clock::now();
   Solve(options, &r, &values);
+  r.times.optimize = SecondsSince(t0);
   r.optimized = true;
   r.values = std::move(values);
   if (hooks.on_optimized) hooks.on_optimized(r.summary);
@@ -242,12 +248,14 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   if (options.covariance) {
     try {
       r.covariances = ComputeCovariances(options, r);
+      r.times.covariance = r.covariances.seconds;
     } catch (const IoError& e) {
       return stop(PipelineStatus::kWriteFailed, std::string(e.what()) + "; nothing was written");
     } catch (const Error& e) {
       return stop(PipelineStatus::kBadInput, "covariance: " + std::string(e.what()) + "; nothing was written");
     }
   }
+  t0 = std::chrono::steady_clock::now();
   try {
     StageOutputs(options, registry, &r, &outputs);
   } catch (const Error& e) {
@@ -258,6 +266,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   } catch (const Error& e) {
     return stop(PipelineStatus::kWriteFailed, e.what());
   }
+  r.times.write = SecondsSince(t0);
   for (const OutputFile* f : {outputs.graph, outputs.rejected, outputs.covariance, outputs.plot}) {
     if (f != nullptr && f->committed()) r.written_paths.push_back(f->path());
   }

@@ -307,7 +307,7 @@ TEST_F(BenchTest, MarkdownTableParses) {
   EXPECT_NE(preface.find("2 runs per configuration"), std::string::npos) << preface;
   ASSERT_EQ(table.size(), 4u) << out_.str();
   const std::size_t width = table[0].size();
-  EXPECT_EQ(width, 27u);  // with "÷ best"
+  EXPECT_EQ(width, 29u);  // with "÷ best", start-up and process
   for (const auto& row : table) EXPECT_EQ(row.size(), width);
   EXPECT_EQ(table[0][0], "file");
   EXPECT_EQ(table[0][12], "wall median [s]");
@@ -318,7 +318,30 @@ TEST_F(BenchTest, MarkdownTableParses) {
   EXPECT_EQ(table[3][5], "150");
   EXPECT_EQ(table[3][11], "converged");
   EXPECT_EQ(table[0][15], "÷ best");
-  EXPECT_GT(std::stod(table[3][26]), 1.0);  // peak RSS
+  EXPECT_EQ(table[0][23], "start-up [s]");
+  EXPECT_EQ(table[3][23], "-");             // BenchCommand::program not set: not measured
+  EXPECT_GT(std::stod(table[3][28]), 1.0);  // peak RSS
+}
+
+// `tether bench` measures its own start-up (the libraries loaded, which the forked runs do not
+// pay) and adds it to each row's wall time: the whole process of `tether optimize`.
+TEST_F(BenchTest, TheProgramsStartUpIsMeasuredAndAddedToTheWallTime) {
+  const std::string file = Simulated("m.g2o", SimWorld::kManhattan, 100);
+  const std::string cmd = std::string(TETHER_CLI) + " bench " + file +
+                          " -q --repeat 3 --format csv --columns wall_median_s,startup_s,process_s > " + P("out.txt");
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream o(P("out.txt"));
+  std::stringstream out;
+  out << o.rdbuf();
+  const auto rows = ParseCsv(out.str());
+  ASSERT_EQ(rows.size(), 1u) << out.str();
+  const double wall = std::stod(rows[0].at("wall_median_s"));
+  const double startup = std::stod(rows[0].at("startup_s"));
+  const double process = std::stod(rows[0].at("process_s"));
+  EXPECT_GT(startup, 0);
+  EXPECT_LT(startup, 5.0) << "a start-up of seconds means the measurement ran something else";
+  EXPECT_NEAR(process, startup + wall, 1e-5 * process) << out.str();
+  EXPECT_DOUBLE_EQ(ProgramStartupSeconds("/nonexistent/tether", 2), -1);
 }
 
 // Progress goes to stderr, one line per run with the file, the configuration and run k of N;

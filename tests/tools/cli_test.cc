@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -59,6 +60,39 @@ TEST_F(CliTest, SimulateThenOptimizeWritesGraphAndPlot) {
   CliRun again = Tether("optimize " + P("out.g2o") + " -q --init file");
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_NE(again.output.find("iterations         1 "), std::string::npos) << again.output;
+}
+
+// The summary ends with the whole process's time split into its phases: the start-up before
+// main (the libraries loaded), read, initialise, optimise, write and the rest. The parts add up
+// to the total, each is a time (not negative), and the total is no more than the wall time
+// measured outside the program.
+TEST_F(CliTest, TheSummarySaysWhereTheWholeProcessTimeWent) {
+  ASSERT_EQ(Tether("simulate manhattan --poses 300 --seed 3 -q -o " + P("m.g2o")).code, 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  CliRun run = Tether("optimize " + P("m.g2o") + " -q -o " + P("r.g2o"));
+  const double outside = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(run.code, 0) << run.output;
+  const std::size_t at = run.output.find("whole process ");
+  ASSERT_NE(at, std::string::npos) << run.output;
+  double total = -1, startup = -1, read = -1, init = -1, opt = -1, write = -1, other = -1;
+  ASSERT_EQ(std::sscanf(run.output.c_str() + at,
+                        "whole process %lf s: start-up %lf, read %lf, initialise %lf, optimise %lf, write %lf, "
+                        "other %lf",
+                        &total, &startup, &read, &init, &opt, &write, &other),
+            7)
+      << run.output.substr(at);
+  for (double part : {startup, read, init, opt, write, other}) EXPECT_GE(part, 0) << run.output.substr(at);
+  EXPECT_GT(startup, 0) << "loading the shared libraries takes time";
+  EXPECT_GT(total, 0);
+  // Each figure is rounded to 1 ms: seven of them differ from their sum by at most 3.5 ms.
+  EXPECT_NEAR(startup + read + init + opt + write + other, total, 0.0035) << run.output.substr(at);
+  EXPECT_LE(total, outside + 0.001) << "the program cannot take longer than its run";
+  // The optimise phase holds the solver's own total.
+  double solver_total = -1;
+  const std::size_t time_at = run.output.find("  time ");
+  ASSERT_NE(time_at, std::string::npos);
+  ASSERT_EQ(std::sscanf(run.output.c_str() + time_at, "  time %lf s", &solver_total), 1);
+  EXPECT_LE(solver_total, opt + 0.0015);
 }
 
 // --init: chordal by default (and said so), file and spanning-tree on request, all reaching

@@ -1,6 +1,7 @@
 #include "tether/tools/bench.h"
 
 #include <dlfcn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -176,6 +177,8 @@ const Column kColumns[] = {
     {"factorize [s]", "factorize_s"},
     {"solve [s]", "solve_s"},
     {"write [s]", "write_s"},
+    {"start-up [s]", "startup_s"},
+    {"process [s]", "process_s"},
     {"optimize [s]", "optimize_s"},
     {"floor [s]", "floor_s"},
     {"optimize/floor", "optimize_over_floor"},
@@ -224,9 +227,14 @@ std::vector<std::string> Cells(const BenchRow& row, bool csv, double best) {
   } else {
     c.push_back(none);
   }
-  for (double BenchRun::*f : {&BenchRun::read_seconds, &BenchRun::init_seconds, &BenchRun::setup_seconds,
-                              &BenchRun::linearize_seconds, &BenchRun::factorize_seconds, &BenchRun::solve_seconds,
-                              &BenchRun::write_seconds, &BenchRun::optimize_seconds, &BenchRun::floor_seconds}) {
+  for (double BenchRun::*f :
+       {&BenchRun::read_seconds, &BenchRun::init_seconds, &BenchRun::setup_seconds, &BenchRun::linearize_seconds,
+        &BenchRun::factorize_seconds, &BenchRun::solve_seconds, &BenchRun::write_seconds}) {
+    c.push_back(rep != nullptr ? sec(MedianOf(row.runs, f)) : none);
+  }
+  c.push_back(row.startup_seconds >= 0 ? sec(row.startup_seconds) : none);
+  c.push_back(row.startup_seconds >= 0 && rep != nullptr ? sec(row.startup_seconds + row.median_seconds) : none);
+  for (double BenchRun::*f : {&BenchRun::optimize_seconds, &BenchRun::floor_seconds}) {
     c.push_back(rep != nullptr ? sec(MedianOf(row.runs, f)) : none);
   }
   const double floor = rep != nullptr ? MedianOf(row.runs, &BenchRun::floor_seconds) : -1;
@@ -427,8 +435,9 @@ std::string FormatBenchMarkdown(const std::vector<BenchRow>& rows, int repeat, c
   o << "CHOLMOD's BLAS (where dgemm_ resolves): `" << blas << "`. " << repeat << (repeat == 1 ? " run" : " runs")
     << " per configuration, each in a fresh child process; wall = read + initialise + solve + write; the "
        "split and the floor are medians over the runs, the ratio is that of the medians; ÷ best: the median wall "
-       "over the least of the file's solved rows; n/a: not measured apart (Ceres times its linear solver as a "
-       "whole).\n\n";
+       "over the least of the file's solved rows; start-up: `tether --version` from fork to exit (the libraries "
+       "loaded), which the forked runs do not pay; process = start-up + wall median, the whole `tether optimize` "
+       "run; n/a: not measured apart (Ceres times its linear solver as a whole).\n\n";
   const std::vector<std::size_t> shown = Shown(columns);
   std::string header = "|", rule = "|";
   for (std::size_t i : shown) {
@@ -614,6 +623,28 @@ std::vector<BenchRow> RunConfigs(const BenchCommand& cmd, const std::vector<Benc
 
 }  // namespace
 
+double ProgramStartupSeconds(const std::string& program, int runs) {
+  std::vector<double> seconds;
+  for (int i = 0; i < runs; ++i) {
+    const auto t0 = Clock::now();
+    const pid_t pid = ::fork();
+    if (pid < 0) return -1;
+    if (pid == 0) {
+      // The child: its output goes nowhere; exec or die without running the parent's exit code.
+      if (FILE* null = std::fopen("/dev/null", "w"); null != nullptr) {
+        ::dup2(::fileno(null), STDOUT_FILENO);
+        ::dup2(::fileno(null), STDERR_FILENO);
+      }
+      ::execl(program.c_str(), "tether", "--version", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    int status = 0;
+    if (::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) return -1;
+    seconds.push_back(SecondsSince(t0));
+  }
+  return seconds.empty() ? -1 : Median(seconds);
+}
+
 int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   if (cmd.replay) return RunReplayBench(cmd, out, err);
   if (!cmd.outliers.empty()) return RunOutliers(cmd, out, err);
@@ -640,7 +671,11 @@ int RunBench(const BenchCommand& cmd, std::ostream& out, std::ostream& err) {
   }
 
   const std::string blas = ActiveBlasLibrary();
-  const std::vector<BenchRow> rows = RunConfigs(cmd, configs, blas, err);
+  // The program's start-up, measured before any run (a child forked later would inherit
+  // OpenMP's threads; see RunBenchInChild).
+  const double startup = cmd.program.empty() ? -1 : ProgramStartupSeconds(cmd.program, cmd.repeat);
+  std::vector<BenchRow> rows = RunConfigs(cmd, configs, blas, err);
+  for (BenchRow& row : rows) row.startup_seconds = startup;
   const std::string table =
       cmd.format == "csv" ? FormatBenchCsv(rows, blas, columns) : FormatBenchMarkdown(rows, cmd.repeat, blas, columns);
   if (const int rc = bench::WriteTable(table, cmd.output, out, err); rc != 0) return rc;
@@ -655,7 +690,10 @@ namespace {
 class BenchCli : public Command {
  public:
   void Add(CLI::App& app) override;
-  int Run(std::ostream& out, std::ostream& err) override { return RunBench(cmd_, out, err); }
+  int Run(std::ostream& out, std::ostream& err) override {
+    cmd_.program = "/proc/self/exe";
+    return RunBench(cmd_, out, err);
+  }
 
  private:
   BenchCommand cmd_;

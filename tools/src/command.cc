@@ -1,14 +1,42 @@
 #include "tether/tools/command.h"
 
 #include <cctype>
+#include <chrono>
 #include <ostream>
 
 #include "tether/core/error.h"
 #include "tether/core/output_file.h"
+#include "tether/core/timing.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
+
+namespace {
+struct ProcessClock {
+  bool marked = false;
+  double startup = -1;
+  std::chrono::steady_clock::time_point main_entered;
+};
+ProcessClock& TheProcessClock() {
+  static ProcessClock clock;
+  return clock;
+}
+}  // namespace
+
+void MarkMainEntered() {
+  ProcessClock& c = TheProcessClock();
+  c.startup = ThreadCpuSeconds();
+  c.main_entered = std::chrono::steady_clock::now();
+  c.marked = true;
+}
+
+double StartupSeconds() { return TheProcessClock().startup; }
+
+double SecondsSinceMain() {
+  const ProcessClock& c = TheProcessClock();
+  return c.marked ? SecondsSince(c.main_entered) : 0;
+}
 
 CLI::Option* Command::AddPath(CLI::App* app, const std::string& flags, std::string* path, const std::string& help) {
   CLI::Option* o = app->add_option(flags, *path, help);

@@ -1,5 +1,6 @@
 // `tether optimize`: read a graph file, initialise, optimise, write; the pipeline does the work
 // (tether/solvers/pipeline.h), this file binds the flags to its options and prints its report.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ostream>
@@ -193,6 +194,22 @@ void PrintResult(const PipelineOptions& po, const PipelineResult& result, std::o
   for (const std::string& path : result.written_paths) out << "wrote " << path << "\n";
 }
 
+// Where the whole process's time went: the start-up before main (CPU time of the main thread:
+// loading the libraries), the pipeline's stages, and the rest since main (parsing the flags,
+// checking the outputs, printing). The exit after it is not counted.
+std::string WholeProcessLine(const PipelineTimes& t) {
+  const double startup = std::max(0.0, StartupSeconds());
+  const double since_main = SecondsSinceMain();
+  const double other = std::max(0.0, since_main - t.Total());
+  char buf[320];
+  int n =
+      std::snprintf(buf, sizeof buf, "whole process %.3f s: start-up %.3f, read %.3f, initialise %.3f, optimise %.3f",
+                    startup + since_main, startup, t.read, t.initialize, t.optimize);
+  if (t.covariance > 0) n += std::snprintf(buf + n, sizeof buf - n, ", covariance %.3f", t.covariance);
+  std::snprintf(buf + n, sizeof buf - n, ", write %.3f, other %.3f\n", t.write, other);
+  return buf;
+}
+
 }  // namespace
 
 int ExitCodeOf(PipelineStatus status) {
@@ -224,6 +241,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   const PipelineResult result = RunPipeline(po, DefaultRegistry(), hooks);
   for (const std::string& note : result.output_notes) err << "note: " << note << "\n";
   PrintResult(po, result, out, err);
+  if (result.optimized) out << WholeProcessLine(result.times);
   if (!result.ok()) err << "error: " << result.message << "\n";
   return ExitCodeOf(result.status);
 }

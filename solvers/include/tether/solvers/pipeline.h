@@ -122,6 +122,18 @@ inline constexpr EnumName<PipelineStatus> kPipelineStatusNames[] = {
 constexpr const auto& EnumNames(PipelineStatus) { return kPipelineStatusNames; }
 
 /// What happened, stage by stage. Stages not reached keep their defaults.
+/// Wall seconds of the pipeline's stages (0 for a stage not reached). The solve's own split
+/// (symbolic setup, linearise, factorise, triangular solves) is in SolverSummary.
+struct PipelineTimes {
+  double read = 0;        ///< reading the graph file (and the ground truth)
+  double initialize = 0;  ///< the initial guess (InitMethod)
+  double optimize = 0;    ///< the solve, GNC's stages or the switches
+  double covariance = 0;  ///< the marginal covariances
+  double write = 0;       ///< formatting the outputs and committing them
+  /// The stages together.
+  double Total() const { return read + initialize + optimize + covariance + write; }
+};
+
 struct PipelineResult {
   PipelineStatus status = PipelineStatus::kInvalidOptions;
   /// Empty when status is kOk; otherwise one line saying what went wrong, where (file:line
@@ -160,6 +172,8 @@ struct PipelineResult {
   /// Notes on the outputs' folders, to print: an earlier run's commit that was interrupted
   /// and has now been finished or undone (OutputSet::Notes).
   std::vector<std::string> output_notes;
+  /// Where the time went.
+  PipelineTimes times;
 
   bool ok() const { return status == PipelineStatus::kOk; }
 };

@@ -41,6 +41,9 @@ struct BenchCommand {
   std::string seeds = "1,2,3,4,5";             ///< with outliers: the seeds
   std::string methods = "none,huber,dcs,gnc";  ///< with outliers: the methods
   bool grouped = false;                        ///< with outliers: clusters of 5 consistent false closures
+  /// The tether program whose start-up (ProgramStartupSeconds) the table adds to each row's wall
+  /// time; `tether bench` sets it to itself. Empty: not measured.
+  std::string program;
 };
 
 /// One configuration: the cross product of the command's lists gives them.
@@ -101,7 +104,16 @@ struct BenchRow {
   std::string message;
   double median_seconds = 0, min_seconds = 0, max_seconds = 0;  ///< of total_seconds
   double peak_rss_mib = 0;                                      ///< the highest of the runs
+  /// The program's start-up and exit, which the forked runs do not pay: ProgramStartupSeconds
+  /// (-1: not measured). The whole process of `tether optimize FILE` is about this plus
+  /// median_seconds.
+  double startup_seconds = -1;
 };
+
+/// The wall seconds `program --version` takes from the fork to its exit, the median of `runs`:
+/// exec, loading and relocating the shared libraries, their constructors, the flags' parser,
+/// and the exit. -1 where the program cannot be run.
+double ProgramStartupSeconds(const std::string& program, int runs);
 
 /// Runs one configuration on `file` in this process (what the forked child does).
 BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config);

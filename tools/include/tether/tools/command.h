@@ -27,6 +27,16 @@ constexpr int kExitSolveFailed = 3;
 constexpr int kExitWriteFailed = 4;
 constexpr int kExitPluginFailed = 5;
 
+/// The process's own clock. main() calls MarkMainEntered() first thing; the commands report
+/// the whole process's time from it (start-up + time since main).
+void MarkMainEntered();
+/// CPU seconds the main thread used before main(): exec, the dynamic loader mapping and
+/// relocating the shared libraries, and their constructors; -1 where unknown (MarkMainEntered
+/// not called, or no thread clock).
+double StartupSeconds();
+/// Wall seconds since MarkMainEntered (0 where it was not called).
+double SecondsSinceMain();
+
 class Command {
  public:
   virtual ~Command() = default;
