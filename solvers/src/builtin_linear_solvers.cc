@@ -20,6 +20,8 @@ void RegisterBuiltinLinearSolvers(LinearSolverRegistry& r) {
   r.Register(Entry("cholmod", LinearSystemForm::kNormalEquations, MakeCholmod));
   r.Register(Entry("ldlt", LinearSystemForm::kNormalEquations, MakeEigenLDLT));
   r.Register(Entry("qr", LinearSystemForm::kJacobian, MakeSpqr));
+  r.Register(Entry("block", LinearSystemForm::kNormalEquations, MakeBlockCholesky));
+  r.Register(Entry("auto", LinearSystemForm::kNormalEquations, MakeAutoCholesky));
 }
 
 // The built-in names are taken when tether::solvers is loaded, so that a plugin loaded later

@@ -1,5 +1,5 @@
 #pragma once
-// Internal: the built-in linear solvers (cholmod, ldlt, qr) and their place in the
+// Internal: the built-in linear solvers (auto, block, cholmod, ldlt, qr) and their place in the
 // process-wide registry (tether/core/linear_solver.h).
 #include <memory>
 
@@ -12,6 +12,9 @@ namespace internal {
 std::unique_ptr<LinearSolver> MakeCholmod();
 std::unique_ptr<LinearSolver> MakeEigenLDLT();
 std::unique_ptr<LinearSolver> MakeSpqr();
+std::unique_ptr<LinearSolver> MakeBlockCholesky();
+/// The default: the block Cholesky on sparse factors of one block size, CHOLMOD otherwise.
+std::unique_ptr<LinearSolver> MakeAutoCholesky();
 
 /// DefaultLinearSolverRegistry() with the built-in solvers in it (added on the first call,
 /// which the loading of tether::solvers itself makes, before any plugin can take a name).
