@@ -123,7 +123,7 @@ void BindOptions(py::module_& m) {
           [](SolverOptions& o, const std::string& s) {
             o.linear_solver = EnumFrom<LinearSolverType>(s, "linear solver", LinearSolverNames());
           },
-          "'cholmod' (default), 'ldlt', 'qr', or a plugin's")
+          "'auto' (default), 'block', 'cholmod', 'ldlt', 'qr', or a plugin's")
       .def_readwrite("max_iterations", &SolverOptions::max_iterations)
       .def_readwrite("function_tolerance", &SolverOptions::function_tolerance)
       .def_readwrite("gradient_tolerance", &SolverOptions::gradient_tolerance)

@@ -223,7 +223,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     s.message = "invalid options: " + why;
     return s;
   }
-  if (options.linear_solver != LinearSolverType::kCholmod) {
+  // "auto" (the default) lets Ceres choose its own: SPARSE_NORMAL_CHOLESKY over SuiteSparse.
+  if (options.linear_solver != LinearSolverType::kCholmod && options.linear_solver != LinearSolverType::kAuto) {
     s.message = std::string("the Ceres adapter solves with SPARSE_NORMAL_CHOLESKY over SuiteSparse (cholmod); '") +
                 ToString(options.linear_solver) + "' is for the native solvers (gn, lm)";
     return s;

@@ -154,19 +154,22 @@ Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A
 }
 
 // Solves sparse symmetric positive-definite systems A X = B that share one sparsity pattern
-// (the rotation and the translation systems do) with the solvers' CHOLMOD wrapper: the
-// ordering and symbolic analysis are done once, CHOLMOD picks simplicial or supernodal from
-// it (simplicial for the sparse 2D graphs, several times faster there) and a matrix that is
-// not positive definite is reported. Throws naming `what` when A is singular.
+// (the rotation and the translation systems do) with the solvers' "auto" sparse Cholesky on
+// the poses' blocks of `block` unknowns: the ordering and symbolic analysis are done once, the
+// block Cholesky factorises where the factor is sparse (the 2D pose graphs), CHOLMOD where it
+// is dense, and a matrix that is not positive definite is reported. Throws naming `what` when
+// A is singular.
 class SpdSolver {
  public:
+  explicit SpdSolver(int block) : block_(block) {}
+
   Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
     UpperTriangle(A);
     Eigen::MatrixXd X(B.rows(), B.cols());
     LinearSolverStatus r = LinearSolverStatus::kFailed;
     try {
       if (!analysed_) {
-        chol_->Analyze(internal::View(upper_), {});
+        chol_->Analyze(internal::View(upper_), std::vector<int>(upper_.cols / block_, block_));
         analysed_ = true;
       }
       r = chol_->Factorize(internal::View(upper_));
@@ -175,10 +178,10 @@ class SpdSolver {
         chol_->Solve(b.data(), X.col(c).data());
       }
     } catch (const Error&) {
-      r = LinearSolverStatus::kFailed;  // CHOLMOD itself failed (out of memory)
+      r = LinearSolverStatus::kFailed;  // the solver itself failed (out of memory)
     }
     if (r == LinearSolverStatus::kFailed) {
-      throw InvalidArgument(std::string("chordal initialisation: CHOLMOD failed on the ") + what +
+      throw InvalidArgument(std::string("chordal initialisation: the sparse Cholesky failed on the ") + what +
                             " system (out of memory?); use --init spanning-tree or --init file");
     }
     if (r != LinearSolverStatus::kOk) {
@@ -209,7 +212,8 @@ class SpdSolver {
     }
   }
 
-  std::unique_ptr<LinearSolver> chol_ = internal::MakeCholmod();
+  int block_;
+  std::unique_ptr<LinearSolver> chol_ = internal::MakeAutoCholesky();
   internal::Csc upper_;
   bool analysed_ = false;
 };
@@ -416,7 +420,7 @@ class Chordal {
 
   const FactorGraph& graph_;
   Values* values_;
-  SpdSolver spd_;  // the rotation and translation systems have the same pattern
+  SpdSolver spd_{D};  // the rotation and translation systems have the same pattern
   std::unordered_map<Key, std::uint32_t> index_;
   std::vector<Key> keys_;
   std::vector<Edge> edges_;

@@ -19,10 +19,11 @@ bool PipelineOptions::IsValid(std::string* why) const {
     reason = "PipelineOptions.input is empty; name the graph file to read (.g2o, or TORO .graph)";
   } else if (!solver.IsValid(&reason)) {
     reason = "PipelineOptions.solver: " + reason;
-  } else if (solver.algorithm == Algorithm::kCeres && solver.linear_solver != LinearSolverType::kCholmod) {
+  } else if (solver.algorithm == Algorithm::kCeres && solver.linear_solver != LinearSolverType::kCholmod &&
+             solver.linear_solver != LinearSolverType::kAuto) {
     reason =
         "PipelineOptions.solver: the ceres algorithm solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; "
-        "use the cholmod linear solver (ldlt and qr are for gn and lm)";
+        "use the auto or cholmod linear solver (block, ldlt and qr are for gn and lm)";
   } else if (gnc && !gnc_options.IsValid(&reason)) {
     reason = "PipelineOptions.gnc_options: " + reason;
   } else if (gnc && switchable) {

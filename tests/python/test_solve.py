@@ -103,7 +103,7 @@ def test_callback_sees_the_table_and_stops_the_solve():
 
 def test_solver_options_and_their_errors():
     o = tether.SolverOptions()
-    assert o.algorithm == "lm" and o.linear_solver == "cholmod" and o.max_iterations == 100
+    assert o.algorithm == "lm" and o.linear_solver == "auto" and o.max_iterations == 100
     o.algorithm = "dogleg"
     o.linear_solver = "qr"
     with pytest.raises(tether.InvalidArgument, match="unknown algorithm 'newton'"):

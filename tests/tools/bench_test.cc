@@ -139,7 +139,7 @@ TEST_F(BenchTest, OneRowPerFileAndConfigurationWithEveryColumn) {
     EXPECT_EQ(r.at("file"), first ? cmd.files[0] : cmd.files[1]);
     EXPECT_EQ(r.at("solver"), configs[i % 4][0]);
     EXPECT_EQ(r.at("init"), configs[i % 4][1]);
-    EXPECT_EQ(r.at("linear"), "cholmod");
+    EXPECT_EQ(r.at("linear"), "auto");
     EXPECT_EQ(r.at("poses"), first ? "200" : "100");
     EXPECT_EQ(r.at("landmarks"), "0");
     EXPECT_EQ(r.at("edges"), std::to_string(first ? factors_m : factors_s));

@@ -266,7 +266,9 @@ void OptimizeCli::Add(CLI::App& app) {
   AddPath(sub, "-o,--output", &po.output, "Write the optimised graph (g2o)");
   sub->add_option("--solver", cmd_.solver, "gn | lm | dogleg | ceres (Ceres' Levenberg-Marquardt)")
       ->capture_default_str();
-  sub->add_option("--linear", cmd_.linear, "cholmod | ldlt | qr | a plugin's linear solver (pcg)")
+  sub->add_option("--linear", cmd_.linear,
+                  "auto (block Cholesky on sparse factors, CHOLMOD on dense ones) | block | cholmod | ldlt | qr | a "
+                  "plugin's linear solver (pcg)")
       ->capture_default_str();
   sub->add_option("--covariance", cmd_.covariance,
                   "After the solve, marginal covariances of these ids (comma-separated) or of all");

@@ -37,23 +37,27 @@ inline const Algorithm Algorithm::kDogLeg{"dogleg"};
 inline const Algorithm Algorithm::kCeres{"ceres"};
 
 /// A linear solver by the name it is registered under (tether/core/linear_solver.h):
-/// "cholmod" (CHOLMOD Cholesky of H = J^T J, the default), "ldlt" (Eigen's SimplicialLDLT of
-/// H, no SuiteSparse needed at run time), "qr" (SuiteSparseQR on J itself: better
-/// conditioned, slower), or one a plugin registered (the example plugin's "pcg"). Once an
-/// enum, like Algorithm.
+/// "auto" (the default: the block Cholesky of H = J^T J where its factor is sparse and the
+/// variables' blocks have one size, CHOLMOD otherwise), "block" (tether's own sparse Cholesky
+/// on the variables' blocks), "cholmod" (CHOLMOD's Cholesky of H, simplicial or supernodal),
+/// "ldlt" (Eigen's SimplicialLDLT of H, no SuiteSparse needed at run time), "qr"
+/// (SuiteSparseQR on J itself: better conditioned, slower), or one a plugin registered (the
+/// example plugin's "pcg"). docs/solvers.md compares them. Once an enum, like Algorithm.
 class LinearSolverType {
  public:
-  LinearSolverType() : name_("cholmod") {}
+  LinearSolverType() : name_("auto") {}
   explicit LinearSolverType(std::string name) : name_(std::move(name)) {}
   const std::string& name() const { return name_; }
   bool operator==(const LinearSolverType& o) const { return name_ == o.name_; }
   bool operator!=(const LinearSolverType& o) const { return name_ != o.name_; }
 
-  static const LinearSolverType kCholmod, kEigenLDLT, kQR;
+  static const LinearSolverType kAuto, kBlock, kCholmod, kEigenLDLT, kQR;
 
  private:
   std::string name_;
 };
+inline const LinearSolverType LinearSolverType::kAuto{"auto"};
+inline const LinearSolverType LinearSolverType::kBlock{"block"};
 inline const LinearSolverType LinearSolverType::kCholmod{"cholmod"};
 inline const LinearSolverType LinearSolverType::kEigenLDLT{"ldlt"};
 inline const LinearSolverType LinearSolverType::kQR{"qr"};
@@ -156,8 +160,9 @@ struct SolverOptions {
   /// The step strategy: Algorithm::kLevenbergMarquardt ("lm"), kGaussNewton ("gn"), kDogLeg
   /// ("dogleg") or kCeres ("ceres").
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
-  /// The linear solver, by name: "cholmod", "ldlt", "qr" or one a plugin registered.
-  LinearSolverType linear_solver = LinearSolverType::kCholmod;
+  /// The linear solver, by name: "auto", "block", "cholmod", "ldlt", "qr" or one a plugin
+  /// registered.
+  LinearSolverType linear_solver = LinearSolverType::kAuto;
 
   // Stopping rules, common to every step strategy.
   int max_iterations = 100;
@@ -200,7 +205,7 @@ struct SolverSummary {
   SolverStatus status = SolverStatus::kInvalidInput;
   std::string message;  ///< why it stopped, in words
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
-  LinearSolverType linear_solver = LinearSolverType::kCholmod;
+  LinearSolverType linear_solver = LinearSolverType::kAuto;
   /// chi2 (sum of |R e|^2 over the factors, their robust losses left out) at the start and
   /// at the end.
   double initial_chi2 = 0;

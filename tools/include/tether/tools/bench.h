@@ -20,15 +20,15 @@ namespace tether {
 
 struct BenchCommand {
   std::vector<std::string> files;
-  bool quiet = false;              ///< no progress lines (errors still go to the error stream)
-  std::string columns;             ///< comma-separated CSV column names to show, in that order; empty: all
-  std::string solvers = "lm";      ///< comma-separated: gn, lm, ceres
-  std::string linear = "cholmod";  ///< comma-separated: cholmod, ldlt, qr
-  std::string init = "chordal";    ///< comma-separated: file, spanning-tree, chordal
-  std::string threads;             ///< comma-separated thread counts; empty: the solver's default
-  int repeat = 5;                  ///< runs per configuration
-  std::string format = "md";       ///< md | csv
-  std::string output;              ///< table to this file instead of `out`
+  bool quiet = false;            ///< no progress lines (errors still go to the error stream)
+  std::string columns;           ///< comma-separated CSV column names to show, in that order; empty: all
+  std::string solvers = "lm";    ///< comma-separated: gn, lm, ceres
+  std::string linear = "auto";   ///< comma-separated: auto, block, cholmod, ldlt, qr
+  std::string init = "chordal";  ///< comma-separated: file, spanning-tree, chordal
+  std::string threads;           ///< comma-separated thread counts; empty: the solver's default
+  int repeat = 5;                ///< runs per configuration
+  std::string format = "md";     ///< md | csv
+  std::string output;            ///< table to this file instead of `out`
   /// Factor plugins (paths or names) loaded into the default registry before any file is
   /// read, as `tether optimize --plugin` does; one that fails to load: exit code 1, nothing run.
   std::vector<std::string> plugins;

@@ -31,9 +31,9 @@ struct OptimizeCommand {
   /// its names (below).
   PipelineOptions pipeline;
   /// The step strategy's and the linear solver's names: a plugin's are known once it is loaded.
-  std::string solver = "lm";       ///< gn | lm | dogleg | ceres | a plugin's
-  std::string linear = "cholmod";  ///< cholmod | ldlt | qr | a plugin's
-  bool quiet = false;              ///< no iteration table
+  std::string solver = "lm";    ///< gn | lm | dogleg | ceres | a plugin's
+  std::string linear = "auto";  ///< auto | block | cholmod | ldlt | qr | a plugin's
+  bool quiet = false;           ///< no iteration table
   /// Robust loss rules, SELECTOR=KERNEL:SCALE (loop=huber:1.0, all=cauchy:2, EDGE_SE2=dcs:1;
   /// tether/core/robust_rules.h), applied in order after reading (parsed into pipeline.robust
   /// once the plugins are loaded).
