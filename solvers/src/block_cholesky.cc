@@ -97,8 +97,9 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   std::vector<int> block_of(n_);
   for (int b = 0; b < nb_; ++b) std::fill(block_of.begin() + orig_off_[b], block_of.begin() + orig_off_[b + 1], b);
 
-  // The block graph (both triangles, no diagonal) for the ordering.
-  std::vector<std::vector<int>> adj(nb_);
+  // The upper block pattern of A: the block rows I < J of each block column J, sorted, in
+  // compressed columns. The ordering takes it as it is (it works on A + A^T).
+  std::vector<int> up(nb_ + 1, 0), ui;
   {
     std::vector<int> mark(nb_, -1);
     for (int J = 0; J < nb_; ++J) {
@@ -108,26 +109,20 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
           const int I = block_of[a.rowind[p]];
           if (I >= J || mark[I] == J) continue;  // the lower triangle is the mirror; seen
           mark[I] = J;
-          adj[J].push_back(I);
-          adj[I].push_back(J);
+          ui.push_back(I);
         }
       }
+      std::sort(ui.begin() + up[J], ui.end());
+      up[J + 1] = static_cast<int>(ui.size());
     }
-  }
-  std::vector<int> gp(nb_ + 1, 0), gi;
-  for (int J = 0; J < nb_; ++J) gp[J + 1] = gp[J] + static_cast<int>(adj[J].size());
-  gi.reserve(gp[nb_]);
-  for (auto& list : adj) {
-    std::sort(list.begin(), list.end());
-    gi.insert(gi.end(), list.begin(), list.end());
   }
   perm_.assign(nb_, 0);
   std::iota(perm_.begin(), perm_.end(), 0);
-  if (nb_ > 1 && gp[nb_] > 0) {
+  if (nb_ > 1 && !ui.empty()) {
     double control[CAMD_CONTROL], info[CAMD_INFO];
     camd_defaults(control);
     std::vector<int> p(nb_ + 1);
-    const int status = camd_order(nb_, gp.data(), gi.data(), p.data(), control, info, nullptr);
+    const int status = camd_order(nb_, up.data(), ui.data(), p.data(), control, info, nullptr);
     if (status == CAMD_OK || status == CAMD_OK_BUT_JUMBLED) std::copy(p.begin(), p.begin() + nb_, perm_.begin());
   }
   std::vector<int> pinv(nb_);
@@ -141,24 +136,25 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   max_size_ = *std::max_element(size_.begin(), size_.end());
   uniform_ = std::all_of(size_.begin(), size_.end(), [&](int s) { return s == size_[0]; }) ? size_[0] : 0;
 
-  // Permuted A's upper block pattern, rows sorted within each column, and where its values go.
+  // Permuted A's upper block pattern (in no particular order within a column), and where each
+  // block of A's upper pattern went (upos).
   a_colptr_.assign(nb_ + 1, 0);
   for (int J = 0; J < nb_; ++J) {
-    for (int I : adj[J]) {
-      if (pinv[I] < pinv[J]) ++a_colptr_[pinv[J] + 1];
-    }
+    for (int q = up[J]; q < up[J + 1]; ++q) ++a_colptr_[std::max(pinv[ui[q]], pinv[J]) + 1];
   }
   for (int k = 0; k < nb_; ++k) a_colptr_[k + 1] += a_colptr_[k];
   a_row_.assign(a_colptr_[nb_], 0);
+  std::vector<int> upos(ui.size());
   {
     std::vector<int> next(a_colptr_.begin(), a_colptr_.end() - 1);
     for (int J = 0; J < nb_; ++J) {
-      for (int I : adj[J]) {
-        if (pinv[I] < pinv[J]) a_row_[next[pinv[J]]++] = pinv[I];
+      for (int q = up[J]; q < up[J + 1]; ++q) {
+        const int i = pinv[ui[q]], j = pinv[J];
+        upos[q] = next[std::max(i, j)]++;
+        a_row_[upos[q]] = std::min(i, j);
       }
     }
   }
-  for (int k = 0; k < nb_; ++k) std::sort(a_row_.begin() + a_colptr_[k], a_row_.begin() + a_colptr_[k + 1]);
   a_val_.assign(a_row_.size(), 0);
   a_diag_.assign(nb_, 0);
   std::int64_t used = 0;
@@ -171,23 +167,26 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     }
   }
   ax_.assign(used, 0.0);
+  // Each scalar of A's upper triangle: its place in ax_. A column's rows are sorted, so its
+  // blocks come in the order of the block column's upper pattern (a search where they are not).
   scatter_.assign(a.colptr[n_], -1);
   for (int c = 0; c < n_; ++c) {
-    const int J = block_of[c], lc = c - orig_off_[J];
+    const int J = block_of[c], lc = c - orig_off_[J], j = pinv[J];
+    int q = up[J];
     for (int p = a.colptr[c]; p < a.colptr[c + 1]; ++p) {
       const int r = a.rowind[p], I = block_of[r], lr = r - orig_off_[I];
       if (I > J || (I == J && lr > lc)) continue;  // below the diagonal: ignored
-      const int i = pinv[I], j = pinv[J];
-      if (i == j) {
+      if (I == J) {
         scatter_[p] = a_diag_[j] + lr + static_cast<std::int64_t>(lc) * size_[j];
         continue;
       }
-      // Block (i, j) of the permuted matrix, or its mirror (j, i) transposed where i > j.
-      const int col = std::max(i, j), rowb = std::min(i, j);
-      const int br = i < j ? lr : lc, bc = i < j ? lc : lr;
-      const auto first = a_row_.begin() + a_colptr_[col], last = a_row_.begin() + a_colptr_[col + 1];
-      const auto at = std::lower_bound(first, last, rowb);
-      scatter_[p] = a_val_[at - a_row_.begin()] + br + static_cast<std::int64_t>(bc) * size_[rowb];
+      while (q < up[J + 1] && ui[q] != I) ++q;
+      if (q == up[J + 1])
+        q = static_cast<int>(std::lower_bound(ui.begin() + up[J], ui.begin() + up[J + 1], I) - ui.begin());
+      const int i = pinv[I];
+      // Block (i, j) of the permuted matrix, or where i > j its mirror (j, i), transposed.
+      scatter_[p] = i < j ? a_val_[upos[q]] + lr + static_cast<std::int64_t>(lc) * size_[i]
+                          : a_val_[upos[q]] + lc + static_cast<std::int64_t>(lr) * size_[j];
     }
   }
 

@@ -38,14 +38,17 @@ BlockProblem MakeProblem(const std::vector<int>& sizes, int loops, unsigned seed
   p.dense = Eigen::MatrixXd::Zero(n, n);
   std::vector<std::vector<bool>> linked(nb, std::vector<bool>(nb, false));
   const auto link = [&](int a, int b) {
-    // A factor of 4 residuals on blocks a and b: J^T J spread over both.
+    // A factor of da + db residuals on blocks a and b: J^T J added to their four blocks.
     const int da = sizes[a], db = sizes[b];
-    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(da + db, n);
+    Eigen::MatrixXd J(da + db, da + db);
     for (int r = 0; r < da + db; ++r) {
-      for (int c = 0; c < da; ++c) J(r, off[a] + c) = g(rng);
-      for (int c = 0; c < db; ++c) J(r, off[b] + c) = g(rng);
+      for (int c = 0; c < da + db; ++c) J(r, c) = g(rng);
     }
-    p.dense += J.transpose() * J;
+    const Eigen::MatrixXd h = J.transpose() * J;
+    p.dense.block(off[a], off[a], da, da) += h.topLeftCorner(da, da);
+    p.dense.block(off[b], off[b], db, db) += h.bottomRightCorner(db, db);
+    p.dense.block(off[a], off[b], da, db) += h.topRightCorner(da, db);
+    p.dense.block(off[b], off[a], db, da) += h.bottomLeftCorner(db, da);
     linked[a][b] = linked[b][a] = true;
   };
   std::vector<int> order(nb);
@@ -151,6 +154,26 @@ INSTANTIATE_TEST_SUITE_P(
                       SizesCase{"ThreePieces", Repeat(3, 60), 40, 3}, SizesCase{"OneBlock", Repeat(3, 1), 0, 1},
                       SizesCase{"Dense", Repeat(3, 12), 200, 1}),
     [](const ::testing::TestParamInfo<SizesCase>& i) { return std::string(i.param.name); });
+
+// The interface promises sorted rows; a column whose rows come in another order is still read
+// right.
+TEST(BlockCholesky, RowsOutOfOrderWithinAColumnAreStillPlaced) {
+  BlockProblem p = MakeProblem(Repeat(3, 30), 20, 12);
+  std::mt19937 rng(3);
+  for (int c = 0; c < p.upper.cols; ++c) {
+    std::vector<std::pair<int, double>> entries;
+    for (int k = p.upper.colptr[c]; k < p.upper.colptr[c + 1]; ++k)
+      entries.emplace_back(p.upper.rowind[k], p.upper.values[k]);
+    std::shuffle(entries.begin(), entries.end(), rng);
+    for (int k = p.upper.colptr[c], e = 0; k < p.upper.colptr[c + 1]; ++k, ++e) {
+      p.upper.rowind[k] = entries[e].first;
+      p.upper.values[k] = entries[e].second;
+    }
+  }
+  BlockCholesky chol;
+  chol.Analyze(View(p.upper), p.sizes);
+  ExpectSolves(&chol, p, 13);
+}
 
 TEST(BlockCholesky, EmptyBlockSizesMeanScalars) {
   const BlockProblem p = MakeProblem(Repeat(1, 30), 20, 5);
