@@ -765,6 +765,11 @@ int InitializeSpanningTree(const FactorGraph& graph, Values* values) {
   if (values == nullptr) {
     throw InvalidArgument("InitializeSpanningTree: values is a null pointer; pass the Values to initialise");
   }
+  // Most graphs come with every value: nothing to build then.
+  const bool any_missing = std::any_of(graph.factors().begin(), graph.factors().end(), [&](const auto& f) {
+    return std::any_of(f->keys().begin(), f->keys().end(), [&](Key k) { return !values->Has(k); });
+  });
+  if (!any_missing) return 0;
   struct Node {
     VarType type;
     std::vector<std::uint32_t> factors;  // factors with two or more keys that use this key
