@@ -102,6 +102,22 @@ SqrtInformation ReadContext::FromInformation(const Fields& f, Eigen::MatrixXd om
 }
 
 SqrtInformation ReadContext::ReadUpperInformation(const Fields& f, std::size_t first, int dim) {
+  // Up to 6 x 6 (every built-in edge) the matrix lives on the stack: this runs for every edge
+  // of a file.
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kInlineResidualDim, kInlineResidualDim>;
+  if (dim >= 1 && dim <= kInlineResidualDim) {
+    Small omega(dim, dim);
+    std::size_t k = first;
+    for (int i = 0; i < dim; ++i) {
+      for (int j = i; j < dim; ++j) {
+        omega(i, j) = f.Double(k++);
+        omega(j, i) = omega(i, j);
+      }
+    }
+    SqrtInformation out;
+    if (SqrtInformation::TryFromInformation(omega, &out, nullptr)) return out;
+    return FromInformation(f, Eigen::MatrixXd(omega));  // refused: the message, or the repair
+  }
   Eigen::MatrixXd omega(dim, dim);
   std::size_t k = first;
   for (int i = 0; i < dim; ++i) {

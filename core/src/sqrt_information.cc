@@ -17,7 +17,7 @@ namespace {
 // (a condition number up to about 1 / kPivotFloor^2 = 1e24).
 constexpr double kPivotFloor = 1e-12;
 
-std::string NotPositiveDefinite(const Eigen::MatrixXd& omega) {
+std::string NotPositiveDefinite(const Eigen::Ref<const Eigen::MatrixXd>& omega) {
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (omega + omega.transpose()), Eigen::EigenvaluesOnly);
   const double lo = es.eigenvalues()(0), hi = es.eigenvalues()(es.eigenvalues().size() - 1);
   std::ostringstream s;
@@ -34,7 +34,8 @@ std::string NotPositiveDefinite(const Eigen::MatrixXd& omega) {
 
 }  // namespace
 
-bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why) {
+bool SqrtInformation::TryFromInformation(const Eigen::Ref<const Eigen::MatrixXd>& omega, SqrtInformation* out,
+                                         std::string* why) {
   const int n = static_cast<int>(omega.rows());
   if (n < 1 || omega.cols() != n) {
     if (why)
@@ -79,7 +80,8 @@ bool SqrtInformation::TryFromInformation(const Eigen::MatrixXd& omega, SqrtInfor
   return true;
 }
 
-bool SqrtInformation::FromLarge(const Eigen::MatrixXd& omega, double scale, SqrtInformation* out, std::string* why) {
+bool SqrtInformation::FromLarge(const Eigen::Ref<const Eigen::MatrixXd>& omega, double scale, SqrtInformation* out,
+                                std::string* why) {
   const int n = static_cast<int>(omega.rows());
   Eigen::LLT<Eigen::MatrixXd> llt(omega);
   bool ok = llt.info() == Eigen::Success;
@@ -138,7 +140,7 @@ SqrtInformation SqrtInformation::FromSigmas(const Eigen::VectorXd& sigmas) {
   return r;
 }
 
-SqrtInformation SqrtInformation::FromInformation(const Eigen::MatrixXd& omega) {
+SqrtInformation SqrtInformation::FromInformation(const Eigen::Ref<const Eigen::MatrixXd>& omega) {
   SqrtInformation r;
   std::string why;
   if (!TryFromInformation(omega, &r, &why)) throw InvalidArgument(why);

@@ -21,9 +21,12 @@ class SqrtInformation {
 
   /// From an information matrix. Throws InvalidArgument (with `why` filled when given) if it
   /// is not symmetric positive definite or holds NaN/inf.
-  static SqrtInformation FromInformation(const Eigen::MatrixXd& omega);
-  /// Returns false (and says why) instead of throwing.
-  static bool TryFromInformation(const Eigen::MatrixXd& omega, SqrtInformation* out, std::string* why);
+  static SqrtInformation FromInformation(const Eigen::Ref<const Eigen::MatrixXd>& omega);
+  /// Returns false (and says why) instead of throwing. A matrix of at most 6 x 6 in fixed
+  /// storage (Eigen::Matrix<double, Dynamic, Dynamic, 0, 6, 6>) goes through without any
+  /// allocation.
+  static bool TryFromInformation(const Eigen::Ref<const Eigen::MatrixXd>& omega, SqrtInformation* out,
+                                 std::string* why);
   /// Identity information of the given dimension (unit noise).
   static SqrtInformation Identity(int dim);
   /// Isotropic: Omega = I / sigma^2.
@@ -47,7 +50,7 @@ class SqrtInformation {
   void WhitenRowMajor(double* j, int cols) const;
 
  private:
-  static bool FromLarge(const Eigen::MatrixXd& omega, double scale, SqrtInformation* out, std::string* why);
+  static bool FromLarge(const Eigen::Ref<const Eigen::MatrixXd>& omega, double scale, SqrtInformation* out, std::string* why);
   const double* data() const { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   double* data() { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   void Resize(int dim, bool diagonal = false);
