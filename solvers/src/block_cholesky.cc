@@ -79,7 +79,7 @@ bool InvertedCholesky(double* a, int n, double* linv) {
 
 }  // namespace
 
-void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes) {
+void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate) {
   if (a.rows != a.cols) {
     throw InvalidArgument("block Cholesky: the matrix is " + std::to_string(a.rows) + " x " + std::to_string(a.cols) +
                           "; it must be square");
@@ -166,7 +166,7 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
       used += static_cast<std::int64_t>(size_[a_row_[p]]) * size_[k];
     }
   }
-  ax_.assign(used, 0.0);
+  ax_size_ = used;
   // Each scalar of A's upper triangle: its place in ax_. A column's rows are sorted, so its
   // blocks come in the order of the block column's upper pattern (a search where they are not).
   scatter_.assign(a.colptr[n_], -1);
@@ -233,13 +233,22 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
       used += static_cast<std::int64_t>(size_[l_row_[p]]) * size_[i];
     }
   }
-  lx_.assign(used, 0.0);
+  lx_size_ = used;
   x_off_.assign(nb_, 0);
   for (int i = 0; i < nb_; ++i) x_off_[i] = static_cast<std::int64_t>(off_[i]) * max_size_;
-  // The factorisation's block rows, the solve's vector, one diagonal block.
-  work_.assign(static_cast<std::size_t>(n_) * max_size_ + n_ + static_cast<std::size_t>(max_size_) * max_size_, 0.0);
   fill_.assign(nb_, 0);
   factorized_ = false;
+  ax_.clear();
+  lx_.clear();
+  work_.clear();
+  if (allocate) Allocate();
+}
+
+void BlockCholesky::Allocate() {
+  ax_.assign(ax_size_, 0.0);
+  lx_.assign(lx_size_, 0.0);
+  // The factorisation's block rows, the solve's vector, one diagonal block.
+  work_.assign(static_cast<std::size_t>(n_) * max_size_ + n_ + static_cast<std::size_t>(max_size_) * max_size_, 0.0);
 }
 
 double BlockCholesky::UpdatesPerBlock() const {
@@ -253,6 +262,7 @@ double BlockCholesky::UpdatesPerBlock() const {
 }
 
 bool BlockCholesky::Factorize(const SparseMatrixView& a) {
+  if (lx_.size() != static_cast<std::size_t>(lx_size_)) Allocate();
   std::fill(ax_.begin(), ax_.end(), 0.0);
   const std::int64_t nnz = static_cast<std::int64_t>(scatter_.size());
   for (std::int64_t p = 0; p < nnz; ++p) {
@@ -409,7 +419,7 @@ class AutoCholesky : public LinearSolver {
   void Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes) override {
     cholmod_.reset();
     block_ = std::make_unique<BlockCholesky>();
-    block_->Analyze(a, block_sizes);
+    block_->Analyze(a, block_sizes, /*allocate=*/false);  // the factor's storage only where it is kept
     if (block_->uniform_size() == 0 || block_->UpdatesPerBlock() > kMaxBlockUpdatesPerBlock) {
       why_ = block_->uniform_size() == 0 ? "blocks of several sizes" : "a dense factor";
       char buf[64];
@@ -418,6 +428,8 @@ class AutoCholesky : public LinearSolver {
       block_.reset();
       cholmod_ = MakeCholmod();
       cholmod_->Analyze(a, block_sizes);
+    } else {
+      block_->Allocate();
     }
   }
   LinearSolverStatus Factorize(const SparseMatrixView& a) override {

@@ -34,7 +34,12 @@ class BlockCholesky {
   /// below the diagonal are ignored), as LinearSolver::Analyze is given it. `block_sizes`
   /// partitions the columns (their sum is a.cols); empty: every column its own block. Throws
   /// InvalidArgument where the sizes do not partition the columns or A is not square.
-  void Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes);
+  /// `allocate` false leaves the numeric storage (the factor's values, the workspace) for
+  /// Allocate, or the first Factorize: a caller that only wants the analysis's figures
+  /// (UpdatesPerBlock) to choose a solver does not pay for it.
+  void Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate = true);
+  /// The numeric storage the analysis sized.
+  void Allocate();
   /// A's values, same pattern. False where a pivot block is not positive definite (the
   /// factorisation is then unusable until a later Factorize succeeds).
   bool Factorize(const SparseMatrixView& a);
@@ -69,6 +74,7 @@ class BlockCholesky {
   std::vector<int> a_colptr_, a_row_;
   std::vector<std::int64_t> a_val_, a_diag_;
   std::vector<double> ax_;
+  std::int64_t ax_size_ = 0, lx_size_ = 0;
   std::vector<std::int64_t> scatter_;  // per scalar entry of the view: its place in ax_ (-1: ignored)
   // Row k of L (below the diagonal): the columns r_col_[r_rowptr_[k] ..] in topological order
   // of the elimination tree; the entries of column i of L: rows l_row_[l_colptr_[i] ..], each

@@ -175,6 +175,18 @@ TEST(BlockCholesky, RowsOutOfOrderWithinAColumnAreStillPlaced) {
   ExpectSolves(&chol, p, 13);
 }
 
+// An analysis without the numeric storage (what "auto" does before it chooses) gives the same
+// figures, and the first factorisation allocates what it needs.
+TEST(BlockCholesky, TheStorageCanComeAfterTheAnalysis) {
+  const BlockProblem p = MakeProblem(Repeat(3, 40), 30, 21);
+  BlockCholesky full, lazy;
+  full.Analyze(View(p.upper), p.sizes);
+  lazy.Analyze(View(p.upper), p.sizes, /*allocate=*/false);
+  EXPECT_EQ(lazy.off_diagonal_blocks(), full.off_diagonal_blocks());
+  EXPECT_DOUBLE_EQ(lazy.UpdatesPerBlock(), full.UpdatesPerBlock());
+  ExpectSolves(&lazy, p, 22);
+}
+
 TEST(BlockCholesky, EmptyBlockSizesMeanScalars) {
   const BlockProblem p = MakeProblem(Repeat(1, 30), 20, 5);
   BlockCholesky chol;

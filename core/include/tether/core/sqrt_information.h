@@ -50,7 +50,8 @@ class SqrtInformation {
   void WhitenRowMajor(double* j, int cols) const;
 
  private:
-  static bool FromLarge(const Eigen::Ref<const Eigen::MatrixXd>& omega, double scale, SqrtInformation* out, std::string* why);
+  static bool FromLarge(const Eigen::Ref<const Eigen::MatrixXd>& omega, double scale, SqrtInformation* out,
+                        std::string* why);
   const double* data() const { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   double* data() { return dim_ <= kInlineResidualDim ? r_ : big_.data(); }
   void Resize(int dim, bool diagonal = false);
