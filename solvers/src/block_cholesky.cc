@@ -79,7 +79,10 @@ bool InvertedCholesky(double* a, int n, double* linv) {
 
 }  // namespace
 
-void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate) {
+bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate,
+                            double max_updates_per_block, bool require_uniform) {
+  complete_ = false;
+  factorized_ = false;
   if (a.rows != a.cols) {
     throw InvalidArgument("block Cholesky: the matrix is " + std::to_string(a.rows) + " x " + std::to_string(a.cols) +
                           "; it must be square");
@@ -92,6 +95,9 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     throw InvalidArgument("block Cholesky: the block sizes do not partition the " + std::to_string(n_) + " columns");
   }
   nb_ = static_cast<int>(sizes.size());
+  uniform_ = std::all_of(sizes.begin(), sizes.end(), [&](int s) { return s == sizes[0]; }) ? sizes[0] : 0;
+  l_colptr_.assign(nb_ + 1, 0);
+  if (require_uniform && uniform_ == 0) return false;
   orig_off_.assign(nb_ + 1, 0);
   for (int b = 0; b < nb_; ++b) orig_off_[b + 1] = orig_off_[b] + sizes[b];
   std::vector<int> block_of(n_);
@@ -134,7 +140,6 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     off_[k + 1] = off_[k] + size_[k];
   }
   max_size_ = *std::max_element(size_.begin(), size_.end());
-  uniform_ = std::all_of(size_.begin(), size_.end(), [&](int s) { return s == size_[0]; }) ? size_[0] : 0;
 
   // Permuted A's upper block pattern (in no particular order within a column), and where each
   // block of A's upper pattern went (upos).
@@ -155,6 +160,46 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
       }
     }
   }
+  // The elimination tree and, for each row k of L, its reach in the tree from A's column k:
+  // the columns of row k of L, in an order where a column comes before its ancestors. A first
+  // pass counts (how dense the factor is decides whether to go on), a second stores.
+  const std::vector<int> parent = EliminationTree(nb_, a_colptr_, a_row_);
+  std::vector<int> count(nb_, 0), flag(nb_, -1), stack(nb_);
+  const auto reach = [&](int k) {  // row k's columns at stack[top .. nb_)
+    flag[k] = k;
+    int top = nb_;
+    for (int p = a_colptr_[k]; p < a_colptr_[k + 1]; ++p) {
+      int len = 0;
+      for (int i = a_row_[p]; flag[i] != k; i = parent[i]) {
+        stack[len++] = i;
+        flag[i] = k;
+      }
+      while (len > 0) stack[--top] = stack[--len];
+    }
+    return top;
+  };
+  r_rowptr_.assign(nb_ + 1, 0);
+  for (int k = 0; k < nb_; ++k) {
+    const int top = reach(k);
+    for (int t = top; t < nb_; ++t) ++count[stack[t]];
+    r_rowptr_[k + 1] = r_rowptr_[k] + (nb_ - top);
+  }
+  for (int i = 0; i < nb_; ++i) l_colptr_[i + 1] = l_colptr_[i] + count[i];
+  if (UpdatesPerBlock() > max_updates_per_block) return false;
+  std::fill(flag.begin(), flag.end(), -1);
+  r_col_.resize(r_rowptr_[nb_]);
+  for (int k = 0; k < nb_; ++k) {
+    const int top = reach(k);
+    std::copy(stack.begin() + top, stack.end(), r_col_.begin() + r_rowptr_[k]);
+  }
+  l_row_.assign(l_colptr_[nb_], 0);
+  {
+    std::vector<int> next(l_colptr_.begin(), l_colptr_.end() - 1);
+    for (int k = 0; k < nb_; ++k) {
+      for (int t = r_rowptr_[k]; t < r_rowptr_[k + 1]; ++t) l_row_[next[r_col_[t]]++] = k;
+    }
+  }
+
   a_val_.assign(a_row_.size(), 0);
   a_diag_.assign(nb_, 0);
   std::int64_t used = 0;
@@ -190,38 +235,6 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     }
   }
 
-  // The elimination tree and, for each row k of L, its reach in the tree from A's column k:
-  // the columns of row k of L, in an order where a column comes before its ancestors.
-  const std::vector<int> parent = EliminationTree(nb_, a_colptr_, a_row_);
-  r_rowptr_.assign(nb_ + 1, 0);
-  r_col_.clear();
-  std::vector<int> count(nb_, 0), flag(nb_, -1), stack(nb_);
-  for (int k = 0; k < nb_; ++k) {
-    flag[k] = k;
-    int top = nb_;
-    for (int p = a_colptr_[k]; p < a_colptr_[k + 1]; ++p) {
-      int len = 0;
-      for (int i = a_row_[p]; flag[i] != k; i = parent[i]) {
-        stack[len++] = i;
-        flag[i] = k;
-      }
-      while (len > 0) stack[--top] = stack[--len];
-    }
-    for (int t = top; t < nb_; ++t) {
-      r_col_.push_back(stack[t]);
-      ++count[stack[t]];
-    }
-    r_rowptr_[k + 1] = static_cast<int>(r_col_.size());
-  }
-  l_colptr_.assign(nb_ + 1, 0);
-  for (int i = 0; i < nb_; ++i) l_colptr_[i + 1] = l_colptr_[i] + count[i];
-  l_row_.assign(l_colptr_[nb_], 0);
-  {
-    std::vector<int> next(l_colptr_.begin(), l_colptr_.end() - 1);
-    for (int k = 0; k < nb_; ++k) {
-      for (int t = r_rowptr_[k]; t < r_rowptr_[k + 1]; ++t) l_row_[next[r_col_[t]]++] = k;
-    }
-  }
   l_val_.assign(l_row_.size(), 0);
   l_diag_.assign(nb_, 0);
   used = 0;
@@ -237,11 +250,12 @@ void BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   x_off_.assign(nb_, 0);
   for (int i = 0; i < nb_; ++i) x_off_[i] = static_cast<std::int64_t>(off_[i]) * max_size_;
   fill_.assign(nb_, 0);
-  factorized_ = false;
   ax_.clear();
   lx_.clear();
   work_.clear();
+  complete_ = true;
   if (allocate) Allocate();
+  return true;
 }
 
 void BlockCholesky::Allocate() {
@@ -262,6 +276,7 @@ double BlockCholesky::UpdatesPerBlock() const {
 }
 
 bool BlockCholesky::Factorize(const SparseMatrixView& a) {
+  if (!complete_) throw Error("block Cholesky: Factorize after an analysis that stopped early");
   if (lx_.size() != static_cast<std::size_t>(lx_size_)) Allocate();
   std::fill(ax_.begin(), ax_.end(), 0.0);
   const std::int64_t nnz = static_cast<std::int64_t>(scatter_.size());
@@ -419,8 +434,8 @@ class AutoCholesky : public LinearSolver {
   void Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes) override {
     cholmod_.reset();
     block_ = std::make_unique<BlockCholesky>();
-    block_->Analyze(a, block_sizes, /*allocate=*/false);  // the factor's storage only where it is kept
-    if (block_->uniform_size() == 0 || block_->UpdatesPerBlock() > kMaxBlockUpdatesPerBlock) {
+    // The analysis stops as soon as the rule says no; the factor's storage only where it is kept.
+    if (!block_->Analyze(a, block_sizes, /*allocate=*/false, kMaxBlockUpdatesPerBlock, /*require_uniform=*/true)) {
       why_ = block_->uniform_size() == 0 ? "blocks of several sizes" : "a dense factor";
       char buf[64];
       std::snprintf(buf, sizeof buf, " (%.1f updates per block)", block_->UpdatesPerBlock());

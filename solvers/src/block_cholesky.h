@@ -14,6 +14,7 @@
 // factorisations pay an index per scalar where this pays one per block. docs/solvers.md has the
 // measurements against CHOLMOD.
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "tether/core/linear_solver.h"
@@ -35,9 +36,13 @@ class BlockCholesky {
   /// partitions the columns (their sum is a.cols); empty: every column its own block. Throws
   /// InvalidArgument where the sizes do not partition the columns or A is not square.
   /// `allocate` false leaves the numeric storage (the factor's values, the workspace) for
-  /// Allocate, or the first Factorize: a caller that only wants the analysis's figures
-  /// (UpdatesPerBlock) to choose a solver does not pay for it.
-  void Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate = true);
+  /// Allocate, or the first Factorize. The analysis stops early, returning false, where
+  /// `require_uniform` and the blocks differ in size, or where the factor is denser than
+  /// `max_updates_per_block` (UpdatesPerBlock): a caller choosing a solver by these figures
+  /// pays no more than it needs (uniform_size and UpdatesPerBlock are then set as far as they
+  /// were computed; Factorize throws).
+  bool Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate = true,
+               double max_updates_per_block = std::numeric_limits<double>::infinity(), bool require_uniform = false);
   /// The numeric storage the analysis sized.
   void Allocate();
   /// A's values, same pattern. False where a pivot block is not positive definite (the
@@ -88,6 +93,7 @@ class BlockCholesky {
   std::vector<int> fill_;  // per column of L: entries filled so far in this factorisation
   int max_size_ = 0;
   bool factorized_ = false;
+  bool complete_ = false;  // the last Analyze ran to the end
 };
 
 }  // namespace internal

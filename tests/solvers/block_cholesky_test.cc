@@ -187,6 +187,25 @@ TEST(BlockCholesky, TheStorageCanComeAfterTheAnalysis) {
   ExpectSolves(&lazy, p, 22);
 }
 
+// The analysis stops as soon as the caller's rule says no: blocks of several sizes where one
+// size is required, a factor denser than the limit; the figures it got to are kept and a
+// factorisation is refused.
+TEST(BlockCholesky, TheAnalysisStopsWhereTheRuleSaysNo) {
+  const BlockProblem mixed = MakeProblem(Mixed(30), 10, 31);
+  BlockCholesky chol;
+  EXPECT_FALSE(chol.Analyze(View(mixed.upper), mixed.sizes, true, 1e9, /*require_uniform=*/true));
+  EXPECT_EQ(chol.uniform_size(), 0);
+  EXPECT_THROW(chol.Factorize(View(mixed.upper)), Error);
+  const BlockProblem p = MakeProblem(Repeat(3, 60), 400, 32);
+  ASSERT_TRUE(chol.Analyze(View(p.upper), p.sizes));
+  const double updates = chol.UpdatesPerBlock();
+  EXPECT_FALSE(chol.Analyze(View(p.upper), p.sizes, true, updates - 0.5));
+  EXPECT_DOUBLE_EQ(chol.UpdatesPerBlock(), updates);
+  EXPECT_THROW(chol.Factorize(View(p.upper)), Error);
+  EXPECT_TRUE(chol.Analyze(View(p.upper), p.sizes, true, updates + 0.5));
+  ExpectSolves(&chol, p, 33);
+}
+
 TEST(BlockCholesky, EmptyBlockSizesMeanScalars) {
   const BlockProblem p = MakeProblem(Repeat(1, 30), 20, 5);
   BlockCholesky chol;
