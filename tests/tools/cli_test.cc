@@ -95,6 +95,30 @@ TEST_F(CliTest, TheSummarySaysWhereTheWholeProcessTimeWent) {
   EXPECT_LE(solver_total, opt + 0.0015);
 }
 
+// The program builds only the flags of the command it is asked for, and all of them where no
+// command is named: the top-level help lists every command, --version answers, a misspelt
+// command is a usage error (exit 2), and each command's own help and a bad flag of it behave
+// as they did.
+TEST_F(CliTest, TheTopLevelKnowsEveryCommandAndEachCommandItsFlags) {
+  CliRun help = Tether("--help");
+  EXPECT_EQ(help.code, 0) << help.output;
+  for (const char* command : {"optimize", "simulate", "plugins", "check-plugin", "bench", "replay", "ekf-demo", "lidar",
+                              "lidar-eval", "lidar-degrade", "localize", "mcl", "mcl-demo", "mcl-bench", "odometry"}) {
+    EXPECT_NE(help.output.find(std::string("  ") + command + " "), std::string::npos) << command;
+    CliRun own = Tether(std::string(command) + " --help");
+    EXPECT_EQ(own.code, 0) << command << ": " << own.output;
+    EXPECT_NE(own.output.find(std::string("tether ") + command), std::string::npos) << own.output;
+  }
+  CliRun version = Tether("--version");
+  EXPECT_EQ(version.code, 0);
+  EXPECT_EQ(version.output.rfind("tether ", 0), 0u) << version.output;
+  CliRun typo = Tether("optimise " + P("m.g2o"));
+  EXPECT_EQ(typo.code, 2) << typo.output;
+  CliRun bad_flag = Tether("optimize " + P("m.g2o") + " --no-such-flag");
+  EXPECT_EQ(bad_flag.code, 2) << bad_flag.output;
+  EXPECT_NE(bad_flag.output.find("--no-such-flag"), std::string::npos) << bad_flag.output;
+}
+
 // --init: chordal by default (and said so), file and spanning-tree on request, all reaching
 // the same optimum here; an unknown name is bad usage.
 // -q is quiet in every command that reports progress or what it wrote: the help lists it, and
