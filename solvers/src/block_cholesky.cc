@@ -82,6 +82,7 @@ bool InvertedCholesky(double* a, int n, double* linv) {
 bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate,
                             double max_updates_per_block, bool require_uniform) {
   complete_ = false;
+  ordered_ = false;
   factorized_ = false;
   if (a.rows != a.cols) {
     throw InvalidArgument("block Cholesky: the matrix is " + std::to_string(a.rows) + " x " + std::to_string(a.cols) +
@@ -131,6 +132,7 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     const int status = camd_order(nb_, up.data(), ui.data(), p.data(), control, info, nullptr);
     if (status == CAMD_OK || status == CAMD_OK_BUT_JUMBLED) std::copy(p.begin(), p.begin() + nb_, perm_.begin());
   }
+  ordered_ = true;
   std::vector<int> pinv(nb_);
   for (int k = 0; k < nb_; ++k) pinv[perm_[k]] = k;
   size_.assign(nb_, 0);
@@ -263,6 +265,16 @@ void BlockCholesky::Allocate() {
   lx_.assign(lx_size_, 0.0);
   // The factorisation's block rows, the solve's vector, one diagonal block.
   work_.assign(static_cast<std::size_t>(n_) * max_size_ + n_ + static_cast<std::size_t>(max_size_) * max_size_, 0.0);
+}
+
+std::vector<int> BlockCholesky::ScalarOrdering() const {
+  std::vector<int> order;
+  if (!ordered_) return order;
+  order.reserve(n_);
+  for (int k = 0; k < nb_; ++k) {
+    for (int c = orig_off_[perm_[k]]; c < orig_off_[perm_[k] + 1]; ++c) order.push_back(c);
+  }
+  return order;
 }
 
 double BlockCholesky::UpdatesPerBlock() const {
@@ -440,8 +452,9 @@ class AutoCholesky : public LinearSolver {
       char buf[64];
       std::snprintf(buf, sizeof buf, " (%.1f updates per block)", block_->UpdatesPerBlock());
       if (block_->uniform_size() != 0) why_ += buf;
+      // The block ordering is as good as CHOLMOD's own on the scalars, and already paid for.
+      cholmod_ = MakeCholmod(block_->ScalarOrdering());
       block_.reset();
-      cholmod_ = MakeCholmod();
       cholmod_->Analyze(a, block_sizes);
     } else {
       block_->Allocate();

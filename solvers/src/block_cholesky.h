@@ -54,6 +54,9 @@ class BlockCholesky {
   /// Blocks of L below the diagonal (the fill the ordering left).
   std::int64_t off_diagonal_blocks() const { return static_cast<std::int64_t>(l_row_.size()); }
   int num_blocks() const { return nb_; }
+  /// The fill-reducing ordering of the last Analyze in scalar columns (column k of the factor
+  /// is column ScalarOrdering()[k] of A); empty where the analysis stopped before ordering.
+  std::vector<int> ScalarOrdering() const;
   /// The common size of the blocks, 0 where they differ.
   int uniform_size() const { return uniform_; }
   /// How dense the factor is: the block products of the factorisation per block of L,
@@ -94,6 +97,7 @@ class BlockCholesky {
   int max_size_ = 0;
   bool factorized_ = false;
   bool complete_ = false;  // the last Analyze ran to the end
+  bool ordered_ = false;   // ... or at least as far as the ordering
 };
 
 }  // namespace internal

@@ -17,7 +17,7 @@ LinearSolverEntry Entry(const char* name, LinearSystemForm form, std::unique_ptr
 }
 
 void RegisterBuiltinLinearSolvers(LinearSolverRegistry& r) {
-  r.Register(Entry("cholmod", LinearSystemForm::kNormalEquations, MakeCholmod));
+  r.Register(Entry("cholmod", LinearSystemForm::kNormalEquations, [] { return MakeCholmod(); }));
   r.Register(Entry("ldlt", LinearSystemForm::kNormalEquations, MakeEigenLDLT));
   r.Register(Entry("qr", LinearSystemForm::kJacobian, MakeSpqr));
   r.Register(Entry("block", LinearSystemForm::kNormalEquations, MakeBlockCholesky));

@@ -2,6 +2,7 @@
 // Internal: the built-in linear solvers (auto, block, cholmod, ldlt, qr) and their place in the
 // process-wide registry (tether/core/linear_solver.h).
 #include <memory>
+#include <vector>
 
 #include "problem.h"
 #include "tether/core/linear_solver.h"
@@ -9,7 +10,9 @@
 namespace tether {
 namespace internal {
 
-std::unique_ptr<LinearSolver> MakeCholmod();
+/// `ordering`: a fill-reducing permutation of the columns (column k of the factor is column
+/// ordering[k] of the matrix) that CHOLMOD takes instead of its own; empty: CHOLMOD orders.
+std::unique_ptr<LinearSolver> MakeCholmod(std::vector<int> ordering = {});
 std::unique_ptr<LinearSolver> MakeEigenLDLT();
 std::unique_ptr<LinearSolver> MakeSpqr();
 std::unique_ptr<LinearSolver> MakeBlockCholesky();

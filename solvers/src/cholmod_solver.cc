@@ -3,6 +3,8 @@
 
 #include <SuiteSparseQR.hpp>
 #include <cstring>
+#include <utility>
+#include <vector>
 
 #include "builtin_linear_solvers.h"
 #include "cholmod_views.h"
@@ -16,7 +18,7 @@ namespace {
 
 class Cholmod : public LinearSolver {
  public:
-  Cholmod() {
+  explicit Cholmod(std::vector<int> ordering) : ordering_(std::move(ordering)) {
     cholmod_start(&cc_);
     // CHOLMOD picks supernodal (dense BLAS blocks) or simplicial from the analysis (flops per
     // non-zero of L): simplicial factorises the sparse 2D graphs 2.5-3.5 times faster (intel
@@ -38,7 +40,15 @@ class Cholmod : public LinearSolver {
     SerialOpenMp serial;
     cholmod_sparse a = CholmodView(h, 1);
     if (L_) cholmod_free_factor(&L_, &cc_);
-    L_ = cholmod_analyze(&a, &cc_);
+    if (ordering_.size() == static_cast<std::size_t>(h.cols)) {
+      // An ordering found already (by the block analysis, on the variables' blocks): CHOLMOD
+      // takes it instead of ordering the scalar graph again.
+      cc_.nmethods = 1;
+      cc_.method[0].ordering = CHOLMOD_GIVEN;
+      L_ = cholmod_analyze_p(&a, ordering_.data(), nullptr, 0, &cc_);
+    } else {
+      L_ = cholmod_analyze(&a, &cc_);
+    }
     if (L_ == nullptr || cc_.status < CHOLMOD_OK) {
       throw Error("CHOLMOD could not analyse the normal equations (status " + std::to_string(cc_.status) +
                   "); try --linear ldlt");
@@ -82,6 +92,7 @@ class Cholmod : public LinearSolver {
   cholmod_factor* L_ = nullptr;
   cholmod_dense *X_ = nullptr, *Y_ = nullptr, *E_ = nullptr;
   int n_ = 0;
+  std::vector<int> ordering_;  // a fill-reducing ordering of the columns given at construction
 };
 
 // SuiteSparseQR's C++ interface works on 64-bit indices (cholmod_l_*): the pattern is
@@ -148,7 +159,9 @@ class Spqr : public LinearSolver {
 
 }  // namespace
 
-std::unique_ptr<LinearSolver> MakeCholmod() { return std::make_unique<Cholmod>(); }
+std::unique_ptr<LinearSolver> MakeCholmod(std::vector<int> ordering) {
+  return std::make_unique<Cholmod>(std::move(ordering));
+}
 std::unique_ptr<LinearSolver> MakeSpqr() { return std::make_unique<Spqr>(); }
 
 }  // namespace internal

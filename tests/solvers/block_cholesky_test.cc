@@ -195,12 +195,24 @@ TEST(BlockCholesky, TheAnalysisStopsWhereTheRuleSaysNo) {
   BlockCholesky chol;
   EXPECT_FALSE(chol.Analyze(View(mixed.upper), mixed.sizes, true, 1e9, /*require_uniform=*/true));
   EXPECT_EQ(chol.uniform_size(), 0);
+  EXPECT_TRUE(chol.ScalarOrdering().empty());
   EXPECT_THROW(chol.Factorize(View(mixed.upper)), Error);
   const BlockProblem p = MakeProblem(Repeat(3, 60), 400, 32);
   ASSERT_TRUE(chol.Analyze(View(p.upper), p.sizes));
   const double updates = chol.UpdatesPerBlock();
   EXPECT_FALSE(chol.Analyze(View(p.upper), p.sizes, true, updates - 0.5));
   EXPECT_DOUBLE_EQ(chol.UpdatesPerBlock(), updates);
+  // The ordering was found before the stop ("auto" hands it to CHOLMOD): a permutation of the
+  // scalar columns that keeps each block's columns together and in order.
+  std::vector<int> order = chol.ScalarOrdering();
+  ASSERT_EQ(order.size(), static_cast<std::size_t>(p.upper.cols));
+  for (std::size_t k = 0; k < order.size(); k += 3) {
+    EXPECT_EQ(order[k] % 3, 0);
+    EXPECT_EQ(order[k + 1], order[k] + 1);
+    EXPECT_EQ(order[k + 2], order[k] + 2);
+  }
+  std::sort(order.begin(), order.end());
+  for (int k = 0; k < p.upper.cols; ++k) EXPECT_EQ(order[k], k);
   EXPECT_THROW(chol.Factorize(View(p.upper)), Error);
   EXPECT_TRUE(chol.Analyze(View(p.upper), p.sizes, true, updates + 0.5));
   ExpectSolves(&chol, p, 33);
