@@ -96,7 +96,8 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     throw InvalidArgument("block Cholesky: the block sizes do not partition the " + std::to_string(n_) + " columns");
   }
   nb_ = static_cast<int>(sizes.size());
-  uniform_ = std::all_of(sizes.begin(), sizes.end(), [&](int s) { return s == sizes[0]; }) ? sizes[0] : 0;
+  uniform_ =
+      !sizes.empty() && std::all_of(sizes.begin(), sizes.end(), [&](int s) { return s == sizes[0]; }) ? sizes[0] : 0;
   l_colptr_.assign(nb_ + 1, 0);
   if (require_uniform && uniform_ == 0) return false;
   orig_off_.assign(nb_ + 1, 0);
@@ -141,7 +142,7 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     size_[k] = sizes[perm_[k]];
     off_[k + 1] = off_[k] + size_[k];
   }
-  max_size_ = *std::max_element(size_.begin(), size_.end());
+  max_size_ = size_.empty() ? 0 : *std::max_element(size_.begin(), size_.end());
 
   // Permuted A's upper block pattern (in no particular order within a column), and where each
   // block of A's upper pattern went (upos).

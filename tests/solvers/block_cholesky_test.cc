@@ -218,6 +218,17 @@ TEST(BlockCholesky, TheAnalysisStopsWhereTheRuleSaysNo) {
   ExpectSolves(&chol, p, 33);
 }
 
+// A matrix with no columns factorises and solves (to nothing).
+TEST(BlockCholesky, AnEmptyMatrixIsFine) {
+  Csc empty;
+  empty.colptr.assign(1, 0);
+  BlockCholesky chol;
+  EXPECT_TRUE(chol.Analyze(View(empty), {}));
+  EXPECT_TRUE(chol.Factorize(View(empty)));
+  chol.Solve(nullptr, nullptr);
+  EXPECT_EQ(chol.num_blocks(), 0);
+}
+
 TEST(BlockCholesky, EmptyBlockSizesMeanScalars) {
   const BlockProblem p = MakeProblem(Repeat(1, 30), 20, 5);
   BlockCholesky chol;
