@@ -1,8 +1,6 @@
 #include "tether/solvers/initialize.h"
 
 #include <Eigen/Dense>
-#include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -12,6 +10,8 @@
 #include <numeric>
 #include <set>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include "../src/builtin_linear_solvers.h"
 #include "tether/core/enum_names.h"
@@ -163,16 +163,17 @@ class SpdSolver {
  public:
   explicit SpdSolver(int block) : block_(block) {}
 
-  Eigen::MatrixXd Solve(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixXd& B, const char* what) {
-    UpperTriangle(A);
+  /// A: the upper triangle in compressed columns, diagonal blocks whole (the solver ignores
+  /// their lower part), same pattern at every call.
+  Eigen::MatrixXd Solve(const internal::Csc& A, const Eigen::MatrixXd& B, const char* what) {
     Eigen::MatrixXd X(B.rows(), B.cols());
     LinearSolverStatus r = LinearSolverStatus::kFailed;
     try {
       if (!analysed_) {
-        chol_->Analyze(internal::View(upper_), std::vector<int>(upper_.cols / block_, block_));
+        chol_->Analyze(internal::View(A), std::vector<int>(A.cols / block_, block_));
         analysed_ = true;
       }
-      r = chol_->Factorize(internal::View(upper_));
+      r = chol_->Factorize(internal::View(A));
       for (Eigen::Index c = 0; r == LinearSolverStatus::kOk && c < B.cols(); ++c) {
         const Eigen::VectorXd b = B.col(c);
         chol_->Solve(b.data(), X.col(c).data());
@@ -196,25 +197,8 @@ class SpdSolver {
   }
 
  private:
-  // The upper triangle of A (compressed, column-major) in the wrapper's layout.
-  void UpperTriangle(const Eigen::SparseMatrix<double>& A) {
-    upper_.rows = upper_.cols = static_cast<int>(A.cols());
-    upper_.colptr.assign(1, 0);
-    upper_.rowind.clear();
-    upper_.values.clear();
-    for (Eigen::Index c = 0; c < A.outerSize(); ++c) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it) {
-        if (it.row() > c) continue;
-        upper_.rowind.push_back(static_cast<int>(it.row()));
-        upper_.values.push_back(it.value());
-      }
-      upper_.colptr.push_back(static_cast<int>(upper_.rowind.size()));
-    }
-  }
-
   int block_;
   std::unique_ptr<LinearSolver> chol_ = internal::MakeAutoCholesky();
-  internal::Csc upper_;
   bool analysed_ = false;
 };
 
@@ -336,19 +320,55 @@ class Chordal {
     }
   }
 
-  // Block (fi, fj) = m of a symmetric system, kept only where the solver reads it: the upper
-  // triangle (SpdSolver drops the rest). An off-diagonal block below it goes in as block
-  // (fj, fi) = m^T, its mirror.
-  static void AddUpperBlock(int fi, int fj, const Matrix& m, std::vector<Eigen::Triplet<double>>* triplets) {
-    const bool mirror = fi > fj;
-    for (int r = 0; r < D; ++r) {
+  // The pattern both systems share, built once: D x D blocks on the diagonal and at (i, j),
+  // i < j, for each measurement between two unknowns; the upper triangle in compressed
+  // columns, diagonal blocks whole, every block's D columns alike (its rows: the blocks above
+  // the diagonal in order, then the diagonal block). rows_[ptr_[j] .. ptr_[j + 1]) are block
+  // column j's rows, its own index j last.
+  void BuildPattern() {
+    std::vector<std::pair<int, int>> pairs;
+    pairs.reserve(edges_.size() + num_free_);
+    for (const Edge& e : edges_) {
+      const int fi = free_[e.i], fj = free_[e.j];
+      if (fi >= 0 && fj >= 0) pairs.emplace_back(std::min(fi, fj), std::max(fi, fj));
+    }
+    for (int j = 0; j < num_free_; ++j) pairs.emplace_back(j, j);
+    std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
+      return a.second != b.second ? a.second < b.second : a.first < b.first;
+    });
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    ptr_.assign(num_free_ + 1, 0);
+    rows_.resize(pairs.size());
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      rows_[k] = pairs[k].first;
+      ++ptr_[pairs[k].second + 1];
+    }
+    for (int j = 0; j < num_free_; ++j) ptr_[j + 1] += ptr_[j];
+    a_.rows = a_.cols = D * num_free_;
+    a_.colptr.assign(1, 0);
+    a_.rowind.clear();
+    for (int j = 0; j < num_free_; ++j) {
       for (int c = 0; c < D; ++c) {
-        if (mirror) {
-          triplets->emplace_back(D * fj + c, D * fi + r, m(r, c));
-        } else if (fi < fj || r <= c) {
-          triplets->emplace_back(D * fi + r, D * fj + c, m(r, c));
+        for (int p = ptr_[j]; p < ptr_[j + 1]; ++p) {
+          for (int r = 0; r < D; ++r) a_.rowind.push_back(D * rows_[p] + r);
         }
+        a_.colptr.push_back(static_cast<int>(a_.rowind.size()));
       }
+    }
+    a_.values.assign(a_.rowind.size(), 0.0);
+  }
+
+  // Adds m to block (fi, fj) of the symmetric system: where fi > fj, m^T to its mirror (fj, fi)
+  // in the upper triangle.
+  void AddBlock(int fi, int fj, const Matrix& m) {
+    const bool mirror = fi > fj;
+    const int i = mirror ? fj : fi, j = mirror ? fi : fj;
+    const int p =
+        static_cast<int>(std::lower_bound(rows_.begin() + ptr_[j], rows_.begin() + ptr_[j + 1], i) - rows_.begin());
+    const int row_in_column = (p - ptr_[j]) * D;
+    for (int c = 0; c < D; ++c) {
+      double* column = a_.values.data() + a_.colptr[D * j + c] + row_in_column;
+      for (int r = 0; r < D; ++r) column[r] += mirror ? m(c, r) : m(r, c);
     }
   }
 
@@ -356,27 +376,23 @@ class Chordal {
   // sparse system with D right-hand sides, unknowns D per free pose.
   void SolveRotations() {
     if (num_free_ == 0) return;
-    std::vector<Eigen::Triplet<double>> triplets;
+    BuildPattern();
     Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(D * num_free_, D);
-    triplets.reserve(edges_.size() * 3 * D * D);
-    const auto add_block = [&](int fi, int fj, const Matrix& m) { AddUpperBlock(fi, fj, m, &triplets); };
     for (const Edge& e : edges_) {
       const Matrix M = e.R.transpose();  // residual y_j - M y_i
       const int fi = free_[e.i], fj = free_[e.j];
       const Matrix I = Matrix::Identity() * e.kappa;
-      if (fi >= 0) add_block(fi, fi, I);  // kappa M^T M = kappa I
-      if (fj >= 0) add_block(fj, fj, I);
+      if (fi >= 0) AddBlock(fi, fi, I);  // kappa M^T M = kappa I
+      if (fj >= 0) AddBlock(fj, fj, I);
       if (fi >= 0 && fj >= 0) {
-        add_block(fi, fj, -e.kappa * M.transpose());  // block (j, i) is its transpose
+        AddBlock(fi, fj, -e.kappa * M.transpose());  // block (j, i) is its transpose
       } else if (fj >= 0) {
         rhs.block(D * fj, 0, D, D) += e.kappa * M * R_[e.i].transpose();
       } else if (fi >= 0) {
         rhs.block(D * fi, 0, D, D) += e.kappa * M.transpose() * R_[e.j].transpose();
       }
     }
-    Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
-    A.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::MatrixXd Y = spd_.Solve(A, rhs, "rotation");
+    const Eigen::MatrixXd Y = spd_.Solve(a_, rhs, "rotation");
     for (std::uint32_t i = 0; i < keys_.size(); ++i) {
       if (free_[i] >= 0) R_[i] = NearestRotation<D>(Y.block(D * free_[i], 0, D, D).transpose());
     }
@@ -386,33 +402,29 @@ class Chordal {
   // the position of j, turned into the world frame by R_j.
   void SolveTranslations() {
     if (num_free_ == 0) return;
-    std::vector<Eigen::Triplet<double>> triplets;
+    std::fill(a_.values.begin(), a_.values.end(), 0.0);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(D * num_free_);
-    triplets.reserve(edges_.size() * 3 * D * D);
-    const auto add_block = [&](int fi, int fj, const Matrix& m) { AddUpperBlock(fi, fj, m, &triplets); };
     for (const Edge& e : edges_) {
       const Matrix W = R_[e.j] * e.translation_w * R_[e.j].transpose();
       const Vector c = R_[e.i] * e.t;  // residual t_j - t_i - c
       const int fi = free_[e.i], fj = free_[e.j];
       if (fi >= 0) {
-        add_block(fi, fi, W);
+        AddBlock(fi, fi, W);
         rhs.segment<D>(D * fi) -= W * c;
       }
       if (fj >= 0) {
-        add_block(fj, fj, W);
+        AddBlock(fj, fj, W);
         rhs.segment<D>(D * fj) += W * c;
       }
       if (fi >= 0 && fj >= 0) {
-        add_block(fi, fj, -W);  // W is symmetric: block (j, i) is the same
+        AddBlock(fi, fj, -W);  // W is symmetric: block (j, i) is the same
       } else if (fj >= 0) {
         rhs.segment<D>(D * fj) += W * t_[e.i];
       } else if (fi >= 0) {
         rhs.segment<D>(D * fi) += W * t_[e.j];
       }
     }
-    Eigen::SparseMatrix<double> A(D * num_free_, D * num_free_);
-    A.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::VectorXd x = spd_.Solve(A, rhs, "translation");
+    const Eigen::VectorXd x = spd_.Solve(a_, rhs, "translation");
     for (std::uint32_t i = 0; i < keys_.size(); ++i) {
       if (free_[i] >= 0) t_[i] = x.segment<D>(D * free_[i]);
     }
@@ -421,6 +433,8 @@ class Chordal {
   const FactorGraph& graph_;
   Values* values_;
   SpdSolver spd_{D};  // the rotation and translation systems have the same pattern
+  internal::Csc a_;   // the system being assembled (BuildPattern)
+  std::vector<int> ptr_, rows_;
   std::unordered_map<Key, std::uint32_t> index_;
   std::vector<Key> keys_;
   std::vector<Edge> edges_;
