@@ -272,7 +272,7 @@ TEST_F(BenchTest, ThreadCountsAreConfigurations) {
     EXPECT_EQ(rows[i].at("final_chi2"), rows[i + 1].at("final_chi2"));
     EXPECT_EQ(rows[i].at("iterations"), rows[i + 1].at("iterations"));
   }
-  EXPECT_NE(err_.str().find("gn/cholmod/chordal/2t: run 1 of 1"), std::string::npos) << err_.str();
+  EXPECT_NE(err_.str().find("gn/auto/chordal/2t: run 1 of 1"), std::string::npos) << err_.str();
 }
 
 // The Markdown table: the BLAS line, a header, a rule and one row per configuration, every
@@ -360,8 +360,8 @@ TEST_F(BenchTest, ProgressOnStderrTableOnStdoutOrFile) {
   EXPECT_EQ(ParseCsv(out.str()).size(), 2u) << out.str();
   EXPECT_EQ(out.str().find("run 1 of 2"), std::string::npos);
   for (const char* line : {"[1/2] ", "[2/2] "}) EXPECT_EQ(Count(err.str(), line), 2u) << err.str();
-  EXPECT_NE(err.str().find(file + " gn/cholmod/chordal: run 1 of 2"), std::string::npos) << err.str();
-  EXPECT_NE(err.str().find(file + " lm/cholmod/chordal: run 2 of 2"), std::string::npos) << err.str();
+  EXPECT_NE(err.str().find(file + " gn/auto/chordal: run 1 of 2"), std::string::npos) << err.str();
+  EXPECT_NE(err.str().find(file + " lm/auto/chordal: run 2 of 2"), std::string::npos) << err.str();
   EXPECT_EQ(err.str().find("file,solver"), std::string::npos);
 
   BenchCommand bc;
@@ -373,7 +373,7 @@ TEST_F(BenchTest, ProgressOnStderrTableOnStdoutOrFile) {
   std::ifstream t(P("table.md"));
   std::stringstream table;
   table << t.rdbuf();
-  EXPECT_NE(table.str().find("| m.g2o | lm | cholmod | chordal |"), std::string::npos) << table.str();
+  EXPECT_NE(table.str().find("| m.g2o | lm | auto | chordal |"), std::string::npos) << table.str();
 }
 
 TEST_F(BenchTest, BadUsageExitsTwoAndRunsNothing) {
@@ -468,7 +468,7 @@ TEST_F(BenchTest, UnreadableFileIsReportedAndTheOthersRun) {
     EXPECT_EQ(rows[i].at("status"), "converged");
     EXPECT_EQ(rows[i].at("poses"), "100");
   }
-  EXPECT_NE(err_.str().find("error: " + P("bad.g2o") + " gn/cholmod/chordal: bad-input: "), std::string::npos)
+  EXPECT_NE(err_.str().find("error: " + P("bad.g2o") + " gn/auto/chordal: bad-input: "), std::string::npos)
       << err_.str();
 }
 
@@ -687,7 +687,7 @@ TEST(BenchBlas, NamesALoadedLibrary) {
 
 TEST(BenchConfigName, ListsTheChoices) {
   BenchConfig c;
-  EXPECT_EQ(c.Name(), "lm/cholmod/chordal");
+  EXPECT_EQ(c.Name(), "lm/auto/chordal");
   c.algorithm = Algorithm::kGaussNewton;
   c.linear = LinearSolverType::kQR;
   c.init = InitMethod::kSpanningTree;

@@ -568,7 +568,7 @@ std::string ParseConfigs(const BenchCommand& cmd, std::vector<BenchConfig>* conf
   }
   for (Algorithm a : algorithms) {
     for (LinearSolverType l : linears) {
-      if (a == Algorithm::kCeres && l != LinearSolverType::kCholmod) {
+      if (a == Algorithm::kCeres && l != LinearSolverType::kCholmod && l != LinearSolverType::kAuto) {
         err << "tether bench: skipping ceres/" << ToString(l)
             << ": Ceres solves with SPARSE_NORMAL_CHOLESKY over CHOLMOD only\n";
         continue;
@@ -585,7 +585,7 @@ std::string ParseConfigs(const BenchCommand& cmd, std::vector<BenchConfig>* conf
       }
     }
   }
-  if (configs->empty()) return "no configuration left to run (ceres runs with --linear cholmod only)";
+  if (configs->empty()) return "no configuration left to run (ceres runs with --linear auto or cholmod only)";
   return "";
 }
 

@@ -49,7 +49,7 @@ struct BenchCommand {
 /// One configuration: the cross product of the command's lists gives them.
 struct BenchConfig {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
-  LinearSolverType linear = LinearSolverType::kCholmod;
+  LinearSolverType linear = LinearSolverType::kAuto;
   InitMethod init = InitMethod::kChordal;
   int threads = 0;  ///< SolverOptions::num_threads; 0: the solver's default
 
