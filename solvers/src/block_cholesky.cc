@@ -46,6 +46,26 @@ std::vector<int> EliminationTree(int n, const std::vector<int>& colptr, const st
   return parent;
 }
 
+// Where each block of a block-sparse matrix (compressed columns: rows row[colptr[j] ..]) goes
+// in one array of values: column j's diagonal block (size[j] x size[j]) at diag[j], then its
+// other blocks (size[row] x size[j]) at val[p], each column-major. Returns the values' count.
+std::int64_t BlockOffsets(const std::vector<int>& colptr, const std::vector<int>& row, const std::vector<int>& size,
+                          std::vector<std::int64_t>* diag, std::vector<std::int64_t>* val) {
+  const int n = static_cast<int>(size.size());
+  diag->assign(n, 0);
+  val->assign(row.size(), 0);
+  std::int64_t used = 0;
+  for (int j = 0; j < n; ++j) {
+    (*diag)[j] = used;
+    used += static_cast<std::int64_t>(size[j]) * size[j];
+    for (int p = colptr[j]; p < colptr[j + 1]; ++p) {
+      (*val)[p] = used;
+      used += static_cast<std::int64_t>(size[row[p]]) * size[j];
+    }
+  }
+  return used;
+}
+
 // The inverse of the Cholesky factor of the symmetric n x n block a (column-major, both
 // triangles), into linv (lower triangular, column-major); a is overwritten with the factor.
 // False where a is not positive definite. The diagonal blocks are kept inverted: every use of
@@ -203,18 +223,7 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     }
   }
 
-  a_val_.assign(a_row_.size(), 0);
-  a_diag_.assign(nb_, 0);
-  std::int64_t used = 0;
-  for (int k = 0; k < nb_; ++k) {
-    a_diag_[k] = used;
-    used += static_cast<std::int64_t>(size_[k]) * size_[k];
-    for (int p = a_colptr_[k]; p < a_colptr_[k + 1]; ++p) {
-      a_val_[p] = used;
-      used += static_cast<std::int64_t>(size_[a_row_[p]]) * size_[k];
-    }
-  }
-  ax_size_ = used;
+  ax_size_ = BlockOffsets(a_colptr_, a_row_, size_, &a_diag_, &a_val_);
   // Each scalar of A's upper triangle: its place in ax_. A column's rows are sorted, so its
   // blocks come in the order of the block column's upper pattern (a search where they are not).
   scatter_.assign(a.colptr[n_], -1);
@@ -238,18 +247,7 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
     }
   }
 
-  l_val_.assign(l_row_.size(), 0);
-  l_diag_.assign(nb_, 0);
-  used = 0;
-  for (int i = 0; i < nb_; ++i) {
-    l_diag_[i] = used;
-    used += static_cast<std::int64_t>(size_[i]) * size_[i];
-    for (int p = l_colptr_[i]; p < l_colptr_[i + 1]; ++p) {
-      l_val_[p] = used;
-      used += static_cast<std::int64_t>(size_[l_row_[p]]) * size_[i];
-    }
-  }
-  lx_size_ = used;
+  lx_size_ = BlockOffsets(l_colptr_, l_row_, size_, &l_diag_, &l_val_);
   x_off_.assign(nb_, 0);
   for (int i = 0; i < nb_; ++i) x_off_[i] = static_cast<std::int64_t>(off_[i]) * max_size_;
   fill_.assign(nb_, 0);
