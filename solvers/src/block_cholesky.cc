@@ -10,6 +10,7 @@
 #include <memory>
 #include <numeric>
 #include <string>
+#include <type_traits>
 
 #include "builtin_linear_solvers.h"
 #include "tether/core/error.h"
@@ -44,6 +45,24 @@ std::vector<int> EliminationTree(int n, const std::vector<int>& colptr, const st
     }
   }
   return parent;
+}
+
+// Calls f with std::integral_constant<int, B> for the block sizes the kernels are compiled for
+// (1, 2, 3, 6) and with Eigen::Dynamic for any other (0: sizes that differ).
+template <class F>
+decltype(auto) WithBlockSize(int size, F&& f) {
+  switch (size) {
+    case 1:
+      return f(std::integral_constant<int, 1>());
+    case 2:
+      return f(std::integral_constant<int, 2>());
+    case 3:
+      return f(std::integral_constant<int, 3>());
+    case 6:
+      return f(std::integral_constant<int, 6>());
+    default:
+      return f(std::integral_constant<int, Eigen::Dynamic>());
+  }
 }
 
 // Where each block of a block-sparse matrix (compressed columns: rows row[colptr[j] ..]) goes
@@ -294,22 +313,7 @@ bool BlockCholesky::Factorize(const SparseMatrixView& a) {
   for (std::int64_t p = 0; p < nnz; ++p) {
     if (scatter_[p] >= 0) ax_[scatter_[p]] = a.values[p];
   }
-  switch (uniform_) {
-    case 1:
-      factorized_ = FactorizeBlocks<1>();
-      break;
-    case 2:
-      factorized_ = FactorizeBlocks<2>();
-      break;
-    case 3:
-      factorized_ = FactorizeBlocks<3>();
-      break;
-    case 6:
-      factorized_ = FactorizeBlocks<6>();
-      break;
-    default:
-      factorized_ = FactorizeBlocks<Eigen::Dynamic>();
-  }
+  factorized_ = WithBlockSize(uniform_, [this](auto b) { return FactorizeBlocks<decltype(b)::value>(); });
   return factorized_;
 }
 
@@ -356,22 +360,7 @@ void BlockCholesky::Solve(const double* b, double* x) const {
   for (int k = 0; k < nb_; ++k) {
     std::memcpy(y + off_[k], b + orig_off_[perm_[k]], sizeof(double) * Size(k));
   }
-  switch (uniform_) {
-    case 1:
-      SolveBlocks<1>(y);
-      break;
-    case 2:
-      SolveBlocks<2>(y);
-      break;
-    case 3:
-      SolveBlocks<3>(y);
-      break;
-    case 6:
-      SolveBlocks<6>(y);
-      break;
-    default:
-      SolveBlocks<Eigen::Dynamic>(y);
-  }
+  WithBlockSize(uniform_, [this, y](auto b) { SolveBlocks<decltype(b)::value>(y); });
   for (int k = 0; k < nb_; ++k) {
     std::memcpy(x + orig_off_[perm_[k]], y + off_[k], sizeof(double) * Size(k));
   }
