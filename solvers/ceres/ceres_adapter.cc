@@ -223,8 +223,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     s.message = "invalid options: " + why;
     return s;
   }
-  // "auto" (the default) lets Ceres choose its own: SPARSE_NORMAL_CHOLESKY over SuiteSparse.
-  if (options.linear_solver != LinearSolverType::kCholmod && options.linear_solver != LinearSolverType::kAuto) {
+  if (!CeresRunsWith(options.linear_solver)) {
     s.message = std::string("the Ceres adapter solves with SPARSE_NORMAL_CHOLESKY over SuiteSparse (cholmod); '") +
                 ToString(options.linear_solver) + "' is for the native solvers (gn, lm)";
     return s;

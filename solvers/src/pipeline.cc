@@ -19,8 +19,7 @@ bool PipelineOptions::IsValid(std::string* why) const {
     reason = "PipelineOptions.input is empty; name the graph file to read (.g2o, or TORO .graph)";
   } else if (!solver.IsValid(&reason)) {
     reason = "PipelineOptions.solver: " + reason;
-  } else if (solver.algorithm == Algorithm::kCeres && solver.linear_solver != LinearSolverType::kCholmod &&
-             solver.linear_solver != LinearSolverType::kAuto) {
+  } else if (solver.algorithm == Algorithm::kCeres && !CeresRunsWith(solver.linear_solver)) {
     reason =
         "PipelineOptions.solver: the ceres algorithm solves with Ceres' SPARSE_NORMAL_CHOLESKY over SuiteSparse; "
         "use the auto or cholmod linear solver (block, ldlt and qr are for gn and lm)";

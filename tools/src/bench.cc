@@ -568,7 +568,7 @@ std::string ParseConfigs(const BenchCommand& cmd, std::vector<BenchConfig>* conf
   }
   for (Algorithm a : algorithms) {
     for (LinearSolverType l : linears) {
-      if (a == Algorithm::kCeres && l != LinearSolverType::kCholmod && l != LinearSolverType::kAuto) {
+      if (a == Algorithm::kCeres && !CeresRunsWith(l)) {
         err << "tether bench: skipping ceres/" << ToString(l)
             << ": Ceres solves with SPARSE_NORMAL_CHOLESKY over CHOLMOD only\n";
         continue;

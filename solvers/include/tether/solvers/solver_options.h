@@ -62,6 +62,12 @@ inline const LinearSolverType LinearSolverType::kCholmod{"cholmod"};
 inline const LinearSolverType LinearSolverType::kEigenLDLT{"ldlt"};
 inline const LinearSolverType LinearSolverType::kQR{"qr"};
 
+/// Whether the ceres algorithm runs with this linear solver: Ceres factorises with its own
+/// SPARSE_NORMAL_CHOLESKY over SuiteSparse, which "auto" (the default) and "cholmod" name.
+inline bool CeresRunsWith(const LinearSolverType& l) {
+  return l == LinearSolverType::kCholmod || l == LinearSolverType::kAuto;
+}
+
 enum class SolverStatus {
   kConverged,      ///< a tolerance was met
   kMaxIterations,  ///< max_iterations reached first
