@@ -9,7 +9,8 @@
 #include <queue>
 #include <utility>
 
-#include "blas.h"
+#include "backends.h"
+#include "tether/core/error.h"
 
 namespace tether {
 namespace internal {
@@ -24,9 +25,22 @@ using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 // AVX) are as quick. Measured on sphere2500 and parking-garage (benchmarks/RESULTS.md,
 // "BLAS fronts"): 1e4 beat 3e3, 1e5 and 1e6.
 constexpr double kBlasFlops = 1e4;
+// The BLAS, from the back-end module (loaded at the first large front), or null where it
+// cannot be loaded: Eigen's kernels then do every front.
+const BackendTable* Blas() {
+  static const BackendTable* const blas = []() -> const BackendTable* {
+    try {
+      return &Backends();
+    } catch (const Error&) {
+      return nullptr;
+    }
+  }();
+  return blas;
+}
+
 bool UseBlas(int W, int B) {
   const double w = W, b = B;
-  return w * w * w / 3 + w * w * b + w * b * b >= kBlasFlops;
+  return w * w * w / 3 + w * w * b + w * b * b >= kBlasFlops && Blas() != nullptr;
 }
 
 void EraseValue(std::vector<int>* v, int x) {
@@ -462,7 +476,7 @@ void IncrementalCholesky::ComputeUpdate(int k) {
     ++stats_.blas_fronts;
     const double one = 1, minus_one = -1;
     const int ld = static_cast<int>(c.L.rows());
-    dsyrk_("L", "N", &B, &c.dim, &minus_one, c.L.data() + c.dim, &ld, &one, c.update.data(), &B);
+    Blas()->dsyrk("L", "N", &B, &c.dim, &minus_one, c.L.data() + c.dim, &ld, &one, c.update.data(), &B);
   } else {
     c.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
   }
@@ -590,7 +604,7 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
   if (blas) {
     ++stats_.blas_fronts;
     int info = 0;
-    dpotrf_("L", &W, F, &R, &info);
+    Blas()->dpotrf("L", &W, F, &R, &info);
     if (info != 0) {
       if (why) *why = "not positive definite";
       return false;
@@ -610,8 +624,8 @@ bool IncrementalCholesky::FactorSupernode(const Supernode& s, std::string* why) 
     auto below = P.block(W, 0, B, W);
     if (blas) {
       const double one = 1, minus_one = -1;
-      dtrsm_("R", "L", "T", "N", &B, &W, &one, F, &R, F + W, &R);                  // below = below Ltop^-T
-      dsyrk_("L", "N", &B, &W, &minus_one, F + W, &R, &one, l.update.data(), &B);  // -= below below^T
+      Blas()->dtrsm("R", "L", "T", "N", &B, &W, &one, F, &R, F + W, &R);                  // below = below Ltop^-T
+      Blas()->dsyrk("L", "N", &B, &W, &minus_one, F + W, &R, &one, l.update.data(), &B);  // -= below below^T
     } else {
       Ltop.transpose().solveInPlace<Eigen::OnTheRight>(below);
       l.update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);

@@ -407,3 +407,54 @@ TEST_F(CliTest, VertigoSwitchableFilesAreSolvedAndWrittenBack) {
 
 }  // namespace
 }  // namespace tether
+
+// The solver back-ends (CHOLMOD, SuiteSparseQR and Ceres, with the BLAS and LAPACK they run on)
+// live in libtether_backends.so, loaded at their first use: a graph the block Cholesky solves
+// never loads them (nor their libraries), a solve with cholmod does, to the same optimum.
+TEST_F(CliTest, TheSolverBackEndsAreLoadedOnlyWhenUsed) {
+  ASSERT_EQ(Tether("simulate manhattan --poses 300 --seed 3 -q -o " + P("m.g2o")).code, 0);
+  const CliRun block = Tether("optimize " + P("m.g2o") + " -q -o " + P("b.g2o"), "LD_DEBUG=files");
+  ASSERT_EQ(block.code, 0) << block.output;
+  ASSERT_NE(block.output.find("libtether_solvers.so"), std::string::npos) << "LD_DEBUG=files lists no library";
+  EXPECT_NE(block.output.find("block Cholesky"), std::string::npos) << block.output;
+  EXPECT_EQ(block.output.find("libtether_backends.so"), std::string::npos);
+  EXPECT_EQ(block.output.find("libcholmod"), std::string::npos);
+  EXPECT_EQ(block.output.find("libopenblas"), std::string::npos);
+  EXPECT_EQ(block.output.find("libceres"), std::string::npos);
+  const CliRun cholmod = Tether("optimize " + P("m.g2o") + " -q --linear cholmod -o " + P("c.g2o"), "LD_DEBUG=files");
+  ASSERT_EQ(cholmod.code, 0) << cholmod.output;
+  EXPECT_NE(cholmod.output.find("libtether_backends.so"), std::string::npos);
+  EXPECT_NE(cholmod.output.find("libcholmod"), std::string::npos);
+  const auto chi2 = [](const std::string& out) {
+    const std::size_t at = out.find("final chi2");
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  EXPECT_FALSE(chi2(block.output).empty());
+  EXPECT_EQ(chi2(block.output), chi2(cholmod.output));
+}
+
+// Where the module is missing (libtether_solvers.so copied alone into a folder), a solver that
+// needs it is refused with the file it looked for and what to do; the native solvers still run.
+TEST_F(CliTest, AMissingBackEndModuleIsAClearError) {
+  const fs::path lib = fs::path(TETHER_CLI).parent_path().parent_path() / "solvers" / "libtether_solvers.so";
+  if (!fs::exists(lib)) GTEST_SKIP() << lib << " absent (not a build tree)";
+  const fs::path lone = P("lone");
+  fs::create_directories(lone);
+  fs::copy_file(lib, lone / lib.filename());
+  ASSERT_EQ(Tether("simulate manhattan --poses 100 --seed 3 -q -o " + P("m.g2o")).code, 0);
+  const std::string env = "LD_LIBRARY_PATH=" + lone.string();
+  const CliRun cholmod = Tether("optimize " + P("m.g2o") + " -q --linear cholmod -o " + P("c.g2o"), env);
+  EXPECT_EQ(cholmod.code, 3) << cholmod.output;  // the solve failed
+  EXPECT_NE(cholmod.output.find("the solver back-ends (CHOLMOD, SuiteSparseQR, Ceres) could not be loaded: " +
+                                (lone / "libtether_backends.so").string()),
+            std::string::npos)
+      << cholmod.output;
+  EXPECT_NE(cholmod.output.find("reinstall tether"), std::string::npos) << cholmod.output;
+  EXPECT_FALSE(fs::exists(P("c.g2o")));
+  const CliRun ceres = Tether("optimize " + P("m.g2o") + " -q --solver ceres -o " + P("e.g2o"), env);
+  EXPECT_EQ(ceres.code, 3) << ceres.output;
+  EXPECT_NE(ceres.output.find("could not be loaded"), std::string::npos) << ceres.output;
+  const CliRun block = Tether("optimize " + P("m.g2o") + " -q -o " + P("b.g2o"), env);
+  EXPECT_EQ(block.code, 0) << block.output;
+  EXPECT_TRUE(fs::exists(P("b.g2o")));
+}

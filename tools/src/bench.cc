@@ -24,6 +24,7 @@
 #include "tether/core/timing.h"
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
+#include "tether/solvers/backends.h"
 #include "tether/solvers/optimizer.h"
 #include "tether/tools/command.h"
 #include "tether/tools/commands.h"
@@ -257,6 +258,11 @@ std::string BenchConfig::Name() const {
 }
 
 std::string ActiveBlasLibrary() {
+  try {
+    LoadSolverBackends();  // the BLAS comes with them
+  } catch (const Error&) {
+    return "none";
+  }
   void* sym = ::dlsym(RTLD_DEFAULT, "dgemm_");
   if (sym == nullptr) return "none";
   Dl_info info;

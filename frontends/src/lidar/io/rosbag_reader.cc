@@ -9,13 +9,8 @@
 #include <vector>
 
 #include "tether/core/error.h"
+#include "tether/core/module.h"
 #include "tether/core/registry.h"
-
-#ifdef TETHER_HAVE_ROSBAG
-#include <dlfcn.h>
-
-#include <mutex>
-#endif
 
 namespace tether {
 namespace lidar {
@@ -120,27 +115,10 @@ constexpr const char* kRosBagEntry = "tether_rosbag_read_v1";
 // dynamic loader finds it. Loaded once, never unloaded; a failure is kept and reported at
 // every read.
 BagEntry LoadBagModule() {
-  static std::once_flag once;
-  static BagEntry entry = nullptr;
-  static std::string failure;
-  std::call_once(once, [] {
-    std::string path = kRosBagModule;
-    Dl_info info;
-    if (dladdr(reinterpret_cast<void*>(&CheckBagRecords), &info) != 0 && info.dli_fname != nullptr) {
-      const std::string self = info.dli_fname;
-      const std::size_t slash = self.rfind('/');
-      if (slash != std::string::npos) path = self.substr(0, slash + 1) + kRosBagModule;
-    }
-    void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr && path != kRosBagModule) handle = dlopen(kRosBagModule, RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      const char* why = dlerror();
-      failure = path + " (" + (why != nullptr ? why : "unknown error") + ")";
-      return;
-    }
-    entry = reinterpret_cast<BagEntry>(dlsym(handle, kRosBagEntry));
-    if (entry == nullptr) failure = path + " has no " + kRosBagEntry;
-  });
+  static const LoadedModule loaded = LoadModuleBeside(reinterpret_cast<const void*>(&CheckBagRecords), kRosBagModule,
+                                                      kRosBagEntry, ModuleScope::kLocal);
+  const BagEntry entry = reinterpret_cast<BagEntry>(loaded.entry);
+  const std::string& failure = loaded.failure;
   if (entry == nullptr) {
     throw IoError("ROS 1 bag support could not be loaded: " + failure +
                   "; rebuild tether (the module is built beside libtether_frontends) or configure with "

@@ -128,7 +128,8 @@ BenchRun RunBenchInChild(const std::string& file, const BenchConfig& config);
 void SummarizeBenchRow(BenchRow* row);
 
 /// The library the dgemm_ symbol (BLAS), which CHOLMOD's supernodal factorisation calls,
-/// resolves to in this process, with symbolic links resolved; "none" where no BLAS is loaded.
+/// resolves to in this process, with symbolic links resolved, after loading the solver
+/// back-ends that bring it (tether/solvers/backends.h); "none" where they cannot be loaded.
 std::string ActiveBlasLibrary();
 
 /// The table's columns by their CSV names ("file", "wall_median_s", "wall_over_best", ...), in

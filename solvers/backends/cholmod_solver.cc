@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "backend_functions.h"
 #include "builtin_linear_solvers.h"
 #include "cholmod_views.h"
 #include "serial_openmp.h"
@@ -158,11 +159,14 @@ class Spqr : public LinearSolver {
 };
 
 }  // namespace
+}  // namespace internal
+
+namespace backends {
 
 std::unique_ptr<LinearSolver> MakeCholmod(std::vector<int> ordering) {
-  return std::make_unique<Cholmod>(std::move(ordering));
+  return std::make_unique<internal::Cholmod>(std::move(ordering));
 }
-std::unique_ptr<LinearSolver> MakeSpqr() { return std::make_unique<Spqr>(); }
+std::unique_ptr<LinearSolver> MakeSpqr() { return std::make_unique<internal::Spqr>(); }
 
-}  // namespace internal
+}  // namespace backends
 }  // namespace tether

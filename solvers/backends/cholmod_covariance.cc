@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "backend_functions.h"
 #include "blas.h"
 #include "builtin_linear_solvers.h"
 #include "cholmod_views.h"
@@ -323,10 +324,11 @@ class CholmodCovariance : public CovarianceFactor {
 };
 
 }  // namespace
+}  // namespace internal
 
-std::unique_ptr<CovarianceFactor> MakeCholmodCovariance(const Csc& h, const ColumnNamer& name) {
-  return std::make_unique<CholmodCovariance>(h, name);
+std::unique_ptr<internal::CovarianceFactor> backends::MakeCholmodCovariance(const internal::Csc& h,
+                                                                            const internal::ColumnNamer& name) {
+  return std::make_unique<internal::CholmodCovariance>(h, name);
 }
 
-}  // namespace internal
 }  // namespace tether

@@ -13,8 +13,9 @@
 #include <type_traits>
 #include <utility>
 
-#include "../src/gauge.h"
-#include "../src/serial_openmp.h"
+#include "backend_functions.h"
+#include "gauge.h"
+#include "serial_openmp.h"
 #include "tether/core/error.h"
 #include "tether/core/timing.h"
 #include "tether/solvers/ceres_problem.h"
@@ -300,7 +301,7 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
 
 }  // namespace
 
-SolverSummary OptimizeWithCeres(const FactorGraph& graph, Values* values, const SolverOptions& options) {
+SolverSummary backends::OptimizeWithCeres(const FactorGraph& graph, Values* values, const SolverOptions& options) {
   if (values == nullptr) throw InvalidArgument("OptimizeWithCeres: values must not be null");
   const Clock::time_point t0 = Clock::now();
   try {

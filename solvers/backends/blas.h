@@ -1,8 +1,9 @@
 #pragma once
-// Internal: the BLAS and LAPACK routines tether calls directly on large dense blocks (the
-// library CHOLMOD itself runs on: Debian's libblas.so.3 and liblapack.so.3, OpenBLAS where
-// installed, which picks its kernels for the CPU at run time). Column-major, Fortran calling
-// convention: every argument by pointer.
+// Internal to the back-end module: the BLAS and LAPACK routines tether calls directly on large
+// dense blocks, here and (through the module's table, ../src/backends.h) in the incremental
+// smoother. The library is the one CHOLMOD runs on: Debian's libblas.so.3 and liblapack.so.3,
+// OpenBLAS where installed, which picks its kernels for the CPU at run time. Column-major,
+// Fortran calling convention: every argument by pointer.
 extern "C" {
 void dsymm_(const char* side, const char* uplo, const int* m, const int* n, const double* alpha, const double* a,
             const int* lda, const double* b, const int* ldb, const double* beta, double* c, const int* ldc);
