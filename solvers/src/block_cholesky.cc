@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <numeric>
 #include <string>
 #include <type_traits>
@@ -116,6 +117,123 @@ bool InvertedCholesky(double* a, int n, double* linv) {
   return true;
 }
 
+// The last block pattern analysed in this process and its analysis: the chordal start and the
+// solve after it (and any later solve of the same graph) analyse the same pose graph, and all
+// but the first find the ordering and the factor's pattern done. One entry: a pattern is
+// compared in full (O(its blocks)), never by a hash.
+std::mutex last_mutex;
+std::shared_ptr<const BlockSymbolic> last_symbolic;
+
+}  // namespace
+
+struct BlockSymbolic {
+  std::vector<int> up, ui;              // the key: A's upper block pattern (rows I < J of each column J, sorted)
+  std::vector<int> perm, pinv;          // block k of the permuted matrix is block perm[k] of A
+  std::vector<int> a_colptr, a_row;     // the permuted upper block pattern (rows unsorted)
+  std::vector<int> upos;                // where each block (up, ui) went in it
+  std::vector<int> parent;              // the elimination tree
+  std::vector<int> r_rowptr, l_colptr;  // row k of L has r_rowptr[k+1]-r_rowptr[k] blocks, column i ...
+  std::vector<int> r_col, l_row;        // ... and which: only where `stored`
+  bool stored = false;
+};
+
+namespace {
+
+std::shared_ptr<const BlockSymbolic> RecallSymbolic(const std::vector<int>& up, const std::vector<int>& ui) {
+  std::lock_guard<std::mutex> lock(last_mutex);
+  if (last_symbolic && last_symbolic->up == up && last_symbolic->ui == ui) return last_symbolic;
+  return nullptr;
+}
+
+void RememberSymbolic(std::shared_ptr<const BlockSymbolic> s) {
+  std::lock_guard<std::mutex> lock(last_mutex);
+  last_symbolic = std::move(s);
+}
+
+// Row k's columns of L (below the diagonal) at stack[top .. nb), returned top: the reach of A's
+// column k in the elimination tree, a column before its ancestors.
+int Reach(const BlockSymbolic& s, int k, std::vector<int>* flag, std::vector<int>* stack) {
+  const int nb = static_cast<int>(s.perm.size());
+  (*flag)[k] = k;
+  int top = nb;
+  for (int p = s.a_colptr[k]; p < s.a_colptr[k + 1]; ++p) {
+    int len = 0;
+    for (int i = s.a_row[p]; (*flag)[i] != k; i = s.parent[i]) {
+      (*stack)[len++] = i;
+      (*flag)[i] = k;
+    }
+    while (len > 0) (*stack)[--top] = (*stack)[--len];
+  }
+  return top;
+}
+
+// The ordering (CAMD on the block graph), the permuted pattern, the elimination tree and how
+// many blocks each row and column of L has (not yet which: StorePattern).
+std::shared_ptr<BlockSymbolic> OrderAndCount(int nb, std::vector<int> up, std::vector<int> ui) {
+  auto sp = std::make_shared<BlockSymbolic>();
+  BlockSymbolic& s = *sp;
+  s.up = std::move(up);
+  s.ui = std::move(ui);
+  s.perm.resize(nb);
+  std::iota(s.perm.begin(), s.perm.end(), 0);
+  if (nb > 1 && !s.ui.empty()) {
+    double control[CAMD_CONTROL], info[CAMD_INFO];
+    camd_defaults(control);
+    std::vector<int> p(nb + 1);
+    const int status = camd_order(nb, s.up.data(), s.ui.data(), p.data(), control, info, nullptr);
+    if (status == CAMD_OK || status == CAMD_OK_BUT_JUMBLED) std::copy(p.begin(), p.begin() + nb, s.perm.begin());
+  }
+  s.pinv.resize(nb);
+  for (int k = 0; k < nb; ++k) s.pinv[s.perm[k]] = k;
+  s.a_colptr.assign(nb + 1, 0);
+  for (int J = 0; J < nb; ++J) {
+    for (int q = s.up[J]; q < s.up[J + 1]; ++q) ++s.a_colptr[std::max(s.pinv[s.ui[q]], s.pinv[J]) + 1];
+  }
+  for (int k = 0; k < nb; ++k) s.a_colptr[k + 1] += s.a_colptr[k];
+  s.a_row.assign(s.a_colptr[nb], 0);
+  s.upos.resize(s.ui.size());
+  {
+    std::vector<int> next(s.a_colptr.begin(), s.a_colptr.end() - 1);
+    for (int J = 0; J < nb; ++J) {
+      for (int q = s.up[J]; q < s.up[J + 1]; ++q) {
+        const int i = s.pinv[s.ui[q]], j = s.pinv[J];
+        s.upos[q] = next[std::max(i, j)]++;
+        s.a_row[s.upos[q]] = std::min(i, j);
+      }
+    }
+  }
+  s.parent = EliminationTree(nb, s.a_colptr, s.a_row);
+  std::vector<int> count(nb, 0), flag(nb, -1), stack(nb);
+  s.r_rowptr.assign(nb + 1, 0);
+  for (int k = 0; k < nb; ++k) {
+    const int top = Reach(s, k, &flag, &stack);
+    for (int t = top; t < nb; ++t) ++count[stack[t]];
+    s.r_rowptr[k + 1] = s.r_rowptr[k] + (nb - top);
+  }
+  s.l_colptr.assign(nb + 1, 0);
+  for (int i = 0; i < nb; ++i) s.l_colptr[i + 1] = s.l_colptr[i] + count[i];
+  return sp;
+}
+
+// Which blocks L has: each row's columns (in the order the factorisation visits them) and each
+// column's rows.
+void StorePattern(BlockSymbolic* sp) {
+  BlockSymbolic& s = *sp;
+  const int nb = static_cast<int>(s.perm.size());
+  std::vector<int> flag(nb, -1), stack(nb);
+  s.r_col.resize(s.r_rowptr[nb]);
+  for (int k = 0; k < nb; ++k) {
+    const int top = Reach(s, k, &flag, &stack);
+    std::copy(stack.begin() + top, stack.end(), s.r_col.begin() + s.r_rowptr[k]);
+  }
+  s.l_row.assign(s.l_colptr[nb], 0);
+  std::vector<int> next(s.l_colptr.begin(), s.l_colptr.end() - 1);
+  for (int k = 0; k < nb; ++k) {
+    for (int t = s.r_rowptr[k]; t < s.r_rowptr[k + 1]; ++t) s.l_row[next[s.r_col[t]]++] = k;
+  }
+  s.stored = true;
+}
+
 }  // namespace
 
 bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes, bool allocate,
@@ -137,7 +255,8 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   nb_ = static_cast<int>(sizes.size());
   uniform_ =
       !sizes.empty() && std::all_of(sizes.begin(), sizes.end(), [&](int s) { return s == sizes[0]; }) ? sizes[0] : 0;
-  l_colptr_.assign(nb_ + 1, 0);
+  sym_.reset();
+  reused_ = false;
   if (require_uniform && uniform_ == 0) return false;
   orig_off_.assign(nb_ + 1, 0);
   for (int b = 0; b < nb_; ++b) orig_off_[b + 1] = orig_off_[b] + sizes[b];
@@ -163,92 +282,38 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
       up[J + 1] = static_cast<int>(ui.size());
     }
   }
-  perm_.assign(nb_, 0);
-  std::iota(perm_.begin(), perm_.end(), 0);
-  if (nb_ > 1 && !ui.empty()) {
-    double control[CAMD_CONTROL], info[CAMD_INFO];
-    camd_defaults(control);
-    std::vector<int> p(nb_ + 1);
-    const int status = camd_order(nb_, up.data(), ui.data(), p.data(), control, info, nullptr);
-    if (status == CAMD_OK || status == CAMD_OK_BUT_JUMBLED) std::copy(p.begin(), p.begin() + nb_, perm_.begin());
-  }
+  std::shared_ptr<const BlockSymbolic> sym = RecallSymbolic(up, ui);
+  std::shared_ptr<BlockSymbolic> fresh;
+  reused_ = sym != nullptr;
+  if (sym == nullptr) sym = fresh = OrderAndCount(nb_, std::move(up), std::move(ui));
+  sym_ = sym;
   ordered_ = true;
-  std::vector<int> pinv(nb_);
-  for (int k = 0; k < nb_; ++k) pinv[perm_[k]] = k;
   size_.assign(nb_, 0);
   off_.assign(nb_ + 1, 0);
   for (int k = 0; k < nb_; ++k) {
-    size_[k] = sizes[perm_[k]];
+    size_[k] = sizes[sym->perm[k]];
     off_[k + 1] = off_[k] + size_[k];
   }
   max_size_ = size_.empty() ? 0 : *std::max_element(size_.begin(), size_.end());
+  if (UpdatesPerBlock() > max_updates_per_block) {
+    if (fresh) RememberSymbolic(fresh);
+    return false;
+  }
+  if (!sym->stored) {
+    if (!fresh) fresh = std::make_shared<BlockSymbolic>(*sym);  // counted before, stored now
+    StorePattern(fresh.get());
+    sym_ = fresh;
+  }
+  if (fresh) RememberSymbolic(fresh);
+  const BlockSymbolic& S = *sym_;
 
-  // Permuted A's upper block pattern (in no particular order within a column), and where each
-  // block of A's upper pattern went (upos).
-  a_colptr_.assign(nb_ + 1, 0);
-  for (int J = 0; J < nb_; ++J) {
-    for (int q = up[J]; q < up[J + 1]; ++q) ++a_colptr_[std::max(pinv[ui[q]], pinv[J]) + 1];
-  }
-  for (int k = 0; k < nb_; ++k) a_colptr_[k + 1] += a_colptr_[k];
-  a_row_.assign(a_colptr_[nb_], 0);
-  std::vector<int> upos(ui.size());
-  {
-    std::vector<int> next(a_colptr_.begin(), a_colptr_.end() - 1);
-    for (int J = 0; J < nb_; ++J) {
-      for (int q = up[J]; q < up[J + 1]; ++q) {
-        const int i = pinv[ui[q]], j = pinv[J];
-        upos[q] = next[std::max(i, j)]++;
-        a_row_[upos[q]] = std::min(i, j);
-      }
-    }
-  }
-  // The elimination tree and, for each row k of L, its reach in the tree from A's column k:
-  // the columns of row k of L, in an order where a column comes before its ancestors. A first
-  // pass counts (how dense the factor is decides whether to go on), a second stores.
-  const std::vector<int> parent = EliminationTree(nb_, a_colptr_, a_row_);
-  std::vector<int> count(nb_, 0), flag(nb_, -1), stack(nb_);
-  const auto reach = [&](int k) {  // row k's columns at stack[top .. nb_)
-    flag[k] = k;
-    int top = nb_;
-    for (int p = a_colptr_[k]; p < a_colptr_[k + 1]; ++p) {
-      int len = 0;
-      for (int i = a_row_[p]; flag[i] != k; i = parent[i]) {
-        stack[len++] = i;
-        flag[i] = k;
-      }
-      while (len > 0) stack[--top] = stack[--len];
-    }
-    return top;
-  };
-  r_rowptr_.assign(nb_ + 1, 0);
-  for (int k = 0; k < nb_; ++k) {
-    const int top = reach(k);
-    for (int t = top; t < nb_; ++t) ++count[stack[t]];
-    r_rowptr_[k + 1] = r_rowptr_[k] + (nb_ - top);
-  }
-  for (int i = 0; i < nb_; ++i) l_colptr_[i + 1] = l_colptr_[i] + count[i];
-  if (UpdatesPerBlock() > max_updates_per_block) return false;
-  std::fill(flag.begin(), flag.end(), -1);
-  r_col_.resize(r_rowptr_[nb_]);
-  for (int k = 0; k < nb_; ++k) {
-    const int top = reach(k);
-    std::copy(stack.begin() + top, stack.end(), r_col_.begin() + r_rowptr_[k]);
-  }
-  l_row_.assign(l_colptr_[nb_], 0);
-  {
-    std::vector<int> next(l_colptr_.begin(), l_colptr_.end() - 1);
-    for (int k = 0; k < nb_; ++k) {
-      for (int t = r_rowptr_[k]; t < r_rowptr_[k + 1]; ++t) l_row_[next[r_col_[t]]++] = k;
-    }
-  }
-
-  ax_size_ = BlockOffsets(a_colptr_, a_row_, size_, &a_diag_, &a_val_);
+  ax_size_ = BlockOffsets(S.a_colptr, S.a_row, size_, &a_diag_, &a_val_);
   // Each scalar of A's upper triangle: its place in ax_. A column's rows are sorted, so its
   // blocks come in the order of the block column's upper pattern (a search where they are not).
   scatter_.assign(a.colptr[n_], -1);
   for (int c = 0; c < n_; ++c) {
-    const int J = block_of[c], lc = c - orig_off_[J], j = pinv[J];
-    int q = up[J];
+    const int J = block_of[c], lc = c - orig_off_[J], j = S.pinv[J];
+    int q = S.up[J];
     for (int p = a.colptr[c]; p < a.colptr[c + 1]; ++p) {
       const int r = a.rowind[p], I = block_of[r], lr = r - orig_off_[I];
       if (I > J || (I == J && lr > lc)) continue;  // below the diagonal: ignored
@@ -256,17 +321,17 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
         scatter_[p] = a_diag_[j] + lr + static_cast<std::int64_t>(lc) * size_[j];
         continue;
       }
-      while (q < up[J + 1] && ui[q] != I) ++q;
-      if (q == up[J + 1])
-        q = static_cast<int>(std::lower_bound(ui.begin() + up[J], ui.begin() + up[J + 1], I) - ui.begin());
-      const int i = pinv[I];
+      while (q < S.up[J + 1] && S.ui[q] != I) ++q;
+      if (q == S.up[J + 1])
+        q = static_cast<int>(std::lower_bound(S.ui.begin() + S.up[J], S.ui.begin() + S.up[J + 1], I) - S.ui.begin());
+      const int i = S.pinv[I];
       // Block (i, j) of the permuted matrix, or where i > j its mirror (j, i), transposed.
-      scatter_[p] = i < j ? a_val_[upos[q]] + lr + static_cast<std::int64_t>(lc) * size_[i]
-                          : a_val_[upos[q]] + lc + static_cast<std::int64_t>(lr) * size_[j];
+      scatter_[p] = i < j ? a_val_[S.upos[q]] + lr + static_cast<std::int64_t>(lc) * size_[i]
+                          : a_val_[S.upos[q]] + lc + static_cast<std::int64_t>(lr) * size_[j];
     }
   }
 
-  lx_size_ = BlockOffsets(l_colptr_, l_row_, size_, &l_diag_, &l_val_);
+  lx_size_ = BlockOffsets(S.l_colptr, S.l_row, size_, &l_diag_, &l_val_);
   x_off_.assign(nb_, 0);
   for (int i = 0; i < nb_; ++i) x_off_[i] = static_cast<std::int64_t>(off_[i]) * max_size_;
   fill_.assign(nb_, 0);
@@ -288,17 +353,22 @@ void BlockCholesky::Allocate() {
 std::vector<int> BlockCholesky::ScalarOrdering() const {
   std::vector<int> order;
   if (!ordered_) return order;
+  const BlockSymbolic& S = *sym_;
   order.reserve(n_);
   for (int k = 0; k < nb_; ++k) {
-    for (int c = orig_off_[perm_[k]]; c < orig_off_[perm_[k] + 1]; ++c) order.push_back(c);
+    for (int c = orig_off_[S.perm[k]]; c < orig_off_[S.perm[k] + 1]; ++c) order.push_back(c);
   }
   return order;
 }
 
+std::int64_t BlockCholesky::off_diagonal_blocks() const { return sym_ ? sym_->l_colptr.back() : 0; }
+
 double BlockCholesky::UpdatesPerBlock() const {
+  if (!sym_) return 0;
+  const BlockSymbolic& S = *sym_;
   double updates = 0, blocks = 0;
   for (int j = 0; j < nb_; ++j) {
-    const double c = 1.0 + l_colptr_[j + 1] - l_colptr_[j];
+    const double c = 1.0 + S.l_colptr[j + 1] - S.l_colptr[j];
     updates += c * c;
     blocks += c;
   }
@@ -319,6 +389,7 @@ bool BlockCholesky::Factorize(const SparseMatrixView& a) {
 
 template <int B>
 bool BlockCholesky::FactorizeBlocks() {
+  const BlockSymbolic& S = *sym_;
   double* x = work_.data();
   std::fill(fill_.begin(), fill_.end(), 0);
   double* dbuf = work_.data() + static_cast<std::size_t>(n_) * max_size_ + n_;
@@ -326,21 +397,21 @@ bool BlockCholesky::FactorizeBlocks() {
     const int bk = Size(k);
     // Column k of A above the diagonal into the workspace, the diagonal block into d (its
     // lower triangle from the upper one).
-    for (int p = a_colptr_[k]; p < a_colptr_[k + 1]; ++p) {
-      const int i = a_row_[p], bi = Size(i);
+    for (int p = S.a_colptr[k]; p < S.a_colptr[k + 1]; ++p) {
+      const int i = S.a_row[p], bi = Size(i);
       Block<B, B>(x + x_off_[i], bi, bk) = ConstBlock<B, B>(ax_.data() + a_val_[p], bi, bk);
     }
     Block<B, B> d(dbuf, bk, bk);
     d = ConstBlock<B, B>(ax_.data() + a_diag_[k], bk, bk).template selfadjointView<Eigen::Upper>();
-    for (int t = r_rowptr_[k]; t < r_rowptr_[k + 1]; ++t) {
-      const int i = r_col_[t], bi = Size(i);
+    for (int t = S.r_rowptr[k]; t < S.r_rowptr[k + 1]; ++t) {
+      const int i = S.r_col[t], bi = Size(i);
       Block<B, B> xi(x + x_off_[i], bi, bk);
       // y = L_ii^{-1} x_i: the block L(k, i)^T.
       xi = ConstBlock<B, B>(lx_.data() + l_diag_[i], bi, bi) * xi;
       // The rows of column i already computed (rows below i, above k) take their share.
-      const int p0 = l_colptr_[i], p1 = p0 + fill_[i];
+      const int p0 = S.l_colptr[i], p1 = p0 + fill_[i];
       for (int p = p0; p < p1; ++p) {
-        const int r = l_row_[p], br = Size(r);
+        const int r = S.l_row[p], br = Size(r);
         Block<B, B>(x + x_off_[r], br, bk).noalias() -= ConstBlock<B, B>(lx_.data() + l_val_[p], br, bi) * xi;
       }
       d.noalias() -= xi.transpose() * xi;
@@ -356,26 +427,28 @@ bool BlockCholesky::FactorizeBlocks() {
 
 void BlockCholesky::Solve(const double* b, double* x) const {
   if (!factorized_) throw Error("block Cholesky: Solve before a successful Factorize");
+  const BlockSymbolic& S = *sym_;
   double* y = work_.data() + static_cast<std::size_t>(n_) * max_size_;
   for (int k = 0; k < nb_; ++k) {
-    std::memcpy(y + off_[k], b + orig_off_[perm_[k]], sizeof(double) * Size(k));
+    std::memcpy(y + off_[k], b + orig_off_[S.perm[k]], sizeof(double) * Size(k));
   }
   WithBlockSize(uniform_, [this, y](auto b) { SolveBlocks<decltype(b)::value>(y); });
   for (int k = 0; k < nb_; ++k) {
-    std::memcpy(x + orig_off_[perm_[k]], y + off_[k], sizeof(double) * Size(k));
+    std::memcpy(x + orig_off_[S.perm[k]], y + off_[k], sizeof(double) * Size(k));
   }
 }
 
 template <int B>
 void BlockCholesky::SolveBlocks(double* y) const {
+  const BlockSymbolic& S = *sym_;
   using Vec = Eigen::Map<Eigen::Matrix<double, B, 1>>;
   // L z = y, column by column.
   for (int i = 0; i < nb_; ++i) {
     const int bi = Size(i);
     Vec yi(y + off_[i], bi);
     yi = ConstBlock<B, B>(lx_.data() + l_diag_[i], bi, bi) * yi;
-    for (int p = l_colptr_[i]; p < l_colptr_[i + 1]; ++p) {
-      const int r = l_row_[p], br = Size(r);
+    for (int p = S.l_colptr[i]; p < S.l_colptr[i + 1]; ++p) {
+      const int r = S.l_row[p], br = Size(r);
       Vec(y + off_[r], br).noalias() -= ConstBlock<B, B>(lx_.data() + l_val_[p], br, bi) * yi;
     }
   }
@@ -383,8 +456,8 @@ void BlockCholesky::SolveBlocks(double* y) const {
   for (int i = nb_ - 1; i >= 0; --i) {
     const int bi = Size(i);
     Vec yi(y + off_[i], bi);
-    for (int p = l_colptr_[i]; p < l_colptr_[i + 1]; ++p) {
-      const int r = l_row_[p], br = Size(r);
+    for (int p = S.l_colptr[i]; p < S.l_colptr[i + 1]; ++p) {
+      const int r = S.l_row[p], br = Size(r);
       yi.noalias() -= ConstBlock<B, B>(lx_.data() + l_val_[p], br, bi).transpose() * Vec(y + off_[r], br);
     }
     yi = ConstBlock<B, B>(lx_.data() + l_diag_[i], bi, bi).transpose() * yi;

@@ -15,6 +15,7 @@
 // measurements against CHOLMOD.
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "tether/core/linear_solver.h"
@@ -28,6 +29,8 @@ namespace internal {
 /// simulated worlds of 2 000 to 100 000 poses lies between 38 (a 10 000-pose Manhattan world,
 /// block 18% faster) and 43 (sphere2500, CHOLMOD 1.5 times faster); docs/solvers.md.
 constexpr double kMaxBlockUpdatesPerBlock = 40;
+
+struct BlockSymbolic;
 
 class BlockCholesky {
  public:
@@ -52,11 +55,14 @@ class BlockCholesky {
   void Solve(const double* b, double* x) const;
 
   /// Blocks of L below the diagonal (the fill the ordering left).
-  std::int64_t off_diagonal_blocks() const { return static_cast<std::int64_t>(l_row_.size()); }
+  std::int64_t off_diagonal_blocks() const;
   int num_blocks() const { return nb_; }
   /// The fill-reducing ordering of the last Analyze in scalar columns (column k of the factor
   /// is column ScalarOrdering()[k] of A); empty where the analysis stopped before ordering.
   std::vector<int> ScalarOrdering() const;
+  /// Whether the last Analyze found its ordering and factor pattern done: the process's last
+  /// analysis was of the same block pattern (the chordal start's, before the solve's).
+  bool reused_analysis() const { return reused_; }
   /// The common size of the blocks, 0 where they differ.
   int uniform_size() const { return uniform_; }
   /// How dense the factor is: the block products of the factorisation per block of L,
@@ -75,20 +81,19 @@ class BlockCholesky {
   int nb_ = 0, n_ = 0;
   int uniform_ = 0;              // the common block size, 0 where they differ
   std::vector<int> size_, off_;  // per block of the permuted matrix: size and first scalar row
-  std::vector<int> perm_;        // block k of the permuted matrix is block perm_[k] of A
   std::vector<int> orig_off_;    // first scalar of each block of A
-  // Permuted A's upper triangle by block columns: the diagonal block at a_diag_[k], the blocks
-  // above it (rows a_row_[p] < k) at a_val_[p], each b_row x b_k, column-major.
-  std::vector<int> a_colptr_, a_row_;
+  // What does not depend on the blocks' sizes: the ordering, the permuted pattern of A, L's
+  // pattern (shared with the process's last analysis of the same pattern, block_cholesky.cc).
+  std::shared_ptr<const BlockSymbolic> sym_;
+  // Permuted A's upper triangle by block columns (sym_->a_colptr, a_row): the diagonal block at
+  // a_diag_[k], the blocks above it (rows a_row[p] < k) at a_val_[p], each b_row x b_k.
   std::vector<std::int64_t> a_val_, a_diag_;
   std::vector<double> ax_;
   std::int64_t ax_size_ = 0, lx_size_ = 0;
   std::vector<std::int64_t> scatter_;  // per scalar entry of the view: its place in ax_ (-1: ignored)
-  // Row k of L (below the diagonal): the columns r_col_[r_rowptr_[k] ..] in topological order
-  // of the elimination tree; the entries of column i of L: rows l_row_[l_colptr_[i] ..], each
-  // block b_row x b_i (column-major) at l_val_; the diagonal blocks, inverted, at l_diag_.
-  std::vector<int> r_rowptr_, r_col_;
-  std::vector<int> l_colptr_, l_row_;
+  // Row k of L (below the diagonal): the columns sym_->r_col[r_rowptr[k] ..] in topological
+  // order of the elimination tree; the entries of column i of L: rows l_row[l_colptr[i] ..],
+  // each block b_row x b_i (column-major) at l_val_; the diagonal blocks, inverted, at l_diag_.
   std::vector<std::int64_t> l_val_, l_diag_;
   std::vector<double> lx_;
   std::vector<std::int64_t> x_off_;  // workspace: one b_i x b_max block per block row
@@ -98,6 +103,7 @@ class BlockCholesky {
   bool factorized_ = false;
   bool complete_ = false;  // the last Analyze ran to the end
   bool ordered_ = false;   // ... or at least as far as the ordering
+  bool reused_ = false;    // ... from the process's last analysis of the same pattern
 };
 
 }  // namespace internal

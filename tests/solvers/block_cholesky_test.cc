@@ -26,8 +26,10 @@ struct BlockProblem {
   Csc upper;  // the upper triangle, diagonal blocks whole (their lower part holds garbage)
 };
 
+// The pattern depends on the seed and the block count only (not on the sizes): the values come
+// from a generator of their own.
 BlockProblem MakeProblem(const std::vector<int>& sizes, int loops, unsigned seed, int pieces = 1) {
-  std::mt19937 rng(seed);
+  std::mt19937 rng(seed), values(seed + 1000);
   std::normal_distribution<double> g(0.0, 1.0);
   const int nb = static_cast<int>(sizes.size());
   std::vector<int> off(nb + 1, 0);
@@ -42,7 +44,7 @@ BlockProblem MakeProblem(const std::vector<int>& sizes, int loops, unsigned seed
     const int da = sizes[a], db = sizes[b];
     Eigen::MatrixXd J(da + db, da + db);
     for (int r = 0; r < da + db; ++r) {
-      for (int c = 0; c < da + db; ++c) J(r, c) = g(rng);
+      for (int c = 0; c < da + db; ++c) J(r, c) = g(values);
     }
     const Eigen::MatrixXd h = J.transpose() * J;
     p.dense.block(off[a], off[a], da, da) += h.topLeftCorner(da, da);
@@ -216,6 +218,37 @@ TEST(BlockCholesky, TheAnalysisStopsWhereTheRuleSaysNo) {
   EXPECT_THROW(chol.Factorize(View(p.upper)), Error);
   EXPECT_TRUE(chol.Analyze(View(p.upper), p.sizes, true, updates + 0.5));
   ExpectSolves(&chol, p, 33);
+}
+
+// The chordal start and the solve after it analyse one pose graph with blocks of different
+// sizes: the second analysis finds the first's ordering and factor pattern (whatever the sizes),
+// and both solve. An analysis that stopped after counting is completed by the next one.
+TEST(BlockCholesky, OnePatternIsAnalysedOnceWhateverTheBlockSizes) {
+  const BlockProblem rotations = MakeProblem(Repeat(2, 80), 40, 41);
+  const BlockProblem poses = MakeProblem(Repeat(3, 80), 40, 41);
+  BlockCholesky a, b;
+  ASSERT_TRUE(a.Analyze(View(rotations.upper), rotations.sizes));
+  EXPECT_FALSE(a.reused_analysis());
+  ASSERT_TRUE(b.Analyze(View(poses.upper), poses.sizes));
+  EXPECT_TRUE(b.reused_analysis());
+  EXPECT_EQ(a.off_diagonal_blocks(), b.off_diagonal_blocks());
+  const std::vector<int> oa = a.ScalarOrdering(), ob = b.ScalarOrdering();
+  for (int k = 0; k < 80; ++k) EXPECT_EQ(oa[2 * k] / 2, ob[3 * k] / 3) << "block " << k;
+  ExpectSolves(&a, rotations, 1);
+  ExpectSolves(&b, poses, 2);
+  // Another pattern: not reused.
+  const BlockProblem other = MakeProblem(Repeat(3, 80), 40, 42);
+  BlockCholesky c;
+  const double updates = (c.Analyze(View(other.upper), other.sizes), c.UpdatesPerBlock());
+  EXPECT_FALSE(c.reused_analysis());
+  // Stopped after counting, then completed from the counts.
+  const BlockProblem third = MakeProblem(Repeat(3, 80), 40, 43);
+  EXPECT_FALSE(c.Analyze(View(third.upper), third.sizes, true, 0.5));
+  EXPECT_FALSE(c.reused_analysis());
+  ASSERT_TRUE(c.Analyze(View(third.upper), third.sizes));
+  EXPECT_TRUE(c.reused_analysis());
+  ExpectSolves(&c, third, 3);
+  EXPECT_GT(updates, 0);
 }
 
 // A matrix with no columns factorises and solves (to nothing).
