@@ -7,14 +7,13 @@ namespace tether {
 // With Xi perturbed as (ti + Ri dti, thi + dthi) and Xj likewise, and D = Xi^-1 Xj:
 //   dD.t/ddti = -I, dD.t/ddthi = (D.y, -D.x), dD.t/ddtj = R(D.theta), dD.theta/ddth = -1 / +1;
 // the error's translation is Rz^T (D.t - z.t), its angle wrap(D.theta - z.theta).
-void EvaluateSE2Relative(const SE2d& z_, const double* a, const double* b, double* error, double* jac_i,
-                         double* jac_j) {
+void EvaluateSE2Relative(const SE2d& z_, double cz, double sz, const double* a, const double* b, double* error,
+                         double* jac_i, double* jac_j) {
   const double ci = std::cos(a[2]), si = std::sin(a[2]);
   const double dx = b[0] - a[0], dy = b[1] - a[1];
   const double Dx = ci * dx + si * dy;
   const double Dy = -si * dx + ci * dy;
   const double Dth = b[2] - a[2];
-  const double cz = std::cos(z_.theta()), sz = std::sin(z_.theta());
   const double ex = Dx - z_.x(), ey = Dy - z_.y();
   error[0] = cz * ex + sz * ey;
   error[1] = -sz * ex + cz * ey;
@@ -35,7 +34,7 @@ void EvaluateSE2Relative(const SE2d& z_, const double* a, const double* b, doubl
 }
 
 bool BetweenSE2::Evaluate(const double* const* params, double* error, double* const* jacobians) const {
-  EvaluateSE2Relative(z_, params[0], params[1], error, jacobians ? jacobians[0] : nullptr,
+  EvaluateSE2Relative(z_, cz_, sz_, params[0], params[1], error, jacobians ? jacobians[0] : nullptr,
                       jacobians ? jacobians[1] : nullptr);
   return true;
 }

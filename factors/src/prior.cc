@@ -7,7 +7,7 @@ namespace tether {
 // A prior is the relative-pose error with the first pose at the identity.
 bool PriorSE2::Evaluate(const double* const* params, double* error, double* const* jacobians) const {
   const double origin[3] = {0, 0, 0};
-  EvaluateSE2Relative(z_, origin, params[0], error, nullptr, jacobians ? jacobians[0] : nullptr);
+  EvaluateSE2Relative(z_, cz_, sz_, origin, params[0], error, nullptr, jacobians ? jacobians[0] : nullptr);
   return true;
 }
 
