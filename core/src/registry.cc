@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <sstream>
 
@@ -57,7 +58,62 @@ bool MeasurementIsAValue(const FactorType& t, VarType* type) {
   return true;
 }
 
+namespace {
+
+// The text of a short decimal v = r / 10^k (at most 8 decimals, |v| < 10^7), where it is what
+// std::to_chars gives: most measurements and information entries are such decimals (files give
+// them with a few digits), and the general shortest-round-trip search costs several times more.
+// False where v is not one, or where to_chars would write it in scientific notation.
+//
+// Why the text is to_chars' own: r8 = v * 10^8 rounded, and r8 / 10^8 == v (a division of exact
+// doubles, so correctly rounded, as reading the text back is) says that the decimal r8 / 10^8
+// reads back as v. Below 10^15, v * 10^8 as computed is within 0.2 of any decimal with at most
+// 8 decimals that reads back as v, so that decimal is r8 / 10^8: there is one, and with its
+// trailing zeros dropped it is the shortest digit string that reads back as v (to_chars'
+// choice). to_chars writes it in fixed notation where that is shorter than scientific;
+// otherwise (a tie included) this declines.
+bool AppendShortDecimal(std::string* s, double v) {
+  const double a = std::fabs(v);
+  if (!(a >= 1e-3 && a < 1e7)) return false;
+  const double r8 = std::nearbyint(a * 1e8);
+  if (r8 / 1e8 != a) return false;
+  auto r = static_cast<std::uint64_t>(r8);
+  int k = 8;
+  while (k > 0 && r % 10 == 0) {
+    r /= 10;
+    --k;
+  }
+  char digits[24];
+  const int n = static_cast<int>(std::to_chars(digits, digits + sizeof digits, r).ptr - digits);
+  int zeros = 0;  // trailing zeros of r (only where k is 0)
+  while (zeros < n - 1 && digits[n - 1 - zeros] == '0') ++zeros;
+  const int significant = n - zeros;
+  const int fixed = k == 0 ? n : n > k ? n + 1 : k + 2;                // ddd, dd.d or 0.00d
+  const int scientific = significant + (significant > 1 ? 1 : 0) + 4;  // d[.ddd]e+XX
+  if (fixed >= scientific) return false;
+  if (v < 0) s->push_back('-');
+  if (k == 0) {
+    s->append(digits, n);
+  } else if (n > k) {
+    s->append(digits, n - k);
+    s->push_back('.');
+    s->append(digits + n - k, k);
+  } else {
+    s->append("0.");
+    s->append(k - n, '0');
+    s->append(digits, n);
+  }
+  return true;
+}
+
+}  // namespace
+
 void AppendDouble(std::string* s, double v) {
+  if (v == 0) {
+    s->append(std::signbit(v) ? "-0" : "0");
+    return;
+  }
+  if (AppendShortDecimal(s, v)) return;
   // std::to_chars without a format gives the shortest text that reads back as the same double.
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
