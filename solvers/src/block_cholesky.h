@@ -70,6 +70,10 @@ class BlockCholesky {
   /// 2-4 on the sparse pose graphs of 2D SLAM; long columns, where dense supernodes pay, give
   /// tens.
   double UpdatesPerBlock() const;
+  /// Estimates of the floating-point operations of one Factorize and one Solve, from the
+  /// factor's pattern and the blocks' sizes (0 before a complete analysis).
+  double FactorizeFlops() const;
+  double SolveFlops() const;
 
  private:
   template <int B>

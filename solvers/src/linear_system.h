@@ -26,6 +26,12 @@ struct LinearSolveStats {
   int iterative_iterations = 0;  ///< an iterative solver's iterations (LinearSolver::last_iterations)
 };
 
+/// The reuse rule: where the operation counts of a factorisation (f), a solve (s) and a product
+/// with H (m) are known, caps *max_iterations at the iterations after which reusing an earlier
+/// factorisation would no longer be cheaper than factorising afresh, and turns *reuse off
+/// where even none would be (linear_system.cc). Unknown counts (0) leave both as they are.
+void ReuseWhileCheaper(double f, double s, double m, bool* reuse, int* max_iterations);
+
 class LinearSystem : public StepSystem {
  public:
   /// Builds the structure and lets the solver analyse it. Throws tether::Error where the
@@ -74,8 +80,9 @@ class LinearSystem : public StepSystem {
   Csc mat_;
   std::vector<int> damping_pos_;
   std::vector<double> g_, neg_g_, diag_, undamped_diag_, rhs_;
-  double lambda_ = 0;  // the damping in mat_
-  int max_reuse_iterations_ = 0;
+  double lambda_ = 0;             // the damping in mat_
+  bool reuse_ = false;            // whether to try the earlier factorisation first (ReuseWhileCheaper)
+  int max_reuse_iterations_ = 0;  // and for at most this many iterations
   int assemblies_ = 0;
   bool have_factor_ = false;                // solver_ holds the factorisation of an earlier H
   std::vector<double> r_, z_, p_dir_, hp_;  // conjugate-gradient work (no allocation per step)

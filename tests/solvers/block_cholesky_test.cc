@@ -370,3 +370,35 @@ TEST(AutoCholesky, ChoosesByTheFactorsDensityAndTheBlockSizes) {
 }  // namespace
 }  // namespace internal
 }  // namespace tether
+
+namespace tether {
+namespace internal {
+namespace {
+
+// The operation counts on a path of blocks of 3 (no fill): every column but the last has one
+// block below the diagonal; the factorisation takes 2 products per such block and an inversion
+// per diagonal block, the solve one product per block each way.
+TEST(BlockCholesky, TheOperationCountsOfAPath) {
+  const int nb = 50;
+  const BlockProblem p = MakeProblem(Repeat(3, nb), 0, 51);
+  BlockCholesky chol;
+  EXPECT_EQ(chol.FactorizeFlops(), 0);  // not analysed
+  ASSERT_TRUE(chol.Analyze(View(p.upper), p.sizes));
+  ASSERT_EQ(chol.off_diagonal_blocks(), nb - 1);
+  EXPECT_DOUBLE_EQ(chol.FactorizeFlops(), 2 * 27.0 * 2 * (nb - 1) + 27.0 * nb);
+  EXPECT_DOUBLE_EQ(chol.SolveFlops(), 4 * 9.0 * (nb + nb - 1));
+  // A denser pattern costs more per solve, and more still per factorisation.
+  const BlockProblem dense = MakeProblem(Repeat(3, nb), 300, 52);
+  BlockCholesky d;
+  ASSERT_TRUE(d.Analyze(View(dense.upper), dense.sizes));
+  EXPECT_GT(d.FactorizeFlops() / d.SolveFlops(), chol.FactorizeFlops() / chol.SolveFlops());
+  // "auto" reports the block solver's counts where it picks it.
+  std::unique_ptr<LinearSolver> a = MakeAutoCholesky();
+  a->Analyze(View(p.upper), p.sizes);
+  EXPECT_DOUBLE_EQ(a->factorize_flops(), chol.FactorizeFlops());
+  EXPECT_DOUBLE_EQ(a->solve_flops(), chol.SolveFlops());
+}
+
+}  // namespace
+}  // namespace internal
+}  // namespace tether

@@ -53,8 +53,10 @@ struct LinearSolverOptions {
   /// many iterations, and A is factorised afresh only where that does not converge (to 1e-3 of
   /// the step in the A-norm, as estimated with the earlier factorisation; the linear model's
   /// decrease is then within about 1e-6). Near the optimum A hardly changes and a few
-  /// iterations replace a factorisation; 0 factorises every step. docs/solvers.md has the
-  /// measurements behind the default.
+  /// iterations replace a factorisation; 0 factorises every step. Where the solver estimates
+  /// its operation counts (factorize_flops, solve_flops), fewer: only as many as can still cost
+  /// less than a factorisation, and none where not even one can. docs/solvers.md has the
+  /// measurements behind the default and the rule.
   int max_reuse_iterations = 8;
   /// Iterative solvers (for example the pcg example plugin): stop once |b - A x| <= this
   /// times |b|.
@@ -81,6 +83,13 @@ class LinearSolver {
   virtual std::string Description() const = 0;
   /// Iterative solvers: the iterations the last Solve took (0 for direct ones).
   virtual int last_iterations() const { return 0; }
+  /// Direct solvers, after Analyze: estimates of the floating-point operations of one
+  /// Factorize and of one Solve (0: not known, as for CHOLMOD and Eigen's LDL^T). Where both
+  /// are known, the reuse of an earlier factorisation (LinearSolverOptions::
+  /// max_reuse_iterations) iterates only as long as reusing can still cost less than
+  /// factorising afresh.
+  virtual double factorize_flops() const { return 0; }
+  virtual double solve_flops() const { return 0; }
 };
 
 using LinearSolverFactory = std::function<std::unique_ptr<LinearSolver>(const LinearSolverOptions&)>;
