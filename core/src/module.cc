@@ -15,7 +15,7 @@ std::string LastDlError() {
 LoadedModule LoadModuleFrom(const std::string& path, const char* entry, ModuleScope scope) {
   LoadedModule m;
   m.path = path;
-  void* handle = dlopen(path.c_str(), RTLD_NOW | (scope == ModuleScope::kGlobal ? RTLD_GLOBAL : RTLD_LOCAL));
+  void* handle = dlopen(path.c_str(), RTLD_LAZY | (scope == ModuleScope::kGlobal ? RTLD_GLOBAL : RTLD_LOCAL));
   if (handle == nullptr) {
     m.failure = path + " could not be loaded (" + LastDlError() + ")";
     return m;
