@@ -127,14 +127,17 @@ std::shared_ptr<const BlockSymbolic> last_symbolic;
 }  // namespace
 
 struct BlockSymbolic {
-  std::vector<int> up, ui;              // the key: A's upper block pattern (rows I < J of each column J, sorted)
-  std::vector<int> perm, pinv;          // block k of the permuted matrix is block perm[k] of A
-  std::vector<int> a_colptr, a_row;     // the permuted upper block pattern (rows unsorted)
-  std::vector<int> upos;                // where each block (up, ui) went in it
-  std::vector<int> parent;              // the elimination tree
-  std::vector<int> r_rowptr, l_colptr;  // row k of L has r_rowptr[k+1]-r_rowptr[k] blocks, column i ...
-  std::vector<int> r_col, l_row;        // ... and which: only where `stored`
-  bool stored = false;
+  std::vector<int> up, ui;               // the key: A's upper block pattern (rows I < J of each column J, sorted)
+  std::vector<int> perm, pinv;           // block k of the permuted matrix is block perm[k] of A
+  std::vector<int> a_colptr, a_row;      // the permuted upper block pattern (rows unsorted)
+  std::vector<int> upos;                 // where each block (up, ui) went in it
+  std::vector<int> parent;               // the elimination tree
+  std::vector<int> r_rowptr, l_colptr;   // row k of L has r_rowptr[k+1]-r_rowptr[k] blocks, column i ...
+  std::vector<int> r_col, l_row;         // ... and which: only where `stored`
+  bool counted = false, stored = false;  // a_colptr .. l_colptr are there; r_col, l_row are there
+  // Kept where the arrays are not: what the density rule and the reports read.
+  double updates_per_block = 0;
+  std::int64_t l_blocks = 0;  // blocks of L below the diagonal
 };
 
 namespace {
@@ -167,9 +170,8 @@ int Reach(const BlockSymbolic& s, int k, std::vector<int>* flag, std::vector<int
   return top;
 }
 
-// The ordering (CAMD on the block graph), the permuted pattern, the elimination tree and how
-// many blocks each row and column of L has (not yet which: StorePattern).
-std::shared_ptr<BlockSymbolic> OrderAndCount(int nb, std::vector<int> up, std::vector<int> ui) {
+// The ordering: CAMD on the block graph.
+std::shared_ptr<BlockSymbolic> Order(int nb, std::vector<int> up, std::vector<int> ui) {
   auto sp = std::make_shared<BlockSymbolic>();
   BlockSymbolic& s = *sp;
   s.up = std::move(up);
@@ -185,6 +187,14 @@ std::shared_ptr<BlockSymbolic> OrderAndCount(int nb, std::vector<int> up, std::v
   }
   s.pinv.resize(nb);
   for (int k = 0; k < nb; ++k) s.pinv[s.perm[k]] = k;
+  return sp;
+}
+
+// The permuted pattern, the elimination tree and how many blocks each row and column of L has
+// (not yet which: StorePattern), and from those how dense the factor is.
+void Count(BlockSymbolic* sp) {
+  BlockSymbolic& s = *sp;
+  const int nb = static_cast<int>(s.perm.size());
   s.a_colptr.assign(nb + 1, 0);
   for (int J = 0; J < nb; ++J) {
     for (int q = s.up[J]; q < s.up[J + 1]; ++q) ++s.a_colptr[std::max(s.pinv[s.ui[q]], s.pinv[J]) + 1];
@@ -212,7 +222,25 @@ std::shared_ptr<BlockSymbolic> OrderAndCount(int nb, std::vector<int> up, std::v
   }
   s.l_colptr.assign(nb + 1, 0);
   for (int i = 0; i < nb; ++i) s.l_colptr[i + 1] = s.l_colptr[i] + count[i];
-  return sp;
+  double updates = 0, blocks = 0;
+  for (int j = 0; j < nb; ++j) {
+    const double c = 1.0 + count[j];
+    updates += c * c;
+    blocks += c;
+  }
+  s.updates_per_block = blocks > 0 ? updates / blocks : 0;
+  s.l_blocks = s.l_colptr[nb];
+  s.counted = true;
+}
+
+// What an analysis that stopped at the density rule keeps for the next one of the same
+// pattern: the ordering and the density (a dense pose graph of a million poses would otherwise
+// hold some 100 MB of counts through the whole solve).
+void Trim(BlockSymbolic* s) {
+  for (std::vector<int>* v : {&s->a_colptr, &s->a_row, &s->upos, &s->parent, &s->r_rowptr, &s->l_colptr}) {
+    std::vector<int>().swap(*v);
+  }
+  s->counted = false;
 }
 
 // Which blocks L has: each row's columns (in the order the factorisation visits them) and each
@@ -285,7 +313,11 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   std::shared_ptr<const BlockSymbolic> sym = RecallSymbolic(up, ui);
   std::shared_ptr<BlockSymbolic> fresh;
   reused_ = sym != nullptr;
-  if (sym == nullptr) sym = fresh = OrderAndCount(nb_, std::move(up), std::move(ui));
+  if (sym == nullptr) {
+    fresh = Order(nb_, std::move(up), std::move(ui));
+    Count(fresh.get());
+    sym = fresh;
+  }
   sym_ = sym;
   ordered_ = true;
   size_.assign(nb_, 0);
@@ -296,11 +328,17 @@ bool BlockCholesky::Analyze(const SparseMatrixView& a, const std::vector<int>& b
   }
   max_size_ = size_.empty() ? 0 : *std::max_element(size_.begin(), size_.end());
   if (UpdatesPerBlock() > max_updates_per_block) {
-    if (fresh) RememberSymbolic(fresh);
+    if (fresh) {
+      Trim(fresh.get());
+      RememberSymbolic(fresh);
+    }
     return false;
   }
   if (!sym->stored) {
-    if (!fresh) fresh = std::make_shared<BlockSymbolic>(*sym);  // counted before, stored now
+    if (!fresh) {  // ordered (and perhaps counted) before, stored now
+      fresh = std::make_shared<BlockSymbolic>(*sym);
+      if (!fresh->counted) Count(fresh.get());
+    }
     StorePattern(fresh.get());
     sym_ = fresh;
   }
@@ -361,19 +399,9 @@ std::vector<int> BlockCholesky::ScalarOrdering() const {
   return order;
 }
 
-std::int64_t BlockCholesky::off_diagonal_blocks() const { return sym_ ? sym_->l_colptr.back() : 0; }
+std::int64_t BlockCholesky::off_diagonal_blocks() const { return sym_ ? sym_->l_blocks : 0; }
 
-double BlockCholesky::UpdatesPerBlock() const {
-  if (!sym_) return 0;
-  const BlockSymbolic& S = *sym_;
-  double updates = 0, blocks = 0;
-  for (int j = 0; j < nb_; ++j) {
-    const double c = 1.0 + S.l_colptr[j + 1] - S.l_colptr[j];
-    updates += c * c;
-    blocks += c;
-  }
-  return blocks > 0 ? updates / blocks : 0;
-}
+double BlockCholesky::UpdatesPerBlock() const { return sym_ ? sym_->updates_per_block : 0; }
 
 // Column i of L has c_i blocks below the diagonal, each b x b (b: the blocks' mean size). The
 // up-looking factorisation multiplies two blocks of a column for every pair of its blocks
