@@ -254,6 +254,7 @@ class Chordal {
   // its information comes from the factor's whitened Jacobian with respect to the second pose
   // at that point, so it is right for any error definition.
   void CollectMeasurements() {
+    edges_.reserve(graph_.size());  // one growth, not a copy at every doubling
     for (const auto& f : graph_.factors()) {
       if (f->keys().size() != 2) continue;
       const std::vector<VarType> types = f->variable_types();
