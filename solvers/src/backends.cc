@@ -35,32 +35,8 @@ std::string CheckTable(const BackendTable* t) {
   return "";
 }
 
-void Load() {
-#ifdef TETHER_BACKENDS_BUILT_IN
-  const BackendTable* t = tether_backends_v1();
-  failure = CheckTable(t);
-  if (failure.empty()) loaded = t;
-#else
-  const LoadedModule m =
-      LoadModuleBeside(reinterpret_cast<const void*>(&Backends), kModule, kEntry, ModuleScope::kGlobal);
-  if (m.entry == nullptr) {
-    failure = m.failure;
-    return;
-  }
-  const BackendTable* t = reinterpret_cast<const BackendTable* (*)()>(m.entry)();
-  const std::string bad = CheckTable(t);
-  if (!bad.empty()) {
-    failure = m.path + ": " + bad;
-    return;
-  }
-  loaded = t;
-#endif
-}
-
-}  // namespace
-
-const BackendTable* LoadBackendsFrom(const std::string& path, std::string* why) {
-  const LoadedModule m = LoadModuleFrom(path, kEntry, ModuleScope::kLocal);
+// The module's table, checked; nullptr and `why` (naming the file) where it cannot be used.
+const BackendTable* TableOf(const LoadedModule& m, std::string* why) {
   if (m.entry == nullptr) {
     *why = m.failure;
     return nullptr;
@@ -68,10 +44,27 @@ const BackendTable* LoadBackendsFrom(const std::string& path, std::string* why) 
   const BackendTable* t = reinterpret_cast<const BackendTable* (*)()>(m.entry)();
   const std::string bad = CheckTable(t);
   if (!bad.empty()) {
-    *why = path + ": " + bad;
+    *why = m.path + ": " + bad;
     return nullptr;
   }
   return t;
+}
+
+void Load() {
+#ifdef TETHER_BACKENDS_BUILT_IN
+  const BackendTable* t = tether_backends_v1();
+  failure = CheckTable(t);
+  if (failure.empty()) loaded = t;
+#else
+  loaded = TableOf(LoadModuleBeside(reinterpret_cast<const void*>(&Backends), kModule, kEntry, ModuleScope::kGlobal),
+                   &failure);
+#endif
+}
+
+}  // namespace
+
+const BackendTable* LoadBackendsFrom(const std::string& path, std::string* why) {
+  return TableOf(LoadModuleFrom(path, kEntry, ModuleScope::kLocal), why);
 }
 
 const BackendTable& Backends() {
