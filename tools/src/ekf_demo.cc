@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <ostream>
 #include <sstream>
 
@@ -39,6 +40,27 @@ bool ResolveDemoOptions(const EkfDemoCommand& cmd, std::vector<std::string>* exp
     err << "tether ekf-demo: --association takes known, nn or known,nn (got '" << cmd.association << "')\n";
     return false;
   }
+  std::vector<std::string> versions;
+  if (!ParseList(cmd.fastslam, {"1", "2"}, &versions)) {
+    err << "tether ekf-demo: --fastslam takes 1, 2 or 1,2 (got '" << cmd.fastslam << "')\n";
+    return false;
+  }
+  if (cmd.fastslam_particles != "none") {
+    std::stringstream in(cmd.fastslam_particles);
+    std::string item;
+    bool ok = !cmd.fastslam_particles.empty();
+    while (ok && std::getline(in, item, ',')) {
+      char* end = nullptr;
+      const long n = std::strtol(item.c_str(), &end, 10);
+      ok = !item.empty() && end != nullptr && *end == '\0' && n >= 1 && n <= 100000;
+    }
+    if (!ok) {
+      err << "tether ekf-demo: --fastslam-particles takes a list of particle counts in 1..100000 (e.g. 10,100,1000) "
+             "or none (got '"
+          << cmd.fastslam_particles << "')\n";
+      return false;
+    }
+  }
   if (!std::isfinite(cmd.setup.invariant_min_range) ||
       !(std::isfinite(cmd.setup.min_range) && cmd.setup.min_range >= 0)) {
     err << "tether ekf-demo: --invariant-min-range must be finite (negative: 1.5 range sigmas) and --min-range "
@@ -60,6 +82,15 @@ bool ResolveDemoOptions(const EkfDemoCommand& cmd, std::vector<std::string>* exp
 int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) {
   std::vector<std::string> experiments, associations;
   if (!ResolveDemoOptions(cmd, &experiments, &associations, err)) return kExitUsage;
+  EkfDemoSetup setup = cmd.setup;
+  setup.fastslam_particles.clear();
+  if (cmd.fastslam_particles != "none") {
+    std::stringstream in(cmd.fastslam_particles);
+    std::string item;
+    while (std::getline(in, item, ',')) setup.fastslam_particles.push_back(std::stoi(item));
+  }
+  setup.fastslam_one = cmd.fastslam.find('1') != std::string::npos;
+  setup.fastslam_two = cmd.fastslam.find('2') != std::string::npos;
   OutputSet outputs;
   OutputFile* table_file = nullptr;
   OutputFile* plot_file = nullptr;
@@ -81,7 +112,7 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
             << (experiment == 2 ? "0.2 m/s, pi/9" : "0.1 m/s, pi/18") << " rad/s), "
             << (nn ? "nearest-neighbour" : "known") << " association, " << cmd.seeds << " seeds\n";
       }
-      configs.push_back(RunEkfExperiment(experiment, nn, cmd.seeds, cmd.first_seed, cmd.setup));
+      configs.push_back(RunEkfExperiment(experiment, nn, cmd.seeds, cmd.first_seed, setup));
     }
   }
   std::ostringstream head;
@@ -89,7 +120,7 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
        << svg::Label(cmd.setup.bearing_sigma, 4) << " rad; " << cmd.setup.steps << " steps; seeds " << cmd.first_seed
        << ".." << cmd.first_seed + static_cast<std::uint64_t>(cmd.seeds) - 1 << "\n\n";
   std::string table = head.str() + EkfDemoTable(configs);
-  if (cmd.setup.consistency)
+  if (setup.consistency)
     table += "\nConsistency of the pose estimate (NEES):\n\n" + EkfDemoConsistencyTable(configs);
   out << table;
   for (const EkfDemoConfig& c : configs) {
@@ -102,7 +133,7 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
     if (table_file != nullptr) table_file->Stage(table);
     if (plot_file != nullptr) {
       const int experiment = std::stoi(experiments.front());
-      plot_file->Stage(EkfDemoSvg(experiment, associations.front() == "nn", cmd.first_seed, cmd.setup));
+      plot_file->Stage(EkfDemoSvg(experiment, associations.front() == "nn", cmd.first_seed, setup));
     }
     outputs.CommitAll();
   } catch (const Error& e) {
@@ -140,11 +171,15 @@ void EkfDemoCli::Add(CLI::App& app) {
   sub->add_option("--invariant-min-range", cmd_.setup.invariant_min_range,
                   "The invariant EKF uses no observation nearer than this [m] (negative: 1.5 range sigmas)")
       ->capture_default_str();
-  sub->add_option("--min-range", cmd_.setup.min_range, "The EKF and UKF use no landmark nearer than this [m]")
+  sub->add_option("--min-range", cmd_.setup.min_range, "The EKF, the UKF and FastSLAM use no landmark nearer than this [m]")
       ->capture_default_str();
   sub->add_option("--invariant-iterations", cmd_.setup.invariant_iterations,
                   "Gauss-Newton iterations of each invariant EKF correction (1: the plain update)")
       ->capture_default_str();
+  sub->add_option("--fastslam-particles", cmd_.fastslam_particles,
+                  "FastSLAM's particle counts, a list (a row per count and version), or none")
+      ->capture_default_str();
+  sub->add_option("--fastslam", cmd_.fastslam, "The FastSLAM versions: 1, 2 or 1,2")->capture_default_str();
   sub->add_flag_function(
       "--no-graph", [this](std::int64_t) { cmd_.setup.graphs = false; },
       "The filters alone: no graph seeded by them (much faster)");

@@ -14,6 +14,7 @@
 #include "tether/core/timing.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
+#include "tether/frontends/ekf/fast_slam.h"
 #include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/ukf_slam.h"
@@ -101,6 +102,11 @@ struct Recorder {
   }
 };
 
+std::string FastSlamName(ekf::FastSlamVersion v, int particles) {
+  return std::string("FastSLAM ") + (v == ekf::FastSlamVersion::kOne ? "1.0" : "2.0") + " (" +
+         std::to_string(particles) + " particles)";
+}
+
 SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup& setup, std::vector<EkfDemoRow>* rows) {
   const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
   SeedRun run;
@@ -141,6 +147,20 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     ekf::InvariantEkfSlam f(SE2d(), Eigen::Matrix3d::Zero(), io);
     return ekf::RunFilter(&f, run.world);
   });
+  for (const int n : setup.fastslam_particles) {
+    for (const ekf::FastSlamVersion v : {ekf::FastSlamVersion::kOne, ekf::FastSlamVersion::kTwo}) {
+      if (!(v == ekf::FastSlamVersion::kOne ? setup.fastslam_one : setup.fastslam_two)) continue;
+      record(FastSlamName(v, n), [&] {
+        ekf::FastSlamOptions so;
+        so.filter = fo;
+        so.version = v;
+        so.particles = n;
+        so.seed = seed;  // the same draws for every particle count's first particles
+        ekf::FastSlam f(SE2d(), Eigen::Matrix3d::Zero(), so);
+        return ekf::RunFastSlam(&f, run.world);
+      });
+    }
+  }
   for (const char* seeded : {"EKF", "UKF", "dead reckoning"}) {
     if (!setup.graphs) break;
     if (nn && std::string(seeded) == "dead reckoning") continue;  // dead reckoning associates nothing

@@ -54,26 +54,13 @@ LandmarkFilter::LandmarkFilter(const SE2d& start, const Eigen::Matrix3d& start_c
 }
 
 void LandmarkFilter::Predict(const odometry::Control& u, double dt) {
-  if (!std::isfinite(u.v) || !std::isfinite(u.w) || !(std::isfinite(dt) && dt > 0)) {
-    throw InvalidArgument("landmark filter: a prediction needs finite v and w and a positive, finite dt (got v " +
-                          std::to_string(u.v) + ", w " + std::to_string(u.w) + ", dt " + std::to_string(dt) + ")");
-  }
+  CheckControl(u, dt, "landmark filter");
   PredictChecked(u, dt);
 }
 
 std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observations) {
   // Every observation is checked before any is applied: a refused step changes nothing.
-  for (std::size_t k = 0; k < observations.size(); ++k) {
-    const Observation& o = observations[k];
-    if (!(std::isfinite(o.range) && std::isfinite(o.bearing) && o.range > 0)) {
-      throw InvalidArgument("landmark filter: observation " + std::to_string(k) +
-                            " needs a positive, finite range and a finite bearing; nothing of this step was applied");
-    }
-    if (options_.association == DataAssociation::kKnown && o.id < 0) {
-      throw InvalidArgument("landmark filter: known data association needs every observation's id (observation " +
-                            std::to_string(k) + " has none); nothing of this step was applied");
-    }
-  }
+  CheckObservations(observations, options_.association, "landmark filter");
   std::vector<int> taken(observations.size(), -1);
   std::vector<bool> used(static_cast<std::size_t>(landmark_count()), false);  // this step's, by index
   for (std::size_t k = 0; k < observations.size(); ++k) {
@@ -130,6 +117,28 @@ std::vector<int> LandmarkFilter::Update(const std::vector<Observation>& observat
     }
   }
   return taken;
+}
+
+void CheckControl(const odometry::Control& u, double dt, const std::string& who) {
+  if (!std::isfinite(u.v) || !std::isfinite(u.w) || !(std::isfinite(dt) && dt > 0)) {
+    throw InvalidArgument(who + ": a prediction needs finite v and w and a positive, finite dt (got v " +
+                          std::to_string(u.v) + ", w " + std::to_string(u.w) + ", dt " + std::to_string(dt) + ")");
+  }
+}
+
+void CheckObservations(const std::vector<Observation>& observations, DataAssociation association,
+                       const std::string& who) {
+  for (std::size_t k = 0; k < observations.size(); ++k) {
+    const Observation& o = observations[k];
+    if (!(std::isfinite(o.range) && std::isfinite(o.bearing) && o.range > 0)) {
+      throw InvalidArgument(who + ": observation " + std::to_string(k) +
+                            " needs a positive, finite range and a finite bearing; nothing of this step was applied");
+    }
+    if (association == DataAssociation::kKnown && o.id < 0) {
+      throw InvalidArgument(who + ": known data association needs every observation's id (observation " +
+                            std::to_string(k) + " has none); nothing of this step was applied");
+    }
+  }
 }
 
 void LandmarkFilter::Tidy() {

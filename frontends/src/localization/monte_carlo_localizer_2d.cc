@@ -128,20 +128,6 @@ double KldSampleCount(int k, double epsilon, double delta) {
   return (k - 1) / (2 * epsilon) * c * c * c;
 }
 
-std::vector<int> LowVarianceResample(const std::vector<double>& weights, int count, double u) {
-  std::vector<int> out(static_cast<std::size_t>(std::max(count, 0)));
-  if (weights.empty()) return out;
-  double cumulative = weights[0];
-  int i = 0;
-  const int last = static_cast<int>(weights.size()) - 1;
-  for (int m = 0; m < count; ++m) {
-    const double target = (u + m) / count;
-    while (target > cumulative && i < last) cumulative += weights[static_cast<std::size_t>(++i)];
-    out[static_cast<std::size_t>(m)] = i;
-  }
-  return out;
-}
-
 bool MclOptions::IsValid(std::string* why) const {
   std::string w;
   if (particles < 1 || particles > kMaxParticles) {

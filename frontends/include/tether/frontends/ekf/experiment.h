@@ -3,7 +3,7 @@
 // (landmark_simulator.h), the loop behind `tether ekf-demo` and Python's ekf.run_experiment.
 // For each experiment (1: control noise std (0.1 m/s, pi/18 rad/s); 2: doubled), a data
 // association (known, nearest neighbour) and each seed, it runs dead reckoning, EKF-SLAM,
-// UKF-SLAM and the invariant EKF, builds the pose graph from the same odometry and
+// UKF-SLAM, the invariant EKF and FastSLAM 1.0 and 2.0, builds the pose graph from the same odometry and
 // observations, seeds it with each filter's run, feeds it to the incremental smoother step by
 // step and solves it; it reports, over the seeds, mean +- std of the robot trajectory RMSE and
 // the landmark RMSE of each, the wrong associations, and the time; with consistency also each
@@ -32,6 +32,11 @@ struct EkfDemoSetup {
   int invariant_iterations = 2;
   /// Also the graphs seeded by the filters (false: the filters alone, much faster).
   bool graphs = true;
+  /// FastSLAM 1.0 and 2.0 (fast_slam.h) with each of these particle counts (empty: neither).
+  std::vector<int> fastslam_particles = {100};
+  /// Which FastSLAM versions run (1.0 and 2.0 by default).
+  bool fastslam_one = true;
+  bool fastslam_two = true;
 };
 
 /// One method's figures over the seeds.

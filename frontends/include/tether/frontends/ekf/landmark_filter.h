@@ -120,6 +120,15 @@ class LandmarkFilter {
   int near_ = 0;
 };
 
+/// Throws InvalidArgument naming `who` unless v and w are finite and dt positive and finite.
+void CheckControl(const odometry::Control& u, double dt, const std::string& who);
+
+/// Checks a step's observations before a filter applies any: throws InvalidArgument naming `who`
+/// and the observation where a range is not positive and finite, a bearing not finite, or
+/// (known association) an id is missing.
+void CheckObservations(const std::vector<Observation>& observations, DataAssociation association,
+                       const std::string& who);
+
 /// theta and bearings: a - b with the component `angle` wrapped.
 Difference AngleDifference(int angle);
 

@@ -44,6 +44,7 @@
 #include "tether/frontends/localization/measurement_model.h"
 #include "tether/frontends/localization/motion_model.h"
 #include "tether/frontends/localization/occupancy_map_2d.h"
+#include "tether/frontends/localization/resampling.h"
 #include "tether/frontends/simulation/random_stream.h"
 
 namespace tether {
@@ -157,10 +158,6 @@ double KldSampleCount(int k, double epsilon, double delta);
 
 /// The standard normal's quantile: z with P(Z <= z) = p, for p in (0, 1).
 double NormalQuantile(double p);
-
-/// Low-variance (systematic) resampling: the indices of `count` particles drawn from
-/// `weights` (normalised) with one uniform number `u` in [0, 1): index of (u + m) / count.
-std::vector<int> LowVarianceResample(const std::vector<double>& weights, int count, double u);
 
 class MonteCarloLocalizer2D {
  public:
