@@ -4,6 +4,7 @@
 #include "common.h"
 #include "tether/frontends/ekf/ekf_slam.h"
 #include "tether/frontends/ekf/experiment.h"
+#include "tether/frontends/ekf/fast_slam.h"
 #include "tether/frontends/ekf/invariant_ekf_slam.h"
 #include "tether/frontends/ekf/landmark_graph.h"
 #include "tether/frontends/ekf/landmark_simulator.h"
@@ -231,7 +232,11 @@ void BindExperiment(py::module_& ek) {
       .def_readwrite("invariant_min_range", &EkfDemoSetup::invariant_min_range)
       .def_readwrite("min_range", &EkfDemoSetup::min_range)
       .def_readwrite("invariant_iterations", &EkfDemoSetup::invariant_iterations)
-      .def_readwrite("graphs", &EkfDemoSetup::graphs);
+      .def_readwrite("graphs", &EkfDemoSetup::graphs)
+      .def_readwrite("fastslam_particles", &EkfDemoSetup::fastslam_particles,
+                     "FastSLAM 1.0 and 2.0 rows, one per particle count (empty: none)")
+      .def_readwrite("fastslam_one", &EkfDemoSetup::fastslam_one)
+      .def_readwrite("fastslam_two", &EkfDemoSetup::fastslam_two);
   py::class_<EkfDemoRow>(ek, "ExperimentRow", "One method's figures, one entry per seed.")
       .def_readonly("method", &EkfDemoRow::method)
       .def_readonly("trajectory_rmse", &EkfDemoRow::trajectory_rmse)
@@ -269,6 +274,86 @@ void BindExperiment(py::module_& ek) {
       py::arg("setup") = EkfDemoSetup(), "The picture `tether ekf-demo --plot` draws, as SVG text.");
 }
 
+// FastSLAM 1.0 and 2.0 (tether/frontends/ekf/fast_slam.h), step by step.
+void BindFastSlam(py::module_& ek) {
+  py::class_<ekf::FastSlamOptions>(ek, "FastSlamOptions")
+      .def(py::init<>())
+      .def_readwrite("filter", &ekf::FastSlamOptions::filter, "noise, association and its thresholds, min_range")
+      .def_property(
+          "version", [](const ekf::FastSlamOptions& o) { return std::string(ToString(o.version)); },
+          [](ekf::FastSlamOptions& o, const std::string& s) {
+            if (!FromString(s, &o.version)) {
+              throw InvalidArgument("unknown FastSLAM version '" + s + "'; use " + EnumNameList<ekf::FastSlamVersion>());
+            }
+          },
+          "1.0 (samples the motion) or 2.0 (the proposal sees the observations)")
+      .def_readwrite("particles", &ekf::FastSlamOptions::particles)
+      .def_readwrite("resample_fraction", &ekf::FastSlamOptions::resample_fraction,
+                     "resample where the effective sample size falls below this share of the particles")
+      .def_readwrite("new_landmark_d2", &ekf::FastSlamOptions::new_landmark_d2)
+      .def_readwrite("motion_floor", &ekf::FastSlamOptions::motion_floor)
+      .def_readwrite("seed", &ekf::FastSlamOptions::seed);
+  py::class_<ekf::FastSlam>(ek, "FastSlam",
+                            "FastSLAM: per particle a path sample and one 2x2 EKF per landmark (shared between "
+                            "particles until changed). predict(u, dt), then update(observations), each step.")
+      .def(py::init([](const SE2d& start, const Eigen::Matrix3d& start_cov, const ekf::FastSlamOptions& o) {
+             return std::make_unique<ekf::FastSlam>(start, start_cov, o);
+           }),
+           py::arg("start"), py::arg("start_cov") = Eigen::Matrix3d::Zero(), py::arg("options") = ekf::FastSlamOptions())
+      .def("predict", &ekf::FastSlam::Predict, py::arg("u"), py::arg("dt"),
+           "Resamples where the weights call for it, then moves the particles (1.0 samples; 2.0 predicts).")
+      .def("update", &ekf::FastSlam::Update, py::arg("observations"),
+           "Weighs and corrects; per observation the landmark index the heaviest particle took it for (-1: none).")
+      .def_property_readonly(
+          "particles",
+          [](const ekf::FastSlam& f) {
+            std::vector<SE2d> p;
+            for (int i = 0; i < f.particle_count(); ++i) p.push_back(f.particle_pose(i));
+            return PosesArray(p);
+          },
+          "(N, 3) particle poses (x, y, theta)")
+      .def_property_readonly(
+          "weights",
+          [](const ekf::FastSlam& f) {
+            const std::vector<double> w = f.weights();
+            return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(w.data(), static_cast<Eigen::Index>(w.size())));
+          },
+          "(N,) normalised weights")
+      .def_property_readonly("effective_sample_size", &ekf::FastSlam::effective_sample_size)
+      .def_property_readonly("best_particle", &ekf::FastSlam::best_particle)
+      .def_property_readonly("pose", &ekf::FastSlam::pose, "the weighted mean")
+      .def_property_readonly("pose_cov", &ekf::FastSlam::pose_cov, "the weighted covariance (x, y, theta)")
+      .def(
+          "landmarks",
+          [](const ekf::FastSlam& f, int particle) {
+            if (particle < 0) particle = f.best_particle();
+            if (particle >= f.particle_count()) throw InvalidArgument("no particle " + std::to_string(particle));
+            std::vector<Eigen::Vector2d> p;
+            for (int j = 0; j < f.landmark_count(particle); ++j) p.push_back(f.landmark(particle, j).mean);
+            return PointsArray(p);
+          },
+          py::arg("particle") = -1, "(L, 2) one particle's landmark means (-1: the heaviest)")
+      .def(
+          "landmark_covs",
+          [](const ekf::FastSlam& f, int particle) {
+            if (particle < 0) particle = f.best_particle();
+            if (particle >= f.particle_count()) throw InvalidArgument("no particle " + std::to_string(particle));
+            std::vector<Eigen::Matrix2d> c;
+            for (int j = 0; j < f.landmark_count(particle); ++j) c.push_back(f.landmark(particle, j).cov);
+            return c;
+          },
+          py::arg("particle") = -1, "one particle's landmark covariances (-1: the heaviest)")
+      .def_property_readonly(
+          "best_path", [](const ekf::FastSlam& f) { return PosesArray(f.best_path()); },
+          "(steps + 1, 3) the heaviest particle's path")
+      .def_property_readonly("wrong_associations", &ekf::FastSlam::wrong_associations)
+      .def_property_readonly("dropped_observations", &ekf::FastSlam::dropped_observations)
+      .def_property_readonly("resamplings", &ekf::FastSlam::resamplings);
+  ek.def(
+      "run_fast_slam", [](ekf::FastSlam& f, const ekf::LandmarkWorld& w) { return ekf::RunFastSlam(&f, w); },
+      py::arg("filter"), py::arg("world"), "The whole world through the filter, as ekf-demo runs it: a Track.");
+}
+
 void BindEkf(py::module_& ek) {
   BindExperiment(ek);
   py::class_<ekf::Observation>(ek, "Observation", "A range [m] and bearing [rad] to a landmark; id -1 where unknown.")
@@ -303,6 +388,8 @@ void BindEkf(py::module_& ek) {
       ek, "InvariantEkfSlam",
       "The right-invariant EKF for SLAM: the EKF's problem with the error defined on the group of the robot and "
       "landmarks; consistent where the EKF is overconfident (docs/front_ends.md).");
+
+  BindFastSlam(ek);
 
   py::class_<ekf::LandmarkWorldOptions>(ek, "LandmarkWorldOptions")
       .def(py::init<>())

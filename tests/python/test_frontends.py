@@ -53,6 +53,43 @@ def test_filters_track_the_simulated_world(filter_class):
         ekf.FilterOptions().association = "best"
 
 
+@pytest.mark.parametrize("version", ["1.0", "2.0"])
+def test_fast_slam_step_by_step(version):
+    world_opts = ekf.LandmarkWorldOptions()
+    world_opts.steps = 60
+    world_opts.control_sigma = world_opts.control_sigma * 0.1
+    world_opts.measurement_sigma = world_opts.measurement_sigma * 0.1
+    world = ekf.simulate_landmark_world(world_opts)
+    opts = ekf.FastSlamOptions()
+    opts.version = version
+    opts.particles = 40
+    opts.filter.control_cov = np.diag(world_opts.control_sigma ** 2)
+    opts.filter.measurement_cov = np.diag(world_opts.measurement_sigma ** 2)
+    f = ekf.FastSlam(world.truth[0], np.zeros((3, 3)), opts)
+    for k in range(world_opts.steps):
+        f.predict(world.odometry[k], world.dt)
+        taken = f.update(world.observations[k])
+        assert len(taken) == len(world.observations[k])
+        particles, weights = f.particles, f.weights
+        assert particles.shape == (40, 3) and weights.shape == (40,)
+        assert weights.sum() == pytest.approx(1.0)
+        # The estimate is the weighted mean of the particles (the positions).
+        if version == "1.0":
+            np.testing.assert_allclose(weights @ particles[:, :2], f.pose.translation(), atol=1e-9)
+    truth = world.truth_array()
+    assert np.linalg.norm(f.pose.translation() - truth[-1, :2]) < 0.5
+    lm = f.landmarks()
+    assert lm.shape[1] == 2 and lm.shape[0] > 0 and len(f.landmark_covs()) == lm.shape[0]
+    assert f.best_path.shape == (61, 3)
+    assert f.wrong_associations == 0
+    with pytest.raises(tether.InvalidArgument, match="use 1.0, 2.0"):
+        ekf.FastSlamOptions().version = "3"
+    bad = ekf.FastSlamOptions()
+    bad.particles = 0
+    with pytest.raises(tether.InvalidArgument, match="particles"):
+        ekf.FastSlam(tether.SE2(), np.zeros((3, 3)), bad)
+
+
 def test_min_range_skips_near_observations():
     opts = ekf.FilterOptions()
     opts.min_range = 3.0
@@ -94,7 +131,8 @@ def test_the_ekf_demo_experiment_from_python(cli):
     setup.graphs = False
     result = ekf.run_experiment(experiment=1, seeds=2, first_seed=1, setup=setup)
     methods = [r.method for r in result.rows]
-    assert methods == ["dead reckoning", "EKF", "UKF", "invariant EKF"]
+    assert methods == ["dead reckoning", "EKF", "UKF", "invariant EKF", "FastSLAM 1.0 (100 particles)",
+                       "FastSLAM 2.0 (100 particles)"]
     for r in result.rows:
         assert len(r.trajectory_rmse) == 2 and all(x > 0 for x in r.trajectory_rmse)
     # The filters beat dead reckoning on the mean, as the command's table says.
@@ -103,11 +141,17 @@ def test_the_ekf_demo_experiment_from_python(cli):
     # The command runs the same library loop: the same table rows (times aside).
     out = subprocess.run([cli, "ekf-demo", "--seeds", "2", "--steps", "60", "--no-graph", "--experiments", "1",
                           "--association", "known", "-q"], capture_output=True, text=True, check=True).stdout
-    ekf_row = [line for line in result.table().splitlines() if "| EKF |" in line][0]
-    cli_row = [line for line in out.splitlines() if "| EKF |" in line][0]
-    # Every column but the time (the last but one) is the same.
+    # Every column but the time (the last but one) is the same, FastSLAM's (seeded) too.
     cells = lambda line: [c.strip() for c in line.strip("|").split("|")]
-    assert cells(ekf_row)[:-2] == cells(cli_row)[:-2] and cells(ekf_row)[-1] == cells(cli_row)[-1]
+    for method in ["| EKF |", "| FastSLAM 2.0 (100 particles) |"]:
+        lib_row = [line for line in result.table().splitlines() if method in line][0]
+        cli_row = [line for line in out.splitlines() if method in line][0]
+        assert cells(lib_row)[:-2] == cells(cli_row)[:-2] and cells(lib_row)[-1] == cells(cli_row)[-1]
+    # The particle counts and versions are the caller's.
+    setup.fastslam_particles = [5, 20]
+    setup.fastslam_one = False
+    methods = [r.method for r in ekf.run_experiment(experiment=1, seeds=1, setup=setup).rows]
+    assert methods[4:] == ["FastSLAM 2.0 (5 particles)", "FastSLAM 2.0 (20 particles)"]
     svg = ekf.experiment_svg(1, False, 1, setup)
     assert svg.startswith("<svg") and "EKF" in svg
 

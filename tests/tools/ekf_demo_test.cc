@@ -41,7 +41,8 @@ double Mean(const std::vector<double>& v) {
 // and the graphs seeded by EKF and UKF end at the same optimum.
 TEST(EkfDemoTest, KnownAssociationFigures) {
   const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, EkfDemoSetup{60, 2.0, 0.17453292519943295});
-  for (const char* m : {"dead reckoning", "EKF", "UKF", "invariant EKF", "graph (EKF seed)", "graph (UKF seed)",
+  for (const char* m : {"dead reckoning", "EKF", "UKF", "invariant EKF", "FastSLAM 1.0 (100 particles)",
+                        "FastSLAM 2.0 (100 particles)", "graph (EKF seed)", "graph (UKF seed)",
                         "graph (dead reckoning seed)"}) {
     const EkfDemoRow* r = Row(c, m);
     ASSERT_NE(r, nullptr) << m;
@@ -50,7 +51,8 @@ TEST(EkfDemoTest, KnownAssociationFigures) {
     EXPECT_EQ(Mean(r->wrong_associations), 0.0) << m;
   }
   const double dr = Mean(Row(c, "dead reckoning")->trajectory_rmse);
-  for (const char* m : {"EKF", "UKF", "invariant EKF", "graph (EKF seed)"})
+  for (const char* m : {"EKF", "UKF", "invariant EKF", "FastSLAM 1.0 (100 particles)", "FastSLAM 2.0 (100 particles)",
+                        "graph (EKF seed)"})
     EXPECT_LT(Mean(Row(c, m)->trajectory_rmse), 0.5 * dr) << m;
   for (std::size_t k = 0; k < 3; ++k) {
     EXPECT_NEAR(Row(c, "graph (EKF seed)")->trajectory_rmse[k], Row(c, "graph (UKF seed)")->trajectory_rmse[k], 1e-4);
@@ -64,6 +66,9 @@ TEST(EkfDemoTest, NearestNeighbourCountsWrongAssociations) {
   // The thesis's landmarks lie about as far apart as the range noise: some wrong associations
   // are expected, and counted.
   EXPECT_GT(Mean(Row(c, "EKF")->wrong_associations), 0.0);
+  // FastSLAM associates per particle; its row counts the heaviest particle's.
+  ASSERT_NE(Row(c, "FastSLAM 2.0 (100 particles)"), nullptr);
+  EXPECT_EQ(Row(c, "FastSLAM 2.0 (100 particles)")->wrong_associations.size(), 2u);
 }
 
 // --nees: every method's NEES at every step of every seed, the graph's from the smoother's
@@ -123,6 +128,23 @@ TEST(EkfDemoCliTest, WritesTableAndPlot) {
   EXPECT_EQ(testing::Tether("ekf-demo --invariant-min-range inf").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --invariant-min-range nan").code, 2);
   EXPECT_EQ(testing::Tether("ekf-demo --min-range -1").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --fastslam 3").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --fastslam-particles 0").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --fastslam-particles 10,x").code, 2);
+  EXPECT_EQ(testing::Tether("ekf-demo --fastslam-particles ''").code, 2);
+  // FastSLAM's rows: the versions and counts asked for, or none.
+  const auto fast = testing::Tether(
+      "ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph --fastslam 2 "
+      "--fastslam-particles 5,10");
+  ASSERT_EQ(fast.code, 0) << fast.output;
+  EXPECT_NE(fast.output.find("| FastSLAM 2.0 (5 particles) |"), std::string::npos) << fast.output;
+  EXPECT_NE(fast.output.find("| FastSLAM 2.0 (10 particles) |"), std::string::npos) << fast.output;
+  EXPECT_EQ(fast.output.find("FastSLAM 1.0"), std::string::npos) << fast.output;
+  const auto no_fast =
+      testing::Tether("ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph "
+                      "--fastslam-particles none");
+  ASSERT_EQ(no_fast.code, 0) << no_fast.output;
+  EXPECT_EQ(no_fast.output.find("FastSLAM"), std::string::npos) << no_fast.output;
   // --no-graph: the filters alone.
   const auto filters = testing::Tether("ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph");
   ASSERT_EQ(filters.code, 0) << filters.output;
