@@ -283,7 +283,8 @@ void BindFastSlam(py::module_& ek) {
           "version", [](const ekf::FastSlamOptions& o) { return std::string(ToString(o.version)); },
           [](ekf::FastSlamOptions& o, const std::string& s) {
             if (!FromString(s, &o.version)) {
-              throw InvalidArgument("unknown FastSLAM version '" + s + "'; use " + EnumNameList<ekf::FastSlamVersion>());
+              throw InvalidArgument("unknown FastSLAM version '" + s + "'; use " +
+                                    EnumNameList<ekf::FastSlamVersion>());
             }
           },
           "1.0 (samples the motion) or 2.0 (the proposal sees the observations)")
@@ -299,7 +300,8 @@ void BindFastSlam(py::module_& ek) {
       .def(py::init([](const SE2d& start, const Eigen::Matrix3d& start_cov, const ekf::FastSlamOptions& o) {
              return std::make_unique<ekf::FastSlam>(start, start_cov, o);
            }),
-           py::arg("start"), py::arg("start_cov") = Eigen::Matrix3d::Zero(), py::arg("options") = ekf::FastSlamOptions())
+           py::arg("start"), py::arg("start_cov") = Eigen::Matrix3d::Zero(),
+           py::arg("options") = ekf::FastSlamOptions())
       .def("predict", &ekf::FastSlam::Predict, py::arg("u"), py::arg("dt"),
            "Resamples where the weights call for it, then moves the particles (1.0 samples; 2.0 predicts).")
       .def("update", &ekf::FastSlam::Update, py::arg("observations"),

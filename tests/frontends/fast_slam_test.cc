@@ -1,5 +1,7 @@
 // FastSLAM 1.0 and 2.0 on point landmarks (frontends/ekf/fast_slam.h), and the particle weights'
 // helpers they share with Monte Carlo localisation (frontends/localization/resampling.h).
+#include "tether/frontends/ekf/fast_slam.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -10,7 +12,6 @@
 #include "tether/core/error.h"
 #include "tether/frontends/ekf/consistency.h"
 #include "tether/frontends/ekf/ekf_slam.h"
-#include "tether/frontends/ekf/fast_slam.h"
 #include "tether/frontends/localization/resampling.h"
 
 namespace tether {
@@ -77,8 +78,8 @@ TEST(FastSlamProposalTest, SequentialEqualsTheClosedFormOnALinearGaussianCase) {
   EXPECT_NEAR(summed, log_likelihood, 1e-9);
   // An innovation covariance that is not positive definite changes nothing.
   PoseBelief same = belief;
-  EXPECT_TRUE(std::isnan(ConditionPose(&same, Eigen::Vector2d(1, 1), Eigen::Matrix<double, 2, 3>::Zero(),
-                                       -Eigen::Matrix2d::Identity())));
+  EXPECT_TRUE(std::isnan(
+      ConditionPose(&same, Eigen::Vector2d(1, 1), Eigen::Matrix<double, 2, 3>::Zero(), -Eigen::Matrix2d::Identity())));
   EXPECT_EQ(same.mean, belief.mean);
 }
 
@@ -225,7 +226,8 @@ TEST(FastSlamTest, EstimateAndPath) {
   }
   const std::vector<double> w = f.weights();
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (int i = 0; i < f.particle_count(); ++i) mean += w[static_cast<std::size_t>(i)] * f.particle_pose(i).translation();
+  for (int i = 0; i < f.particle_count(); ++i)
+    mean += w[static_cast<std::size_t>(i)] * f.particle_pose(i).translation();
   EXPECT_LT((f.pose().translation() - mean).norm(), 1e-9);
   EXPECT_GT(f.pose_cov().determinant(), 0);
   const std::vector<SE2d> path = f.best_path();

@@ -41,9 +41,9 @@ double Mean(const std::vector<double>& v) {
 // and the graphs seeded by EKF and UKF end at the same optimum.
 TEST(EkfDemoTest, KnownAssociationFigures) {
   const EkfDemoConfig c = RunEkfExperiment(1, false, 3, 1, EkfDemoSetup{60, 2.0, 0.17453292519943295});
-  for (const char* m : {"dead reckoning", "EKF", "UKF", "invariant EKF", "FastSLAM 1.0 (100 particles)",
-                        "FastSLAM 2.0 (100 particles)", "graph (EKF seed)", "graph (UKF seed)",
-                        "graph (dead reckoning seed)"}) {
+  for (const char* m :
+       {"dead reckoning", "EKF", "UKF", "invariant EKF", "FastSLAM 1.0 (100 particles)", "FastSLAM 2.0 (100 particles)",
+        "graph (EKF seed)", "graph (UKF seed)", "graph (dead reckoning seed)"}) {
     const EkfDemoRow* r = Row(c, m);
     ASSERT_NE(r, nullptr) << m;
     EXPECT_EQ(r->trajectory_rmse.size(), 3u) << m;
@@ -140,9 +140,9 @@ TEST(EkfDemoCliTest, WritesTableAndPlot) {
   EXPECT_NE(fast.output.find("| FastSLAM 2.0 (5 particles) |"), std::string::npos) << fast.output;
   EXPECT_NE(fast.output.find("| FastSLAM 2.0 (10 particles) |"), std::string::npos) << fast.output;
   EXPECT_EQ(fast.output.find("FastSLAM 1.0"), std::string::npos) << fast.output;
-  const auto no_fast =
-      testing::Tether("ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph "
-                      "--fastslam-particles none");
+  const auto no_fast = testing::Tether(
+      "ekf-demo --seeds 1 --steps 20 --experiments 1 --association known --no-graph "
+      "--fastslam-particles none");
   ASSERT_EQ(no_fast.code, 0) << no_fast.output;
   EXPECT_EQ(no_fast.output.find("FastSLAM"), std::string::npos) << no_fast.output;
   // --no-graph: the filters alone.

@@ -120,8 +120,7 @@ int RunEkfDemo(const EkfDemoCommand& cmd, std::ostream& out, std::ostream& err) 
        << svg::Label(cmd.setup.bearing_sigma, 4) << " rad; " << cmd.setup.steps << " steps; seeds " << cmd.first_seed
        << ".." << cmd.first_seed + static_cast<std::uint64_t>(cmd.seeds) - 1 << "\n\n";
   std::string table = head.str() + EkfDemoTable(configs);
-  if (setup.consistency)
-    table += "\nConsistency of the pose estimate (NEES):\n\n" + EkfDemoConsistencyTable(configs);
+  if (setup.consistency) table += "\nConsistency of the pose estimate (NEES):\n\n" + EkfDemoConsistencyTable(configs);
   out << table;
   for (const EkfDemoConfig& c : configs) {
     for (const EkfDemoRow& r : c.rows) {
@@ -171,7 +170,8 @@ void EkfDemoCli::Add(CLI::App& app) {
   sub->add_option("--invariant-min-range", cmd_.setup.invariant_min_range,
                   "The invariant EKF uses no observation nearer than this [m] (negative: 1.5 range sigmas)")
       ->capture_default_str();
-  sub->add_option("--min-range", cmd_.setup.min_range, "The EKF, the UKF and FastSLAM use no landmark nearer than this [m]")
+  sub->add_option("--min-range", cmd_.setup.min_range,
+                  "The EKF, the UKF and FastSLAM use no landmark nearer than this [m]")
       ->capture_default_str();
   sub->add_option("--invariant-iterations", cmd_.setup.invariant_iterations,
                   "Gauss-Newton iterations of each invariant EKF correction (1: the plain update)")

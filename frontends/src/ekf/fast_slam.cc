@@ -68,7 +68,8 @@ bool FastSlamOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(motion_floor) && motion_floor >= 0)) {
     return fail("motion_floor must be finite and not negative");
   }
-  if (!std::isfinite(new_landmark_d2)) return fail("new_landmark_d2 must be finite (negative: the filter's new_landmark)");
+  if (!std::isfinite(new_landmark_d2))
+    return fail("new_landmark_d2 must be finite (negative: the filter's new_landmark)");
   return true;
 }
 
@@ -181,7 +182,8 @@ std::vector<int> FastSlam::Update(const std::vector<Observation>& observations) 
       if (static_cast<std::size_t>(id) < id_to_index_.size() && id_to_index_[static_cast<std::size_t>(id)] >= 0) {
         known_index[k] = id_to_index_[static_cast<std::size_t>(id)];
       } else if (observations[k].range >= fo.min_range) {
-        if (static_cast<std::size_t>(id) >= id_to_index_.size()) id_to_index_.resize(static_cast<std::size_t>(id) + 1, -1);
+        if (static_cast<std::size_t>(id) >= id_to_index_.size())
+          id_to_index_.resize(static_cast<std::size_t>(id) + 1, -1);
         id_to_index_[static_cast<std::size_t>(id)] = known_index[k] = next++;
         known_new[k] = true;
       }
@@ -249,8 +251,8 @@ std::vector<int> FastSlam::Update(const std::vector<Observation>& observations) 
       }
       // Too near to use (as the EKF: a landmark by its estimate, a new one by the measured range).
       const LandmarkGaussian* l = add || chosen < 0 ? nullptr : estimate(chosen);
-      if (!dropped && (add ? o.range < fo.min_range
-                           : l != nullptr && (l->mean - p.belief.mean.head<2>()).norm() < fo.min_range)) {
+      if (!dropped &&
+          (add ? o.range < fo.min_range : l != nullptr && (l->mean - p.belief.mean.head<2>()).norm() < fo.min_range)) {
         continue;
       }
       if (dropped) {

@@ -31,7 +31,8 @@ class PersistentArray {
   /// Element i (i < size(); throws std::out_of_range otherwise). The reference stays valid
   /// while any array that shares the element's leaf lives.
   const T& operator[](std::size_t i) const {
-    if (i >= size_) throw std::out_of_range("PersistentArray: index " + std::to_string(i) + " of " + std::to_string(size_));
+    if (i >= size_)
+      throw std::out_of_range("PersistentArray: index " + std::to_string(i) + " of " + std::to_string(size_));
     const Node* n = root_.get();
     for (int level = depth_; level > 0; --level) n = n->children[Slot(i, level)].get();
     return n->values[i & (kBranch - 1)];
@@ -39,7 +40,8 @@ class PersistentArray {
 
   /// Sets element i (i < size()): copies the nodes on its path, the other copies unchanged.
   void Set(std::size_t i, T value) {
-    if (i >= size_) throw std::out_of_range("PersistentArray: index " + std::to_string(i) + " of " + std::to_string(size_));
+    if (i >= size_)
+      throw std::out_of_range("PersistentArray: index " + std::to_string(i) + " of " + std::to_string(size_));
     root_ = Assign(root_.get(), depth_, i, std::move(value));
   }
 

@@ -163,7 +163,7 @@ class FastSlam {
     std::shared_ptr<const Step> parent;
   };
   struct Particle {
-    PoseBelief belief;  // 1.0: the sample (zero covariance); 2.0 after Predict: the prediction
+    PoseBelief belief;    // 1.0: the sample (zero covariance); 2.0 after Predict: the prediction
     PoseBelief proposal;  // 2.0 after Update: the Gaussian the pose was drawn from
     double log_weight = 0;
     PersistentArray<LandmarkGaussian> landmarks;
