@@ -56,6 +56,10 @@ TEST(EkfDemoTest, KnownAssociationFigures) {
     EXPECT_LT(Mean(Row(c, m)->trajectory_rmse), 0.5 * dr) << m;
   for (std::size_t k = 0; k < 3; ++k) {
     EXPECT_NEAR(Row(c, "graph (EKF seed)")->trajectory_rmse[k], Row(c, "graph (UKF seed)")->trajectory_rmse[k], 1e-4);
+    // FastSLAM's known associations are the same: the same optimum from its seed.
+    ASSERT_NE(Row(c, "graph (FastSLAM 2.0 seed)"), nullptr);
+    EXPECT_NEAR(Row(c, "graph (EKF seed)")->trajectory_rmse[k], Row(c, "graph (FastSLAM 2.0 seed)")->trajectory_rmse[k],
+                1e-4);
   }
 }
 
@@ -117,7 +121,8 @@ TEST(EkfDemoCliTest, WritesTableAndPlot) {
   EXPECT_NE(t.find("| 2 | known | graph (EKF seed) | 2 |"), std::string::npos) << t;  // the NEES table, 2 runs
   const std::string svg = Slurp(plot);
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
-  for (const char* name : {"truth", "dead reckoning", "EKF", "UKF", "invariant EKF", "graph (EKF seed)", "2 sigma"}) {
+  for (const char* name : {"truth", "dead reckoning", "EKF", "UKF", "invariant EKF", "graph (EKF seed)", "2 sigma",
+                           "FastSLAM 2.0 (100 particles)", "particles every 50 steps"}) {
     EXPECT_NE(svg.find(name), std::string::npos) << name;
   }
   // Usage errors (exit 2) and an output in a folder that does not exist (exit 4, nothing run).

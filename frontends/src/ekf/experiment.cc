@@ -34,8 +34,10 @@ ekf::LandmarkWorldOptions WorldOptions(int experiment, std::uint64_t seed, const
   return o;
 }
 
-ekf::FilterOptions FilterOptionsFor(const ekf::LandmarkWorldOptions& w, bool nn) {
+// The filters' options (the invariant EKF changes its min_range and iterations).
+ekf::FilterOptions FilterOptionsFor(const ekf::LandmarkWorldOptions& w, bool nn, const EkfDemoSetup& setup) {
   ekf::FilterOptions f;
+  f.min_range = setup.min_range;
   f.control_cov = w.control_sigma.cwiseAbs2().asDiagonal();
   f.measurement_cov = w.measurement_sigma.cwiseAbs2().asDiagonal();
   f.association = nn ? ekf::DataAssociation::kNearestNeighbour : ekf::DataAssociation::kKnown;
@@ -102,6 +104,16 @@ struct Recorder {
   }
 };
 
+ekf::FastSlamOptions FastSlamOptionsFor(const ekf::FilterOptions& fo, ekf::FastSlamVersion v, int particles,
+                                        std::uint64_t seed) {
+  ekf::FastSlamOptions so;
+  so.filter = fo;
+  so.version = v;
+  so.particles = particles;
+  so.seed = seed;  // the world's: a row is repeatable on its own
+  return so;
+}
+
 std::string FastSlamName(ekf::FastSlamVersion v, int particles) {
   return std::string("FastSLAM ") + (v == ekf::FastSlamVersion::kOne ? "1.0" : "2.0") + " (" +
          std::to_string(particles) + " particles)";
@@ -111,8 +123,7 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
   const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
   SeedRun run;
   run.world = ekf::SimulateLandmarkWorld(wo);
-  ekf::FilterOptions fo = FilterOptionsFor(wo, nn);
-  fo.min_range = setup.min_range;  // the EKF's and UKF's (the invariant EKF has its own)
+  const ekf::FilterOptions fo = FilterOptionsFor(wo, nn, setup);
   ekf::LandmarkGraphOptions go = GraphOptionsFor(fo);
   go.record_online = setup.consistency;
   Recorder record{rows, &run, &setup, seed, {}};
@@ -151,23 +162,25 @@ SeedRun RunSeed(int experiment, bool nn, std::uint64_t seed, const EkfDemoSetup&
     for (const ekf::FastSlamVersion v : {ekf::FastSlamVersion::kOne, ekf::FastSlamVersion::kTwo}) {
       if (!(v == ekf::FastSlamVersion::kOne ? setup.fastslam_one : setup.fastslam_two)) continue;
       record(FastSlamName(v, n), [&] {
-        ekf::FastSlamOptions so;
-        so.filter = fo;
-        so.version = v;
-        so.particles = n;
-        so.seed = seed;  // the same draws for every particle count's first particles
-        ekf::FastSlam f(SE2d(), Eigen::Matrix3d::Zero(), so);
+        ekf::FastSlam f(SE2d(), Eigen::Matrix3d::Zero(), FastSlamOptionsFor(fo, v, n, seed));
         return ekf::RunFastSlam(&f, run.world);
       });
     }
   }
-  for (const char* seeded : {"EKF", "UKF", "dead reckoning"}) {
+  // The graphs, each seeded by a filter's run and built with its associations: (row, seed track).
+  std::vector<std::pair<std::string, std::string>> seeds = {
+      {"graph (EKF seed)", "EKF"}, {"graph (UKF seed)", "UKF"}, {"graph (dead reckoning seed)", "dead reckoning"}};
+  if (nn) seeds.pop_back();  // dead reckoning associates nothing
+  if (setup.fastslam_two && !setup.fastslam_particles.empty()) {
+    seeds.emplace_back("graph (FastSLAM 2.0 seed)",
+                       FastSlamName(ekf::FastSlamVersion::kTwo, setup.fastslam_particles.front()));
+  }
+  for (const auto& [row, seeded] : seeds) {
     if (!setup.graphs) break;
-    if (nn && std::string(seeded) == "dead reckoning") continue;  // dead reckoning associates nothing
     const Track* t = track_of(seeded);
     if (t == nullptr) continue;  // that filter failed on this seed
     const Track copy = *t;
-    record(std::string("graph (") + seeded + " seed)", [&] { return smoothed(copy); });
+    record(row, [&] { return smoothed(copy); });
   }
   return run;
 }
@@ -227,10 +240,21 @@ std::string PosePath(const Frame& f, const std::vector<SE2d>& poses) {
   return d.str();
 }
 
-std::string DemoSvg(const SeedRun& run, const std::string& title) {
+// FastSLAM 2.0's particles at a few steps, for the picture.
+struct Clouds {
+  int particles = 0;  // 0: none
+  std::vector<std::vector<Eigen::Vector2d>> at;
+};
+
+std::string DemoSvg(const SeedRun& run, const std::string& title, const Clouds& clouds) {
   const std::vector<std::pair<std::string, const char*>> colours = {
-      {"truth", "#2ca02c"}, {"dead reckoning", "#999999"}, {"EKF", "#d62728"},
-      {"UKF", "#ff7f0e"},   {"invariant EKF", "#9467bd"},  {"graph (EKF seed)", "#1f77b4"}};
+      {"truth", "#2ca02c"},
+      {"dead reckoning", "#999999"},
+      {"EKF", "#d62728"},
+      {"UKF", "#ff7f0e"},
+      {"invariant EKF", "#9467bd"},
+      {"graph (EKF seed)", "#1f77b4"},
+      {FastSlamName(ekf::FastSlamVersion::kTwo, clouds.particles), "#e377c2"}};
   std::vector<std::pair<std::string, const Track*>> shown;
   Track truth;
   truth.poses = run.world.truth;
@@ -289,6 +313,13 @@ std::string DemoSvg(const SeedRun& run, const std::string& title) {
          svg::Escape(name) + " (RMSE " + svg::Label(ekf::TrajectoryRmse(t->poses, run.world.truth), 3) + " m)</text>\n";
     legend_y += 20;
   }
+  for (const auto& cloud : clouds.at) {
+    for (const Eigen::Vector2d& q : cloud) {
+      const svg::Pt p = f(q);
+      s += "<circle cx=\"" + svg::Num(p.x) + "\" cy=\"" + svg::Num(p.y) +
+           "\" r=\"1\" fill=\"#e377c2\" fill-opacity=\"0.6\"/>\n";
+    }
+  }
   for (const Eigen::Vector2d& l : run.world.landmarks) {
     const svg::Pt p = f(l);
     s += "<path d=\"M" + svg::Num(p.x - 5) + " " + svg::Num(p.y - 5) +
@@ -296,7 +327,12 @@ std::string DemoSvg(const SeedRun& run, const std::string& title) {
          "stroke-width=\"1.5\"/>\n";
   }
   s += "<text x=\"" + svg::Num(legend_x) + "\" y=\"" + svg::Num(legend_y) +
-       "\">x true landmarks; ellipses: 2 sigma</text>\n</svg>\n";
+       "\">x true landmarks; ellipses: 2 sigma</text>\n";
+  if (!clouds.at.empty()) {
+    s += "<text x=\"" + svg::Num(legend_x) + "\" y=\"" + svg::Num(legend_y + 20) +
+         "\">dots: FastSLAM's particles every 50 steps</text>\n";
+  }
+  s += "</svg>\n";
   return s;
 }
 
@@ -373,9 +409,28 @@ std::string EkfDemoConsistencyTable(const std::vector<EkfDemoConfig>& configs) {
 std::string EkfDemoSvg(int experiment, bool nearest_neighbour, std::uint64_t seed, const EkfDemoSetup& setup) {
   std::vector<EkfDemoRow> rows;
   const SeedRun run = RunSeed(experiment, nearest_neighbour, seed, setup, &rows);
-  return DemoSvg(run, "experiment " + std::to_string(experiment) + ", " +
-                          (nearest_neighbour ? "nearest-neighbour" : "known") + " association, seed " +
-                          std::to_string(seed));
+  // FastSLAM 2.0's particles every 50 steps, from the same run as its row (the same seed).
+  Clouds clouds;
+  if (setup.fastslam_two && !setup.fastslam_particles.empty()) {
+    clouds.particles = setup.fastslam_particles.front();
+    const ekf::LandmarkWorldOptions wo = WorldOptions(experiment, seed, setup);
+    ekf::FastSlam f(SE2d(), Eigen::Matrix3d::Zero(),
+                    FastSlamOptionsFor(FilterOptionsFor(wo, nearest_neighbour, setup), ekf::FastSlamVersion::kTwo,
+                                       clouds.particles, seed));
+    for (std::size_t k = 0; k < run.world.odometry.size(); ++k) {
+      f.Predict(run.world.odometry[k], run.world.dt);
+      f.Update(run.world.observations[k]);
+      if ((k + 1) % 50 == 0 || k + 1 == run.world.odometry.size()) {
+        std::vector<Eigen::Vector2d> cloud;
+        for (int i = 0; i < f.particle_count(); ++i) cloud.push_back(f.particle_pose(i).translation());
+        clouds.at.push_back(std::move(cloud));
+      }
+    }
+  }
+  return DemoSvg(run,
+                 "experiment " + std::to_string(experiment) + ", " +
+                     (nearest_neighbour ? "nearest-neighbour" : "known") + " association, seed " + std::to_string(seed),
+                 clouds);
 }
 
 }  // namespace tether
