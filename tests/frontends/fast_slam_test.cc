@@ -96,6 +96,16 @@ TEST(ParticleWeightsTest, EffectiveSampleSizeAndLogWeights) {
   EXPECT_EQ(none, (std::vector<double>{0.5, 0.5}));
 }
 
+// A particle set whose weight one particle holds has a singular covariance: its NEES is infinite
+// where the estimate is wrong (not a number of the solver's rounding), 0 where it is right.
+TEST(ParticleWeightsTest, NeesOfASingularCovariance) {
+  const Eigen::Matrix3d flat = Eigen::Vector3d(1, 1, 0).asDiagonal();
+  EXPECT_TRUE(std::isinf(Nees(SE2d(0, 0, 0.1), flat, SE2d())));
+  EXPECT_EQ(Nees(SE2d(), flat, SE2d()), 0.0);
+  EXPECT_TRUE(std::isinf(TangentNees(SE2d(0, 0, 0.1), Eigen::Matrix3d::Zero(), SE2d())));
+  EXPECT_NEAR(Nees(SE2d(1, 0, 0), Eigen::Matrix3d::Identity() * 4, SE2d()), 0.25, 1e-15);
+}
+
 LandmarkWorld World(std::uint64_t seed, double noise_scale, int steps = 200) {
   LandmarkWorldOptions o;
   o.seed = seed;

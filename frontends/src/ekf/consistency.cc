@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "tether/core/error.h"
@@ -9,15 +10,27 @@
 namespace tether {
 namespace ekf {
 
+namespace {
+
+// e^T cov^-1 e; infinity where cov is not positive definite and e is not zero (an estimate
+// that claims no uncertainty in a direction where it is wrong: a particle set whose weight one
+// particle holds), 0 where e is zero.
+double Normalised(const Eigen::Vector3d& e, const Eigen::Matrix3d& cov) {
+  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  if (llt.info() != Eigen::Success) return e.isZero(0.0) ? 0.0 : std::numeric_limits<double>::infinity();
+  return e.dot(llt.solve(e));
+}
+
+}  // namespace
+
 double Nees(const SE2d& estimate, const Eigen::Matrix3d& cov, const SE2d& truth) {
   const Eigen::Vector3d e(estimate.x() - truth.x(), estimate.y() - truth.y(),
                           WrapAngle(estimate.theta() - truth.theta()));
-  return e.dot(cov.ldlt().solve(e));
+  return Normalised(e, cov);
 }
 
 double TangentNees(const SE2d& estimate, const Eigen::Matrix3d& cov, const SE2d& truth) {
-  const Eigen::Vector3d e = estimate.Local(truth);
-  return e.dot(cov.ldlt().solve(e));
+  return Normalised(estimate.Local(truth), cov);
 }
 
 namespace {

@@ -11,7 +11,9 @@ namespace tether {
 namespace ekf {
 
 /// NEES of an estimate (x, y, theta) whose covariance `cov` is in those parameters (a filter's),
-/// against the truth: e = (x - x_t, y - y_t, wrap(theta - theta_t)).
+/// against the truth: e = (x - x_t, y - y_t, wrap(theta - theta_t)). Infinity where `cov` is not
+/// positive definite and e is not zero (a particle set whose weight one particle holds); 0 where
+/// e is zero. The same for TangentNees.
 double Nees(const SE2d& estimate, const Eigen::Matrix3d& cov, const SE2d& truth);
 /// NEES for a covariance in the SE2 tangent at the estimate (a smoother's marginal):
 /// e = estimate.Local(truth).
