@@ -104,6 +104,14 @@ TEST(ParticleWeightsTest, NeesOfASingularCovariance) {
   EXPECT_EQ(Nees(SE2d(), flat, SE2d()), 0.0);
   EXPECT_TRUE(std::isinf(TangentNees(SE2d(0, 0, 0.1), Eigen::Matrix3d::Zero(), SE2d())));
   EXPECT_NEAR(Nees(SE2d(1, 0, 0), Eigen::Matrix3d::Identity() * 4, SE2d()), 0.25, 1e-15);
+  // Positive definite in name only: FastSLAM 1.0's 10 particles on one world (seed 1020, step 193,
+  // one particle holding the weight) gave this; solving with it overflowed to NaN.
+  Eigen::Matrix3d tiny;
+  tiny << 1.0998e-294, 2.18915e-294, -3.29771e-294, 2.18915e-294, 4.35752e-294, -6.56411e-294, -3.29771e-294,
+      -6.56411e-294, 9.88808e-294;
+  const double nees = Nees(SE2d(0.82, 6.39, -2.55), tiny, SE2d(0.9, 6.2, -2.6));
+  EXPECT_FALSE(std::isnan(nees));
+  EXPECT_GT(nees, 1e100);
 }
 
 LandmarkWorld World(std::uint64_t seed, double noise_scale, int steps = 200) {

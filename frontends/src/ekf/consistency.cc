@@ -18,7 +18,8 @@ namespace {
 double Normalised(const Eigen::Vector3d& e, const Eigen::Matrix3d& cov) {
   const Eigen::LLT<Eigen::Matrix3d> llt(cov);
   if (llt.info() != Eigen::Success) return e.isZero(0.0) ? 0.0 : std::numeric_limits<double>::infinity();
-  return e.dot(llt.solve(e));
+  const double v = e.dot(llt.solve(e));
+  return std::isnan(v) ? std::numeric_limits<double>::infinity() : v;  // a covariance of 1e-294 overflows
 }
 
 }  // namespace
