@@ -107,9 +107,11 @@ TEST(ParticleWeightsTest, NeesOfASingularCovariance) {
   // Positive definite in name only: FastSLAM 1.0's 10 particles on one world (seed 1020, step 193,
   // one particle holding the weight) gave this; solving with it overflowed to NaN.
   Eigen::Matrix3d tiny;
-  tiny << 1.0998e-294, 2.18915e-294, -3.29771e-294, 2.18915e-294, 4.35752e-294, -6.56411e-294, -3.29771e-294,
-      -6.56411e-294, 9.88808e-294;
-  const double nees = Nees(SE2d(0.82, 6.39, -2.55), tiny, SE2d(0.9, 6.2, -2.6));
+  tiny << 1.0997980531702735e-294, 2.1891526241369886e-294, -3.2977105435051036e-294, 2.1891526241369886e-294,
+      4.3575174532736636e-294, -6.5641066277107859e-294, -3.2977105435051036e-294, -6.5641066277107859e-294,
+      9.8880833598466525e-294;
+  const double nees = Nees(SE2d(0.82300412746024865, 6.3904798760110806, -2.554928834634941), tiny,
+                           SE2d(-2.5751810740024106, 5.0540774294151847, -2.1991148575128552));
   EXPECT_FALSE(std::isnan(nees));
   EXPECT_GT(nees, 1e100);
 }
