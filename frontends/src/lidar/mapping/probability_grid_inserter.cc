@@ -6,6 +6,7 @@
 
 #include "tether/core/error.h"
 #include "tether/core/registry.h"
+#include "tether/frontends/lidar/mapping/tiled_probability_grid.h"
 
 namespace tether {
 namespace lidar {
@@ -64,14 +65,14 @@ ProbabilityGridInserter::ProbabilityGridInserter(const GridInsertOptions& option
   miss_table_ = prototype.ComputeUpdateTable(options.miss_probability);
 }
 
-void ProbabilityGridInserter::Insert(ProbabilityGrid* grid, const Eigen::Vector2d& origin,
-                                     const std::vector<Eigen::Vector2d>& hits, InsertedCells* cells) const {
-  if (grid->min_probability() != min_probability_ || grid->max_probability() != max_probability_) {
-    throw InvalidArgument("ProbabilityGridInserter: the grid's probability range [" +
-                          FormatDouble(grid->min_probability()) + ", " + FormatDouble(grid->max_probability()) +
-                          "] is not the inserter's [" + FormatDouble(min_probability_) + ", " +
-                          FormatDouble(max_probability_) + "]; build the inserter for the grid's range");
-  }
+namespace {
+
+// The one insertion, for a dense and a tiled grid: `frame` gives the cells of points (the grid
+// itself where dense).
+template <class Grid>
+void InsertScan(Grid* grid, const ProbabilityGrid& frame, const std::vector<std::uint16_t>& hit_table,
+                const std::vector<std::uint16_t>& miss_table, bool free_space, const Eigen::Vector2d& origin,
+                const std::vector<Eigen::Vector2d>& hits, InsertedCells* cells) {
   if (!origin.allFinite()) throw InvalidArgument("ProbabilityGridInserter: the scan's origin is not finite");
   for (std::size_t i = 0; i < hits.size(); ++i) {
     if (!hits[i].allFinite()) {
@@ -83,20 +84,43 @@ void ProbabilityGridInserter::Insert(ProbabilityGrid* grid, const Eigen::Vector2
     cells->misses.clear();
   }
   for (const Eigen::Vector2d& h : hits) {
-    const ProbabilityGrid::Cell c = grid->CellOf(h);
-    if (grid->ApplyUpdate(c, hit_table_) && cells != nullptr) cells->hits.push_back(c);
+    const ProbabilityGrid::Cell c = frame.CellOf(h);
+    if (grid->ApplyUpdate(c, hit_table) && cells != nullptr) cells->hits.push_back(c);
   }
-  if (options_.insert_free_space) {
+  if (free_space) {
     std::vector<ProbabilityGrid::Cell> ray;
     for (const Eigen::Vector2d& h : hits) {
       ray.clear();
-      CastRay(*grid, origin, h, &ray);
+      CastRay(frame, origin, h, &ray);
       for (const ProbabilityGrid::Cell& c : ray) {
-        if (grid->ApplyUpdate(c, miss_table_) && cells != nullptr) cells->misses.push_back(c);
+        if (grid->ApplyUpdate(c, miss_table) && cells != nullptr) cells->misses.push_back(c);
       }
     }
   }
   grid->FinishUpdate();
+}
+
+}  // namespace
+
+void ProbabilityGridInserter::CheckRange(double min_probability, double max_probability) const {
+  if (min_probability != min_probability_ || max_probability != max_probability_) {
+    throw InvalidArgument("ProbabilityGridInserter: the grid's probability range [" + FormatDouble(min_probability) +
+                          ", " + FormatDouble(max_probability) + "] is not the inserter's [" +
+                          FormatDouble(min_probability_) + ", " + FormatDouble(max_probability_) +
+                          "]; build the inserter for the grid's range");
+  }
+}
+
+void ProbabilityGridInserter::Insert(ProbabilityGrid* grid, const Eigen::Vector2d& origin,
+                                     const std::vector<Eigen::Vector2d>& hits, InsertedCells* cells) const {
+  CheckRange(grid->min_probability(), grid->max_probability());
+  InsertScan(grid, *grid, hit_table_, miss_table_, options_.insert_free_space, origin, hits, cells);
+}
+
+void ProbabilityGridInserter::Insert(TiledProbabilityGrid* grid, const Eigen::Vector2d& origin,
+                                     const std::vector<Eigen::Vector2d>& hits, InsertedCells* cells) const {
+  CheckRange(grid->frame().min_probability(), grid->frame().max_probability());
+  InsertScan(grid, grid->frame(), hit_table_, miss_table_, options_.insert_free_space, origin, hits, cells);
 }
 
 }  // namespace lidar

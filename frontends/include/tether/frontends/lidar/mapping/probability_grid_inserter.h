@@ -15,6 +15,8 @@
 namespace tether {
 namespace lidar {
 
+class TiledProbabilityGrid;
+
 struct GridInsertOptions {
   /// The probability of an occupied cell given one hit in it (Hess et al. 2016: 0.55).
   double hit_probability = 0.55;
@@ -50,10 +52,15 @@ class ProbabilityGridInserter {
   /// not finite.
   void Insert(ProbabilityGrid* grid, const Eigen::Vector2d& origin, const std::vector<Eigen::Vector2d>& hits,
               InsertedCells* cells = nullptr) const;
+  /// The same into a tiled grid (a particle's map, tiled_probability_grid.h).
+  void Insert(TiledProbabilityGrid* grid, const Eigen::Vector2d& origin, const std::vector<Eigen::Vector2d>& hits,
+              InsertedCells* cells = nullptr) const;
 
   const GridInsertOptions& options() const { return options_; }
 
  private:
+  void CheckRange(double min_probability, double max_probability) const;
+
   GridInsertOptions options_;
   double min_probability_, max_probability_;
   std::vector<std::uint16_t> hit_table_, miss_table_;
