@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "tether/core/error.h"
+#include "tether/core/parallel_for.h"
 #include "tether/frontends/simulation/random_stream.h"
 #include "tether/frontends/simulation/walls.h"
 
@@ -35,20 +36,6 @@ bool Repeats(const std::vector<T>& v) {
 }
 
 double HeadingError(double a, double b) { return std::abs(std::remainder(a - b, 2 * kPi)); }
-
-// Runs job(i) for i in [0, count) on `threads` threads (0: every core).
-void ParallelFor(std::size_t count, int threads, const std::function<void(std::size_t)>& job) {
-  std::size_t n = threads > 0 ? static_cast<std::size_t>(threads) : std::max(1u, std::thread::hardware_concurrency());
-  n = std::max<std::size_t>(1, std::min(n, count));
-  std::atomic<std::size_t> next{0};
-  const auto work = [&] {
-    for (std::size_t i = next++; i < count; i = next++) job(i);
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < n; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-}
 
 // The route's step (in (kidnap, kidnap + window]) the robot is carried to: one drawn uniformly
 // among those at least min_jump from the pose before the kidnap.
