@@ -1,0 +1,160 @@
+#pragma once
+// Grid-based Rao-Blackwellised particle filter SLAM (Grisetti, Stachniss and Burgard 2007, the
+// method of GMapping): each particle carries a trajectory and its own occupancy grid, the
+// pose drawn from an improved proposal that includes the current scan.
+//
+//   tether::lidar::RbpfSlam2D slam(options);     // RbpfSlamOptions: documented defaults
+//   for (const tether::lidar::LaserScan& s : log.scans) slam.AddScan(s);
+//   slam.Trajectory(); slam.map(); slam.report();
+//
+// A scan is processed where the odometry moved linear_update or turned angular_update since
+// the last processed one (the first scan always); every scan gets a pose (the last processed
+// one's, moved by the odometry since). For each processed scan, each particle:
+// 1. samples its motion from the odometry's (the sampled odometry model of
+//    localization/motion_model.h);
+// 2. matches the scan against its own map from there (the real-time correlative search, then
+//    the nonlinear refinement: the matchers of scan_matching/, on a window of the particle's
+//    map copied into a dense grid);
+// 3. evaluates the scan's likelihood at the 27 poses one step around the match (or around the
+//    sampled motion where the map there is too little known), times the motion model's
+//    density there; their weighted mean and covariance are the proposal, their sum eta the
+//    particle's weight factor (the improved proposal's weight);
+// 4. draws its pose from that Gaussian and inserts the scan into its map there.
+// The scan's likelihood at a pose: likelihood_points * the mean over its points of
+// log P(cell), P the cell's occupancy probability (unknown: 0.5) — the points counted as
+// likelihood_points independent beams, whatever the scanner's count, as GMapping's gain does.
+// Resampling is selective: low-variance where the effective sample size falls below
+// resample_fraction * particles.
+//
+// Maps are TiledProbabilityGrid: a resampled particle shares its parent's tiles until it
+// inserts a scan, which copies the tiles that scan touches; trajectories are linked lists of
+// nodes shared the same way. Memory grows with what the particles' maps do not share, not with
+// particles x map.
+//
+// Deterministic for a seed, whatever the thread count: each particle draws from its own stream.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tether/core/se2.h"
+#include "tether/factors/probability_grid.h"
+#include "tether/frontends/lidar/mapping/probability_grid_inserter.h"
+#include "tether/frontends/lidar/mapping/tiled_probability_grid.h"
+#include "tether/frontends/lidar/scan_matching/real_time_correlative_scan_matcher_2d.h"
+#include "tether/frontends/lidar/scan_matching/scan_refiner_2d.h"
+#include "tether/frontends/lidar/sensor/laser_scan.h"
+#include "tether/frontends/lidar/sensor/odometry_track.h"
+#include "tether/frontends/localization/motion_model.h"
+
+namespace tether {
+namespace lidar {
+
+struct RbpfSlamOptions {
+  int particles = 30;
+  double resolution = 0.05;  ///< m, the particles' grids
+  /// Range limits put on every scan (0: the scan's own), and the longest return used for
+  /// matching and the maps (m; GMapping's maxUrange).
+  RangeLimits limits;
+  double max_range = 30;
+  double matching_voxel_size = 0.05;  ///< m: the points matched and weighed (0: all)
+  /// A scan is processed after this much motion by the odometry since the last processed one
+  /// (GMapping's linearUpdate, angularUpdate). 0.1 m / 0.05 rad against 0.5 m / 0.25 rad on aces's
+  /// first 3000 scans: relation error 0.047 m / 0.67 deg against 0.069 m / 2.07 deg, at three
+  /// times the time (benchmarks/RESULTS.md, "Grid RBPF").
+  double linear_update = 0.1;    ///< m
+  double angular_update = 0.05;  ///< rad
+  localization::OdometryMotionModel motion{0.1, 0.1, 0.1, 0.1};
+  CorrelativeMatcherOptions correlative = DefaultCorrelative();
+  ScanRefinerOptions refiner;
+  /// A particle's map must know this share of the cells its scan's points fall in (at the
+  /// sampled motion) to be matched against; else the proposal is taken around the motion.
+  double min_known_fraction = 0.3;
+  /// The proposal's 27 poses: the match +- these steps (m, rad). Half a cell and 0.005 rad
+  /// against a cell and 0.01 rad: 0.043 m / 0.62 deg against 0.047 m / 0.67 deg (aces, above).
+  double proposal_step = 0.025;
+  double proposal_angle = 0.005;
+  /// The points counted as this many independent beams in the likelihood (above).
+  double likelihood_points = 30;
+  double resample_fraction = 0.5;
+  GridInsertOptions insert;
+  std::uint64_t seed = 1;
+  int threads = 0;  ///< 0: every core
+  bool IsValid(std::string* why) const;
+
+  static CorrelativeMatcherOptions DefaultCorrelative() {
+    CorrelativeMatcherOptions c;
+    c.linear_search_window = 0.2;
+    c.angular_search_window = 0.1;
+    return c;
+  }
+};
+
+struct RbpfSlamReport {
+  long scans = 0;
+  long processed = 0;  ///< scans the particles processed (the motion rule)
+  long matched = 0;    ///< particle-scans matched against the particle's map
+  long resamplings = 0;
+  double min_effective = 0;        ///< the lowest effective sample size before a resampling
+  std::size_t distinct_tiles = 0;  ///< tiles held by the particles' maps, each counted once
+  std::size_t tile_bytes = 0;      ///< their memory
+  double seconds = 0;
+  double logged_seconds = 0;
+  std::string Summary() const;
+};
+
+class RbpfSlam2D {
+ public:
+  /// Throws InvalidArgument naming the option for invalid options.
+  explicit RbpfSlam2D(const RbpfSlamOptions& options = {});
+
+  /// The next scan (time order). Throws InvalidArgument for a scan ScanProblem refuses or one
+  /// without odometry (the filter moves its particles by the odometry; nothing changes).
+  void AddScan(const LaserScan& scan);
+
+  int particle_count() const { return static_cast<int>(particles_.size()); }
+  std::vector<double> weights() const;
+  int best_particle() const;
+  /// Particle i's current pose (the last processed scan's).
+  SE2d particle_pose(int i) const { return particles_.at(static_cast<std::size_t>(i)).pose; }
+  /// Every scan's pose along particle i's trajectory (-1: the heaviest), with its stamp.
+  std::vector<StampedPose2> Trajectory(int particle = -1) const;
+  /// Particle i's map (-1: the heaviest) as a dense grid.
+  ProbabilityGrid Map(int particle = -1) const;
+  const TiledProbabilityGrid& particle_map(int i) const { return particles_.at(static_cast<std::size_t>(i)).map; }
+  const RbpfSlamReport& report() const;
+  const RbpfSlamOptions& options() const { return options_; }
+
+ private:
+  struct Node {  // a processed scan on one particle's trajectory
+    SE2d pose;
+    long scan = 0;
+    std::shared_ptr<const Node> parent;
+  };
+  struct Particle {
+    SE2d pose;
+    double log_weight = 0;
+    TiledProbabilityGrid map;
+    std::shared_ptr<const Node> path;
+  };
+  void Process(long scan, const SE2d& odometry, const LaserScan& s);
+  void Step(Particle* p, const localization::OdometryMotion& motion, const SE2d& laser,
+            const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& matching, long scan,
+            std::uint64_t stream, bool* matched) const;
+  void MaybeResample();
+
+  RbpfSlamOptions options_;
+  ProbabilityGridInserter inserter_;
+  std::vector<Particle> particles_;
+  std::vector<double> stamps_;          // per scan
+  std::vector<long> processed_before_;  // per scan: the last processed scan at or before it
+  std::vector<SE2d> since_processed_;   // per scan: the odometry's motion since that scan
+  SE2d last_odometry_;                  // the last processed scan's
+  bool started_ = false;
+  std::uint64_t steps_ = 0;
+  mutable RbpfSlamReport report_;
+};
+
+}  // namespace lidar
+}  // namespace tether
