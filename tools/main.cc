@@ -29,6 +29,7 @@
   X(Mcl, "mcl")                    \
   X(MclDemo, "mcl-demo")           \
   X(MclBench, "mcl-bench")         \
+  X(PfSlam, "pf-slam")             \
   X(Odometry, "odometry")
 
 namespace tether {

@@ -11,6 +11,7 @@
 #include "tether/frontends/lidar/io/occupancy_map.h"
 #include "tether/frontends/lidar/lidar_slam_2d.h"
 #include "tether/frontends/lidar/localizer_2d.h"
+#include "tether/frontends/lidar/rbpf_slam_2d.h"
 #include "tether/frontends/lidar/sensor/sensor_preset.h"
 
 namespace tether {
@@ -188,6 +189,84 @@ void BindSavedMaps(py::module_& li) {
       .def_property_readonly("localized", [](const lidar::Localizer2D& l) { return l.report().localized; })
       .def_property_readonly("scan_count", [](const lidar::Localizer2D& l) { return l.report().scans; })
       .def("summary", [](const lidar::Localizer2D& l) { return l.report().Summary(); });
+}
+
+// Grid-based particle filter SLAM (frontends/lidar/rbpf_slam_2d.h), scan by scan.
+void BindRbpf(py::module_& li) {
+  using lidar::RbpfSlam2D;
+  using lidar::RbpfSlamOptions;
+  py::class_<RbpfSlamOptions>(li, "RbpfSlamOptions", "The options of RbpfSlam2D; the defaults are `tether pf-slam`'s.")
+      .def(py::init<>())
+      .def_readwrite("particles", &RbpfSlamOptions::particles)
+      .def_readwrite("resolution", &RbpfSlamOptions::resolution)
+      .def_readwrite("max_range", &RbpfSlamOptions::max_range)
+      .def_readwrite("linear_update", &RbpfSlamOptions::linear_update)
+      .def_readwrite("angular_update", &RbpfSlamOptions::angular_update)
+      .def_readwrite("likelihood_points", &RbpfSlamOptions::likelihood_points)
+      .def_readwrite("min_known_fraction", &RbpfSlamOptions::min_known_fraction)
+      .def_readwrite("resample_fraction", &RbpfSlamOptions::resample_fraction)
+      .def_readwrite("threads", &RbpfSlamOptions::threads)
+      .def_readwrite("seed", &RbpfSlamOptions::seed);
+  py::class_<RbpfSlam2D>(li, "RbpfSlam2D",
+                         "Grid-based Rao-Blackwellised particle filter SLAM: add scans with odometry one at a time "
+                         "(add_scan) or a whole log (run_log); the particles, their weights, the heaviest one's "
+                         "trajectory and map.")
+      .def(py::init<const RbpfSlamOptions&>(), py::arg("options") = RbpfSlamOptions())
+      .def(
+          "add_scan",
+          [](RbpfSlam2D& s, const DoubleArray& ranges, double angle_min, double angle_increment, double stamp,
+             double range_max, const py::object& odometry, double range_min, const py::object& laser_offset) {
+            s.AddScan(
+                MakeScan(ranges, angle_min, angle_increment, stamp, range_min, range_max, odometry, laser_offset));
+          },
+          py::arg("ranges"), py::arg("angle_min"), py::arg("angle_increment"), py::arg("stamp"), py::arg("range_max"),
+          py::arg("odometry"), py::arg("range_min") = 0.0, py::arg("laser_offset") = py::none(),
+          "One scan as LidarSlam2D.add_scan takes it; the odometry pose (x, y, theta) is required.")
+      .def(
+          "run_log",
+          [](RbpfSlam2D& s, const std::string& path, long max_scans) { s.Run(lidar::ReadLidarLog(path), max_scans); },
+          py::arg("path"), py::arg("max_scans") = 0, "Reads a CARMEN log or ROS 1 bag and adds its scans.")
+      .def_property_readonly(
+          "particles",
+          [](const RbpfSlam2D& s) {
+            Eigen::MatrixXd a(s.particle_count(), 3);
+            for (int i = 0; i < s.particle_count(); ++i) {
+              const SE2d p = s.particle_pose(i);
+              a.row(i) << p.x(), p.y(), p.theta();
+            }
+            return a;
+          },
+          "(N, 3) the particles' poses at the last processed scan")
+      .def_property_readonly(
+          "weights",
+          [](const RbpfSlam2D& s) {
+            const std::vector<double> w = s.weights();
+            return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(w.data(), static_cast<Eigen::Index>(w.size())));
+          },
+          "(N,) normalised weights")
+      .def_property_readonly("best_particle", &RbpfSlam2D::best_particle)
+      .def(
+          "poses",
+          [](const RbpfSlam2D& s, int particle) {
+            const std::vector<lidar::StampedPose2> t = s.Trajectory(particle);
+            Eigen::MatrixXd a(static_cast<Eigen::Index>(t.size()), 4);
+            for (std::size_t i = 0; i < t.size(); ++i)
+              a.row(static_cast<Eigen::Index>(i)) << t[i].stamp, t[i].pose.x(), t[i].pose.y(), t[i].pose.theta();
+            return a;
+          },
+          py::arg("particle") = -1, "(scans, 4) = stamp, x, y, theta along a particle's trajectory (-1: the heaviest)")
+      .def(
+          "map_image",
+          [](const RbpfSlam2D& s, int particle) {
+            const lidar::OccupancyImage image = lidar::RenderOccupancy(s.Map(particle));
+            py::array_t<std::uint8_t> a({image.height, image.width});
+            std::copy(image.pixels.begin(), image.pixels.end(), a.mutable_data());
+            return py::make_tuple(a, image.resolution, py::make_tuple(image.origin.x(), image.origin.y()));
+          },
+          py::arg("particle") = -1, "A particle's map (-1: the heaviest), as LidarSlam2D.map_image")
+      .def("summary", [](const RbpfSlam2D& s) { return s.report().Summary(); })
+      .def_property_readonly("resamplings", [](const RbpfSlam2D& s) { return s.report().resamplings; })
+      .def_property_readonly("distinct_tiles", [](const RbpfSlam2D& s) { return s.report().distinct_tiles; });
 }
 
 }  // namespace
@@ -400,6 +479,7 @@ void BindLidar(py::module_& m) {
           "state", [](const LidarSlam2D& s) { return s.State(); },
           "The run's saved state as a LidarState (after finish()).");
   BindSavedMaps(li);
+  BindRbpf(li);
 }
 TETHER_PYTHON_PART(60, BindLidar);
 

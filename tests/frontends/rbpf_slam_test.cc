@@ -5,7 +5,7 @@
 
 #include "tether/core/error.h"
 #include "tether/frontends/lidar/io/tum_trajectory.h"
-#include "tether/frontends/lidar/mapping/rbpf_slam_2d.h"
+#include "tether/frontends/lidar/rbpf_slam_2d.h"
 #include "tether/frontends/simulation/lidar_world.h"
 
 namespace tether {

@@ -1,4 +1,4 @@
-#include "tether/frontends/lidar/mapping/rbpf_slam_2d.h"
+#include "tether/frontends/lidar/rbpf_slam_2d.h"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -11,6 +11,8 @@
 #include "tether/core/error.h"
 #include "tether/core/parallel_for.h"
 #include "tether/core/timing.h"
+#include "tether/frontends/lidar/io/occupancy_map.h"
+#include "tether/frontends/lidar/io/tum_trajectory.h"
 #include "tether/frontends/lidar/sensor/voxel_filter.h"
 #include "tether/frontends/localization/resampling.h"
 #include "tether/frontends/simulation/random_stream.h"
@@ -135,6 +137,38 @@ void RbpfSlam2D::AddScan(const LaserScan& scan) {
   report_.seconds += SecondsSince(t0);
 }
 
+void RbpfSlam2D::Run(const LidarLog& log, long max_scans) {
+  const long n =
+      max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
+  for (long i = 0; i < n; ++i) {
+    const LaserScan& scan = log.scans[static_cast<std::size_t>(i)];
+    try {
+      AddScan(scan);
+    } catch (const Error& e) {
+      throw ParseError(ScanLocation(log, scan) + ": scan " + std::to_string(i) + ": " + e.what());
+    }
+  }
+}
+
+std::vector<LidarOutput> RbpfSlam2D::OutputNames() {
+  return {{"trajectory.tum", "trajectory", ""},
+          {"map.pgm", "map image", ""},
+          {"map.yaml", "map description", ""},
+          {"map.png", "map picture", ""}};
+}
+
+std::vector<LidarOutput> RbpfSlam2D::Outputs() const {
+  std::vector<LidarOutput> out = OutputNames();
+  std::ostringstream s;
+  WriteTum(s, Trajectory());
+  out[0].bytes = s.str();
+  const OccupancyImage image = RenderOccupancy(Map());
+  out[1].bytes = PgmBytes(image);
+  out[2].bytes = MapYaml(image, "map.pgm");
+  out[3].bytes = PngBytes(image);
+  return out;
+}
+
 void RbpfSlam2D::Process(long scan, const SE2d& odometry, const LaserScan& s) {
   std::vector<Eigen::Vector2d> points = ScanToPoints(s, options_.limits);
   for (Eigen::Vector2d& p : points) p = s.laser_in_robot * p;
@@ -195,7 +229,9 @@ void RbpfSlam2D::Step(Particle* p, const localization::OdometryMotion& motion, c
   SE2d centre = sampled;
   if (!matching.empty() && static_cast<double>(known) >= options_.min_known_fraction * matching.size()) {
     const CorrelativeMatch c = MatchCorrelative(*window, sampled, matching, options_.correlative);
-    const ScanRefinement r = RefineScanPose(window, c.pose, sampled, matching, options_.refiner);
+    // The refinement pulled towards the search's best, not the sample: the motion enters the
+    // proposal below, and the match is to find the scan's likelihood peak.
+    const ScanRefinement r = RefineScanPose(window, c.pose, c.pose, matching, options_.refiner);
     centre = r.pose.translation().allFinite() && std::isfinite(r.pose.theta()) ? r.pose : c.pose;
     *matched = true;
   }
