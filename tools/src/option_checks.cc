@@ -66,6 +66,17 @@ const OptionRange kRanges[] = {
     {"ekf-demo", "--invariant-min-range", -1, 1e6},
     {"ekf-demo", "--min-range", 0, 1e6},
     {"ekf-demo", "--invariant-iterations", 1, 1000},
+    // pf-slam
+    {"pf-slam", "--particles", 1, 100000},
+    {"pf-slam", "--max-scans", 0, kBig},
+    {"pf-slam", "--resolution", 0.001, 10},
+    {"pf-slam", "--max-range", 0.01, 1e4},
+    {"pf-slam", "--linear-update", 0, 1e6},
+    {"pf-slam", "--angular-update", 0, kPi},
+    {"pf-slam", "--likelihood-points", 1e-6, 1e6},
+    {"pf-slam", "--resample-fraction", 0, 1},
+    {"pf-slam", "--threads", 0, 256},
+    {"pf-slam", "--seed", 0, 4294967295.0},
     // lidar
     {"lidar", "--threads", 0, 256},
     {"lidar", "--max-scans", 0, kBig},

@@ -74,7 +74,8 @@ class PfSlamCli : public Command {
 void PfSlamCli::Add(CLI::App& app) {
   CLI::App* sub = app_ = app.add_subcommand(
       "pf-slam",
-      "Grid-based Rao-Blackwellised particle filter SLAM of a laser log with odometry (CARMEN or ROS 1 bag)");
+      "Grid-based Rao-Blackwellised particle filter SLAM of a laser log (CARMEN or ROS 1 bag; with odometry or "
+      "scan-only)");
   sub->add_option("log", cmd_.log, "The log: CARMEN (.clf, .log, plain or gzip) or a ROS 1 bag")->required();
   AddPath(sub, "-o,--output", &cmd_.output_dir, "Output folder (made if missing)")->required();
   lidar::RbpfSlamOptions& o = cmd_.options;
@@ -89,6 +90,8 @@ void PfSlamCli::Add(CLI::App& app) {
          "Resample where the effective sample size falls below this share of the particles");
   Option("--threads", o.threads, "Threads (0: every core; the result does not depend on it)");
   Option("--seed", o.seed, "The random streams' seed");
+  AddEnumOption(app_, "--odometry", &cmd_.read.odometry,
+                "Where each scan's odometry comes from (none: scan-only, the scans moved by scan-to-scan matching)");
   Option("--scan-topic", cmd_.read.scan_topic, "Bags: the scan topic");
   Option("--odom-topic", cmd_.read.odom_topic, "Bags: the odometry topic");
   sub->add_flag("-q,--quiet", cmd_.quiet, "No line before the run");

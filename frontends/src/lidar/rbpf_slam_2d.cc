@@ -84,13 +84,16 @@ bool RbpfSlamOptions::IsValid(std::string* why) const {
   if (!PositiveFinite(likelihood_points)) return Fail(why, "likelihood_points must be positive and finite");
   if (!(resample_fraction >= 0 && resample_fraction <= 1)) return Fail(why, "resample_fraction must lie in [0, 1]");
   if (threads < 0) return Fail(why, "threads must be 0 (every core) or more");
+  if (!scan_to_scan.IsValid(&w)) return Fail(why, "scan_to_scan: " + w);
   return true;
 }
 
 std::string RbpfSlamReport::Summary() const {
   std::ostringstream s;
-  s << "scans " << scans << ", processed " << processed << " (" << matched << " particle matches), resamplings "
-    << resamplings << ", lowest effective sample size " << min_effective << "\n";
+  s << "scans " << scans;
+  if (scan_to_scan > 0) s << " (no odometry: " << scan_to_scan << " moved by scan-to-scan matching)";
+  s << ", processed " << processed << " (" << matched << " particle matches), resamplings " << resamplings
+    << ", lowest effective sample size " << min_effective << "\n";
   s << "maps: " << distinct_tiles << " distinct tiles, " << tile_bytes / (1024.0 * 1024.0) << " MB\n";
   s << "time " << seconds << " s";
   if (logged_seconds > 0 && seconds > 0) s << " (" << logged_seconds / seconds << "x real time)";
@@ -113,21 +116,39 @@ RbpfSlam2D::RbpfSlam2D(const RbpfSlamOptions& options)
 void RbpfSlam2D::AddScan(const LaserScan& scan) {
   const std::string problem = ScanProblem(scan);
   if (!problem.empty()) throw InvalidArgument("RbpfSlam2D::AddScan: " + problem);
-  if (scan.odometry_origin == OdometryOrigin::kNone) {
+  const bool has_odometry = scan.odometry_origin != OdometryOrigin::kNone;
+  if (!stamps_.empty() && has_odometry == scan_only_) {
     throw InvalidArgument(
-        "RbpfSlam2D::AddScan: the scan has no odometry; the particle filter moves its particles by the odometry "
-        "(a log without it runs with `tether lidar`)");
+        std::string("RbpfSlam2D::AddScan: the scan ") +
+        (has_odometry ? "has odometry, the scans before had none" : "has no odometry, the scans before had some") +
+        "; a log is run with odometry throughout or without it throughout");
   }
   const auto t0 = std::chrono::steady_clock::now();
+  SE2d odometry = scan.odometry;
+  if (!has_odometry) {
+    // Scan-only: the odometry is the chain of scan-to-scan matches (from constant motion, or
+    // standing still where that pairs clearly more points), as local SLAM predicts such scans.
+    std::vector<Eigen::Vector2d> points = ScanToPoints(scan, options_.limits);
+    for (Eigen::Vector2d& p : points) p = scan.laser_in_robot * p;
+    if (!stamps_.empty() && !previous_points_.empty() && !points.empty()) {
+      const ScanToScanMatch m = MatchMovingOrStill(previous_points_, points, last_motion_, 0, options_.scan_to_scan);
+      if (m.ok) last_motion_ = m.motion;
+      ++report_.scan_to_scan;
+    }
+    scan_odometry_ = stamps_.empty() ? SE2d() : scan_odometry_ * last_motion_;
+    odometry = scan_odometry_;
+    if (!points.empty()) previous_points_ = std::move(points);
+    scan_only_ = true;
+  }
   const long index = static_cast<long>(stamps_.size());
   stamps_.push_back(scan.stamp);
   report_.scans = index + 1;
   report_.logged_seconds = scan.stamp - stamps_.front();
-  const SE2d delta = last_odometry_.Inverse() * scan.odometry;
+  const SE2d delta = last_odometry_.Inverse() * odometry;
   const bool due = !started_ || delta.translation().norm() >= options_.linear_update ||
                    std::abs(delta.theta()) >= options_.angular_update;
   if (due) {
-    Process(index, scan.odometry, scan);
+    Process(index, odometry, scan);
     processed_before_.push_back(index);
     since_processed_.push_back(SE2d());
   } else {

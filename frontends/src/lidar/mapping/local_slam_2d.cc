@@ -165,13 +165,8 @@ LocalScanResult LocalSlam2D::AddScan(const LaserScan& scan) {
         s2s.guess_rotation_weight = std::max(s2s.guess_rotation_weight, options_.imu_rotation_weight);
       }
       if (options_.scan_to_scan && !last_points_.empty() && !points.empty()) {
-        const ScanToScanMatch moving = MatchScanToScan(last_points_, points, last.Inverse() * result.predicted, s2s);
-        const ScanToScanMatch still = MatchScanToScan(last_points_, points, SE2d(0, 0, turn), s2s);
-        // Constant motion unless no motion pairs clearly more points (10%): along a corridor
-        // both pair alike and the scans cannot tell (aces 62-80 s: taking no motion there, local
-        // SLAM stalled while the robot drove on).
-        const bool take_still = still.ok && (!moving.ok || still.pairs * 10 > moving.pairs * 11);
-        const ScanToScanMatch& m = take_still ? still : moving;
+        const ScanToScanMatch m =
+            MatchMovingOrStill(last_points_, points, last.Inverse() * result.predicted, turn, s2s);
         if (m.ok) {
           result.predicted = last * m.motion;
           result.scan_to_scan = true;

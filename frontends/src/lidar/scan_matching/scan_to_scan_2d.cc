@@ -192,5 +192,14 @@ ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
   return result;
 }
 
+ScanToScanMatch MatchMovingOrStill(const std::vector<Eigen::Vector2d>& previous,
+                                   const std::vector<Eigen::Vector2d>& current, const SE2d& moving, double turn,
+                                   const ScanToScanOptions& options) {
+  const ScanToScanMatch from_moving = MatchScanToScan(previous, current, moving, options);
+  const ScanToScanMatch still = MatchScanToScan(previous, current, SE2d(0, 0, turn), options);
+  const bool take_still = still.ok && (!from_moving.ok || still.pairs * 10 > from_moving.pairs * 11);
+  return take_still ? still : from_moving;
+}
+
 }  // namespace lidar
 }  // namespace tether

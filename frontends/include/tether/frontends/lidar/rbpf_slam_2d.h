@@ -1,7 +1,8 @@
 #pragma once
 // Grid-based Rao-Blackwellised particle filter SLAM (Grisetti, Stachniss and Burgard 2007, the
 // method of GMapping): each particle carries a trajectory and its own occupancy grid, the
-// pose drawn from an improved proposal that includes the current scan.
+// pose drawn from an improved proposal that includes the current scan. Odometry moves the
+// particles; a log without it is moved by scan-to-scan matching.
 //
 //   tether::lidar::RbpfSlam2D slam(options);     // RbpfSlamOptions: documented defaults
 //   for (const tether::lidar::LaserScan& s : log.scans) slam.AddScan(s);
@@ -46,6 +47,7 @@
 #include "tether/frontends/lidar/mapping/tiled_probability_grid.h"
 #include "tether/frontends/lidar/scan_matching/real_time_correlative_scan_matcher_2d.h"
 #include "tether/frontends/lidar/scan_matching/scan_refiner_2d.h"
+#include "tether/frontends/lidar/scan_matching/scan_to_scan_2d.h"
 #include "tether/frontends/lidar/sensor/laser_scan.h"
 #include "tether/frontends/lidar/sensor/odometry_track.h"
 #include "tether/frontends/localization/motion_model.h"
@@ -87,6 +89,8 @@ struct RbpfSlamOptions {
   double likelihood_points = 30;
   double resample_fraction = 0.5;
   GridInsertOptions insert;
+  /// A log without odometry: the motion between scans by scan-to-scan matching.
+  ScanToScanOptions scan_to_scan;
   std::uint64_t seed = 1;
   int threads = 0;  ///< 0: every core
   bool IsValid(std::string* why) const;
@@ -104,6 +108,7 @@ struct RbpfSlamReport {
   long processed = 0;  ///< scans the particles processed (the motion rule)
   long matched = 0;    ///< particle-scans matched against the particle's map
   long resamplings = 0;
+  long scan_to_scan = 0;           ///< scans without odometry moved by scan-to-scan matching
   double min_effective = 0;        ///< the lowest effective sample size before a resampling
   std::size_t distinct_tiles = 0;  ///< tiles held by the particles' maps, each counted once
   std::size_t tile_bytes = 0;      ///< their memory
@@ -117,8 +122,10 @@ class RbpfSlam2D {
   /// Throws InvalidArgument naming the option for invalid options.
   explicit RbpfSlam2D(const RbpfSlamOptions& options = {});
 
-  /// The next scan (time order). Throws InvalidArgument for a scan ScanProblem refuses or one
-  /// without odometry (the filter moves its particles by the odometry; nothing changes).
+  /// The next scan (time order). A log without odometry (every scan OdometryOrigin::kNone) is
+  /// moved by scan-to-scan matching (scan_to_scan_2d.h: MatchMovingOrStill) instead. Throws
+  /// InvalidArgument for a scan ScanProblem refuses, or one with odometry after scans without
+  /// (or the other way); nothing changes then.
   void AddScan(const LaserScan& scan);
 
   /// Adds the first `max_scans` scans of a log (0: all). An error adding a scan is raised again
@@ -168,6 +175,9 @@ class RbpfSlam2D {
   std::vector<long> processed_before_;  // per scan: the last processed scan at or before it
   std::vector<SE2d> since_processed_;   // per scan: the odometry's motion since that scan
   SE2d last_odometry_;                  // the last processed scan's
+  bool scan_only_ = false;              // the log has no odometry
+  SE2d scan_odometry_, last_motion_;    // scan-only: the chained matches, the last one
+  std::vector<Eigen::Vector2d> previous_points_;
   bool started_ = false;
   std::uint64_t steps_ = 0;
   mutable RbpfSlamReport report_;

@@ -86,5 +86,15 @@ ScanToScanMatch MatchScanToScan(const std::vector<Eigen::Vector2d>& previous,
                                 const std::vector<Eigen::Vector2d>& current, const SE2d& guess,
                                 const ScanToScanOptions& options = {});
 
+/// The motion of a robot without odometry from the scan before: matched from `moving` (the
+/// constant-motion guess) and from standing still (turned by `turn`, an IMU's, else 0); the
+/// still match is taken only where it pairs clearly more points (10%): along a corridor both
+/// pair alike and the scans cannot tell, and taking no motion there stalled local SLAM while
+/// the robot drove on (aces 62-80 s, benchmarks/RESULTS.md "LiDAR X"). Not ok where neither
+/// matched.
+ScanToScanMatch MatchMovingOrStill(const std::vector<Eigen::Vector2d>& previous,
+                                   const std::vector<Eigen::Vector2d>& current, const SE2d& moving, double turn,
+                                   const ScanToScanOptions& options = {});
+
 }  // namespace lidar
 }  // namespace tether
