@@ -204,6 +204,8 @@ void BindRbpf(py::module_& li) {
       .def_readwrite("angular_update", &RbpfSlamOptions::angular_update)
       .def_readwrite("likelihood_points", &RbpfSlamOptions::likelihood_points)
       .def_readwrite("min_known_fraction", &RbpfSlamOptions::min_known_fraction)
+      .def_readwrite("odometry_check_translation", &RbpfSlamOptions::odometry_check_translation)
+      .def_readwrite("odometry_check_rotation", &RbpfSlamOptions::odometry_check_rotation)
       .def_readwrite("resample_fraction", &RbpfSlamOptions::resample_fraction)
       .def_readwrite("threads", &RbpfSlamOptions::threads)
       .def_readwrite("seed", &RbpfSlamOptions::seed);

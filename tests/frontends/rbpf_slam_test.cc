@@ -65,6 +65,35 @@ TEST(RbpfSlamTest, ScanOnlyMapsTheOfficeToo) {
   EXPECT_NE(slam.report().Summary().find("no odometry: 399 moved by scan-to-scan matching"), std::string::npos);
 }
 
+// An odometry that is wrong for a stretch (here it says the robot drove backwards over 60 scans,
+// as fr079's does at a door): the scan-to-scan check overrules it there, and the filter keeps
+// to the truth; without the check the particles follow the odometry off.
+TEST(RbpfSlamTest, TheScansOverruleAnOdometryThatIsWrongForAStretch) {
+  SimulatedLidar sim = Office(300);
+  SE2d corrupted = sim.log.scans.front().odometry;
+  SE2d previous = corrupted;
+  for (std::size_t k = 1; k < sim.log.scans.size(); ++k) {
+    const SE2d step = previous.Inverse() * sim.log.scans[k].odometry;
+    previous = sim.log.scans[k].odometry;
+    corrupted = corrupted * (k >= 100 && k < 160 ? SE2d(-step.x(), -step.y(), step.theta()) : step);
+    sim.log.scans[k].odometry = corrupted;
+  }
+  double rmse[2];
+  long overruled[2];
+  for (int check = 0; check < 2; ++check) {
+    RbpfSlamOptions o = Small(8, 0);
+    if (check == 0) o.odometry_check_translation = 0;
+    RbpfSlam2D slam(o);
+    for (const LaserScan& s : sim.log.scans) slam.AddScan(s);
+    rmse[check] = StampedTrajectoryError(slam.Trajectory(), sim.truth).rmse;
+    overruled[check] = slam.report().odometry_overruled;
+  }
+  EXPECT_EQ(overruled[0], 0);
+  EXPECT_GE(overruled[1], 15);  // 23 of the stretch's processed scans
+  EXPECT_LT(rmse[1], 0.1);
+  EXPECT_GT(rmse[0], 3 * rmse[1]);
+}
+
 // The particles' maps share what they have in common: where a scan sees a small part of the map
 // (here 5 m of a 40 m office), far less memory than particles x map.
 TEST(RbpfSlamTest, MapsShareTheirTiles) {

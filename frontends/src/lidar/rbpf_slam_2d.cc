@@ -85,6 +85,10 @@ bool RbpfSlamOptions::IsValid(std::string* why) const {
   if (!(resample_fraction >= 0 && resample_fraction <= 1)) return Fail(why, "resample_fraction must lie in [0, 1]");
   if (threads < 0) return Fail(why, "threads must be 0 (every core) or more");
   if (!scan_to_scan.IsValid(&w)) return Fail(why, "scan_to_scan: " + w);
+  if (!(std::isfinite(odometry_check_translation) && odometry_check_translation >= 0 &&
+        std::isfinite(odometry_check_rotation) && odometry_check_rotation >= 0)) {
+    return Fail(why, "odometry_check_translation and odometry_check_rotation must be finite and not negative");
+  }
   return true;
 }
 
@@ -92,6 +96,7 @@ std::string RbpfSlamReport::Summary() const {
   std::ostringstream s;
   s << "scans " << scans;
   if (scan_to_scan > 0) s << " (no odometry: " << scan_to_scan << " moved by scan-to-scan matching)";
+  if (odometry_overruled > 0) s << " (" << odometry_overruled << " odometry steps overruled by the scans)";
   s << ", processed " << processed << " (" << matched << " particle matches), resamplings " << resamplings
     << ", lowest effective sample size " << min_effective << "\n";
   s << "maps: " << distinct_tiles << " distinct tiles, " << tile_bytes / (1024.0 * 1024.0) << " MB\n";
@@ -204,11 +209,29 @@ void RbpfSlam2D::Process(long scan, const SE2d& odometry, const LaserScan& s) {
     for (std::size_t i = 1; i < particles_.size(); ++i) particles_[i] = first;
     started_ = true;
     last_odometry_ = odometry;
+    processed_points_ = points;
     ++report_.processed;
     return;
   }
   MaybeResample();
-  const localization::OdometryMotion motion = localization::DecomposeOdometry(last_odometry_, odometry);
+  // The odometry's motion since the last processed scan, unless the scans say otherwise.
+  SE2d delta = last_odometry_.Inverse() * odometry;
+  if (!scan_only_ && options_.odometry_check_translation > 0 && !processed_points_.empty() && !points.empty()) {
+    // Matched from the odometry's motion and from standing still: only where both reach the same
+    // motion did the scans see it (along a corridor each keeps its start's motion along it).
+    const ScanToScanMatch from_odometry = MatchScanToScan(processed_points_, points, delta, options_.scan_to_scan);
+    const ScanToScanMatch from_still = MatchScanToScan(processed_points_, points, SE2d(), options_.scan_to_scan);
+    const SE2d agree = from_odometry.motion.Inverse() * from_still.motion;
+    const SE2d d = delta.Inverse() * from_odometry.motion;
+    if (from_odometry.ok && from_still.ok && agree.translation().norm() < 0.02 && std::abs(agree.theta()) < 0.01 &&
+        (d.translation().norm() > options_.odometry_check_translation ||
+         std::abs(d.theta()) > options_.odometry_check_rotation)) {
+      delta = from_odometry.motion;
+      ++report_.odometry_overruled;
+    }
+  }
+  if (!points.empty()) processed_points_ = points;
+  const localization::OdometryMotion motion = localization::DecomposeOdometry(SE2d(), delta);
   std::vector<char> matched(particles_.size(), 0);
   const std::uint64_t step = ++steps_;
   ParallelFor(particles_.size(), options_.threads, [&](std::size_t i) {
