@@ -1,6 +1,7 @@
 #include "tether/frontends/lidar/mapping/tiled_probability_grid.h"
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 
 namespace tether {
@@ -24,6 +25,10 @@ bool TiledProbabilityGrid::ApplyUpdate(const Cell& c, const std::vector<std::uin
     tile->fill(ProbabilityGrid::kUnknownValue);
   } else if (tile.use_count() > 1) {
     tile = std::make_shared<Tile>(*tile);  // shared with a copy: this grid's own from now on
+  } else {
+    // This grid alone holds the tile. Another grid (a particle updated on another thread) may
+    // have dropped it just now, after reading it: its release of the count happens before this.
+    std::atomic_thread_fence(std::memory_order_acquire);
   }
   std::uint16_t& v = (*tile)[static_cast<std::size_t>(InTile(c.y()) * kTileSide + InTile(c.x()))];
   if (v & ProbabilityGrid::kUpdateMarker) return false;
