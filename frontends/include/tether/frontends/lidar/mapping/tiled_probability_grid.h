@@ -9,6 +9,9 @@
 //
 // Scans go in through ProbabilityGridInserter::Insert. The scan matchers read a dense
 // ProbabilityGrid: Window() copies a box of cells into one.
+//
+// Threads: grids that share tiles may be read and written on different threads at once, each
+// grid by one thread: a tile is written in place only where its grid alone holds it.
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
