@@ -312,17 +312,8 @@ void LidarSlam2D::NoteJoins(double stamp) {
 
 void LidarSlam2D::Run(const LidarLog& log, long max_scans, long progress_every,
                       const std::function<void(long)>& progress) {
-  const long n =
-      max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
-  for (long i = 0; i < n; ++i) {
-    const LaserScan& scan = log.scans[static_cast<std::size_t>(i)];
-    try {
-      AddScan(scan);
-    } catch (const Error& e) {
-      throw ParseError(ScanLocation(log, scan) + ": scan " + std::to_string(i) + ": " + e.what());
-    }
-    if (progress && progress_every > 0 && (i + 1) % progress_every == 0) progress(i + 1);
-  }
+  ForEachScan(
+      log, max_scans, [this](const LaserScan& scan) { AddScan(scan); }, progress_every, progress);
   try {
     Finish();
   } catch (const Error& e) {

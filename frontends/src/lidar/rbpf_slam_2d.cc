@@ -164,16 +164,7 @@ void RbpfSlam2D::AddScan(const LaserScan& scan) {
 }
 
 void RbpfSlam2D::Run(const LidarLog& log, long max_scans) {
-  const long n =
-      max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
-  for (long i = 0; i < n; ++i) {
-    const LaserScan& scan = log.scans[static_cast<std::size_t>(i)];
-    try {
-      AddScan(scan);
-    } catch (const Error& e) {
-      throw ParseError(ScanLocation(log, scan) + ": scan " + std::to_string(i) + ": " + e.what());
-    }
-  }
+  ForEachScan(log, max_scans, [this](const LaserScan& scan) { AddScan(scan); });
 }
 
 std::vector<LidarOutput> RbpfSlam2D::OutputNames() {

@@ -118,6 +118,21 @@ std::string ScanLocation(const LidarLog& log, const LaserScan& scan) {
   return log.path + ":" + std::to_string(scan.source_index);
 }
 
+void ForEachScan(const LidarLog& log, long max_scans, const std::function<void(const LaserScan&)>& add,
+                 long progress_every, const std::function<void(long)>& progress) {
+  const long n =
+      max_scans > 0 ? std::min(static_cast<long>(log.scans.size()), max_scans) : static_cast<long>(log.scans.size());
+  for (long i = 0; i < n; ++i) {
+    const LaserScan& scan = log.scans[static_cast<std::size_t>(i)];
+    try {
+      add(scan);
+    } catch (const Error& e) {
+      throw ParseError(ScanLocation(log, scan) + ": scan " + std::to_string(i) + ": " + e.what());
+    }
+    if (progress && progress_every > 0 && (i + 1) % progress_every == 0) progress(i + 1);
+  }
+}
+
 std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log) {
   std::vector<StampedPose2> out;
   out.reserve(log.scans.size());

@@ -11,6 +11,7 @@
 // Sources: CARMEN logs (FLASER, ROBOTLASER1, RAWLASER1 and ODOM lines; plain text or gzip, see
 // carmen_reader.h) and ROS 1 bags (sensor_msgs/LaserScan and nav_msgs/Odometry, see
 // rosbag_reader.h). docs/lidar.md describes both.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -88,6 +89,13 @@ LidarLog ReadLidarLog(const std::string& path, const LidarReadOptions& options =
 /// Where a scan of the log came from, for messages: "log.clf:1234" (a CARMEN line) or
 /// "run.bag: message 56" (a bag).
 std::string ScanLocation(const LidarLog& log, const LaserScan& scan);
+
+/// Calls add(scan) for the first `max_scans` scans of the log (0: all), in order; `progress`,
+/// where given, after every `progress_every`-th with the count so far. An Error from `add` is
+/// raised again as a ParseError naming the scan's file:line (or bag message) and its index:
+/// how the front-ends' Run() feed a whole log.
+void ForEachScan(const LidarLog& log, long max_scans, const std::function<void(const LaserScan&)>& add,
+                 long progress_every = 0, const std::function<void(long)>& progress = nullptr);
 
 /// The robot's odometry pose of every scan, in scan order.
 std::vector<StampedPose2> OdometryTrajectory(const LidarLog& log);
