@@ -314,6 +314,17 @@ TEST(FastSlamTest, BadInputIsRefusedAndChangesNothing) {
   EXPECT_THROW(f.Update({Observation{-1, 0, 1}}), InvalidArgument);
   EXPECT_EQ(f.landmark_count(0), 0);
   EXPECT_EQ(f.pose().x(), 0.0);
+  // A control that moves the robot beyond what a double holds: refused, and the particles, their
+  // random stream and the weights are as they were (the next step runs as it would have).
+  FastSlamOptions o1;
+  o1.version = FastSlamVersion::kOne;
+  o1.particles = 5;
+  FastSlam a(SE2d(), Eigen::Matrix3d::Zero(), o1), b(SE2d(), Eigen::Matrix3d::Zero(), o1);
+  EXPECT_THROW(a.Predict(odometry::Control{1e308, 1e308}, 1e308), InvalidArgument);
+  for (int i = 0; i < a.particle_count(); ++i) EXPECT_TRUE(a.particle_pose(i).translation().allFinite());
+  a.Predict(odometry::Control{1, 0.1}, 1);
+  b.Predict(odometry::Control{1, 0.1}, 1);
+  for (int i = 0; i < a.particle_count(); ++i) EXPECT_EQ(a.particle_pose(i).x(), b.particle_pose(i).x());
 }
 
 }  // namespace

@@ -152,6 +152,10 @@ TEST(RbpfSlamTest, BadInputIsAClearError) {
     EXPECT_NE(std::string(e.what()).find("has no odometry"), std::string::npos) << e.what();
   }
   EXPECT_EQ(slam.report().scans, 1);
+  // A particle that is not there.
+  EXPECT_THROW(slam.Trajectory(4), InvalidArgument);
+  EXPECT_THROW(slam.Map(99), InvalidArgument);
+  EXPECT_EQ(slam.Trajectory(-1).size(), 1u);
   LaserScan bad = Office(2).log.scans.front();
   bad.ranges.clear();
   EXPECT_THROW(slam.AddScan(bad), InvalidArgument);

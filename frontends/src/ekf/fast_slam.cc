@@ -138,6 +138,24 @@ void FastSlam::MaybeResample() {
 
 void FastSlam::Predict(const odometry::Control& u, double dt) {
   CheckControl(u, dt, "FastSLAM");
+  // A control that moves a particle beyond what a double holds is refused, changing nothing.
+  const std::vector<Particle> before = particles_;
+  const RandomStream random_before = random_;
+  const int resamplings_before = resamplings_;
+  PredictChecked(u, dt);
+  for (const Particle& p : particles_) {
+    if (!p.belief.mean.allFinite() || !p.belief.cov.allFinite()) {
+      particles_ = before;
+      random_ = random_before;
+      resamplings_ = resamplings_before;
+      throw InvalidArgument("FastSLAM: the control (v " + std::to_string(u.v) + ", w " + std::to_string(u.w) +
+                            ") over dt " + std::to_string(dt) +
+                            " moves the robot beyond what can be represented; nothing was applied");
+    }
+  }
+}
+
+void FastSlam::PredictChecked(const odometry::Control& u, double dt) {
   MaybeResample();
   const Eigen::Matrix2d& m = options_.filter.control_cov;
   for (Particle& p : particles_) {

@@ -349,8 +349,17 @@ int RbpfSlam2D::best_particle() const {
   return best;
 }
 
+int RbpfSlam2D::ParticleIndex(int particle) const {
+  if (particle < 0) return best_particle();
+  if (particle >= particle_count()) {
+    throw InvalidArgument("RbpfSlam2D: no particle " + std::to_string(particle) + " (there are " +
+                          std::to_string(particle_count()) + "; -1 for the heaviest)");
+  }
+  return particle;
+}
+
 std::vector<StampedPose2> RbpfSlam2D::Trajectory(int particle) const {
-  if (particle < 0) particle = best_particle();
+  particle = ParticleIndex(particle);
   const Particle& p = particles_.at(static_cast<std::size_t>(particle));
   std::vector<SE2d> at(stamps_.size());
   for (const Node* n = p.path.get(); n != nullptr; n = n->parent.get()) at[static_cast<std::size_t>(n->scan)] = n->pose;
@@ -363,7 +372,7 @@ std::vector<StampedPose2> RbpfSlam2D::Trajectory(int particle) const {
 }
 
 ProbabilityGrid RbpfSlam2D::Map(int particle) const {
-  if (particle < 0) particle = best_particle();
+  particle = ParticleIndex(particle);
   return particles_.at(static_cast<std::size_t>(particle)).map.ToGrid();
 }
 

@@ -121,7 +121,7 @@ class FastSlam {
 
   /// Moves the particles by the control over dt seconds (1.0: samples; 2.0: predicts, the
   /// sample is drawn in Update). Throws InvalidArgument, changing nothing, for a non-finite
-  /// control or a dt that is not positive and finite.
+  /// control, a dt that is not positive and finite, or a motion that leaves a pose not finite.
   void Predict(const odometry::Control& u, double dt);
   /// The step's observations. Returns, per observation, the landmark index the heaviest particle
   /// took it for (-1: dropped or too near). Throws InvalidArgument, applying nothing, as
@@ -172,6 +172,8 @@ class FastSlam {
   };
 
   void MaybeResample();
+  /// Predict's work, its input checked.
+  void PredictChecked(const odometry::Control& u, double dt);
   /// What the estimate reads of a particle: 2.0 after an Update its proposal, else its pose.
   const PoseBelief& Estimated(const Particle& p) const;
   /// Samples the particle's pose from its belief (2.0).

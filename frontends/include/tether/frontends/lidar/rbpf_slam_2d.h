@@ -155,7 +155,8 @@ class RbpfSlam2D {
   int best_particle() const;
   /// Particle i's current pose (the last processed scan's).
   SE2d particle_pose(int i) const { return particles_.at(static_cast<std::size_t>(i)).pose; }
-  /// Every scan's pose along particle i's trajectory (-1: the heaviest), with its stamp.
+  /// Every scan's pose along particle i's trajectory (-1: the heaviest), with its stamp. Throws
+  /// InvalidArgument for a particle that is not there (as Map does).
   std::vector<StampedPose2> Trajectory(int particle = -1) const;
   /// Particle i's map (-1: the heaviest) as a dense grid.
   ProbabilityGrid Map(int particle = -1) const;
@@ -180,6 +181,8 @@ class RbpfSlam2D {
             const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& matching, long scan,
             std::uint64_t stream, bool* matched) const;
   void MaybeResample();
+  /// -1 (or any negative): the heaviest; otherwise checked (InvalidArgument naming it).
+  int ParticleIndex(int particle) const;
 
   RbpfSlamOptions options_;
   ProbabilityGridInserter inserter_;
