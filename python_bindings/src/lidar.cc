@@ -191,6 +191,14 @@ void BindSavedMaps(py::module_& li) {
       .def("summary", [](const lidar::Localizer2D& l) { return l.report().Summary(); });
 }
 
+// (image (H, W) uint8, resolution, origin (x, y)): a grid as map_image gives it.
+py::tuple MapImage(const ProbabilityGrid& grid) {
+  const lidar::OccupancyImage image = lidar::RenderOccupancy(grid);
+  py::array_t<std::uint8_t> a({image.height, image.width});
+  std::copy(image.pixels.begin(), image.pixels.end(), a.mutable_data());
+  return py::make_tuple(a, image.resolution, py::make_tuple(image.origin.x(), image.origin.y()));
+}
+
 // Grid-based particle filter SLAM (frontends/lidar/rbpf_slam_2d.h), scan by scan.
 void BindRbpf(py::module_& li) {
   using lidar::RbpfSlam2D;
@@ -258,13 +266,7 @@ void BindRbpf(py::module_& li) {
           },
           py::arg("particle") = -1, "(scans, 4) = stamp, x, y, theta along a particle's trajectory (-1: the heaviest)")
       .def(
-          "map_image",
-          [](const RbpfSlam2D& s, int particle) {
-            const lidar::OccupancyImage image = lidar::RenderOccupancy(s.Map(particle));
-            py::array_t<std::uint8_t> a({image.height, image.width});
-            std::copy(image.pixels.begin(), image.pixels.end(), a.mutable_data());
-            return py::make_tuple(a, image.resolution, py::make_tuple(image.origin.x(), image.origin.y()));
-          },
+          "map_image", [](const RbpfSlam2D& s, int particle) { return MapImage(s.Map(particle)); },
           py::arg("particle") = -1, "A particle's map (-1: the heaviest), as LidarSlam2D.map_image")
       .def("summary", [](const RbpfSlam2D& s) { return s.report().Summary(); })
       .def_property_readonly("resamplings", [](const RbpfSlam2D& s) { return s.report().resamplings; })
@@ -410,13 +412,7 @@ void BindLidar(py::module_& m) {
                                return a;
                              })
       .def(
-          "map_image",
-          [](const LidarSlam2D& s) {
-            const lidar::OccupancyImage image = lidar::RenderOccupancy(s.map());
-            py::array_t<std::uint8_t> a({image.height, image.width});
-            std::copy(image.pixels.begin(), image.pixels.end(), a.mutable_data());
-            return py::make_tuple(a, image.resolution, py::make_tuple(image.origin.x(), image.origin.y()));
-          },
+          "map_image", [](const LidarSlam2D& s) { return MapImage(s.map()); },
           "(image (H, W) uint8 with the top row the map's largest y, resolution [m], origin (x, y) of the "
           "lower-left corner): the map_server convention (occupied dark, free light, unknown 205)")
       .def_property_readonly("loop_closures", [](const LidarSlam2D& s) { return s.report().loop_closures; })

@@ -113,26 +113,9 @@ FastSlam::FastSlam(const SE2d& start, const Eigen::Matrix3d& start_cov, const Fa
 }
 
 void FastSlam::MaybeResample() {
-  std::vector<double> log_w(particles_.size());
-  for (std::size_t i = 0; i < particles_.size(); ++i) log_w[i] = particles_[i].log_weight;
-  const std::vector<double> w = NormalizedFromLogs(log_w);
-  const auto n = static_cast<double>(particles_.size());
-  if (particles_.size() > 1 && EffectiveSampleSize(w) < options_.resample_fraction * n) {
-    std::vector<Particle> next;
-    next.reserve(particles_.size());
-    for (const int i : LowVarianceResample(w, options_.particles, random_.Uniform())) {
-      next.push_back(particles_[static_cast<std::size_t>(i)]);  // shares the landmarks and the path
-      next.back().log_weight = 0;
-    }
-    particles_ = std::move(next);
+  // A resampled particle shares its parent's landmarks and path.
+  if (SelectiveResample(&particles_, options_.resample_fraction, [this] { return random_.Uniform(); }) >= 0) {
     ++resamplings_;
-    return;
-  }
-  // The weights carry on, shifted so that the largest is 1 (no drift towards underflow).
-  double top = -kInf;
-  for (const Particle& p : particles_) top = std::max(top, p.log_weight);
-  if (std::isfinite(top)) {
-    for (Particle& p : particles_) p.log_weight -= top;
   }
 }
 

@@ -313,25 +313,11 @@ void RbpfSlam2D::Step(Particle* p, const localization::OdometryMotion& motion, c
 }
 
 void RbpfSlam2D::MaybeResample() {
-  const std::vector<double> w = weights();
-  const double neff = EffectiveSampleSize(w);
-  if (particles_.size() < 2 || !(neff < options_.resample_fraction * static_cast<double>(particles_.size()))) {
-    double top = -std::numeric_limits<double>::infinity();
-    for (const Particle& p : particles_) top = std::max(top, p.log_weight);
-    if (std::isfinite(top)) {
-      for (Particle& p : particles_) p.log_weight -= top;
-    }
-    return;
-  }
+  // A resampled particle shares its parent's map tiles and path.
+  const double neff = SelectiveResample(&particles_, options_.resample_fraction,
+                                        [this] { return RandomStream(options_.seed, ~steps_).Uniform(); });
+  if (neff < 0) return;
   report_.min_effective = report_.resamplings == 0 ? neff : std::min(report_.min_effective, neff);
-  RandomStream random(options_.seed, ~steps_);
-  std::vector<Particle> next;
-  next.reserve(particles_.size());
-  for (const int i : LowVarianceResample(w, options_.particles, random.Uniform())) {
-    next.push_back(particles_[static_cast<std::size_t>(i)]);  // shares the map's tiles and the path
-    next.back().log_weight = 0;
-  }
-  particles_ = std::move(next);
   ++report_.resamplings;
 }
 
