@@ -22,6 +22,7 @@ void RegisterBuiltinLinearSolvers(LinearSolverRegistry& r) {
   r.Register(Entry("qr", LinearSystemForm::kJacobian, MakeSpqr));
   r.Register(Entry("block", LinearSystemForm::kNormalEquations, MakeBlockCholesky));
   r.Register(Entry("auto", LinearSystemForm::kNormalEquations, MakeAutoCholesky));
+  RegisterDistributedLinearSolvers(r);
 }
 
 // The built-in names are taken when tether::solvers is loaded, so that a plugin loaded later

@@ -19,6 +19,10 @@ std::unique_ptr<LinearSolver> MakeBlockCholesky();
 /// The default: the block Cholesky on sparse factors of one block size, CHOLMOD otherwise.
 std::unique_ptr<LinearSolver> MakeAutoCholesky();
 
+/// "petsc" and "petsc-iterative" where tether is built with TETHER_WITH_MPI (distributed.cc;
+/// nothing otherwise): their module is loaded when a solve first makes one.
+void RegisterDistributedLinearSolvers(LinearSolverRegistry& r);
+
 /// DefaultLinearSolverRegistry() with the built-in solvers in it (added on the first call,
 /// which the loading of tether::solvers itself makes, before any plugin can take a name).
 LinearSolverRegistry& LinearSolvers();

@@ -81,6 +81,7 @@ void LinearSystem::Assemble() {
     return;
   }
   p_->AssembleNormal(&mat_, g_.data());
+  Agree(g_.data(), static_cast<int>(g_.size()));
   for (std::size_t i = 0; i < damping_pos_.size(); ++i) {
     undamped_diag_[i] = mat_.values[damping_pos_[i]];
     diag_[i] = undamped_diag_[i];
@@ -107,6 +108,13 @@ LinearSolverStatus LinearSystem::Solve(double lambda, std::vector<double>* delta
   ApplyDamping(lambda);
   it->cg_iterations = 0;
   it->reused_factorization = have_factor_ && reuse_ && Pcg(delta, &it->cg_iterations);
+  if (have_factor_ && reuse_) {
+    // Whether to factorise afresh is a collective decision where the solver spans processes.
+    double reused = it->reused_factorization ? 1.0 : 0.0;
+    Agree(&reused, 1);
+    it->reused_factorization = reused != 0;
+    if (it->reused_factorization) Agree(delta->data(), static_cast<int>(delta->size()));
+  }
   LinearSolverStatus r = LinearSolverStatus::kOk;
   double factorize = 0;
   if (!it->reused_factorization) {
@@ -136,17 +144,23 @@ LinearSolverStatus LinearSystem::Solve(double lambda, std::vector<double>* delta
 double LinearSystem::ScaledSquaredNorm(const std::vector<double>& d) const {
   double dDd = 0;
   for (std::size_t i = 0; i < d.size(); ++i) dDd += d[i] * d[i] * ClampedDiag(i);
+  Agree(&dDd, 1);
   return dDd;
 }
 
 double LinearSystem::PredictedDecrease(const std::vector<double>& d, double lambda, double dDd, bool reused) {
-  if (!reused && exact_) return -Dot(g_, d) + lambda * dDd;
-  if (form_ == LinearSystemForm::kJacobian) {
+  double decrease = 0;
+  if (!reused && exact_) {
+    decrease = -Dot(g_, d) + lambda * dDd;
+  } else if (form_ == LinearSystemForm::kJacobian) {
     MultiplyJtJ(d, &hp_);  // undamped
-    return -2 * Dot(g_, d) - Dot(d, hp_);
+    decrease = -2 * Dot(g_, d) - Dot(d, hp_);
+  } else {
+    MultiplyH(d, &hp_);  // (H + lambda D) d
+    decrease = -2 * Dot(g_, d) - (Dot(d, hp_) - lambda * dDd);
   }
-  MultiplyH(d, &hp_);  // (H + lambda D) d
-  return -2 * Dot(g_, d) - (Dot(d, hp_) - lambda * dDd);
+  Agree(&decrease, 1);
+  return decrease;
 }
 
 void LinearSystem::MultiplyUndamped(const std::vector<double>& x, std::vector<double>* y) {
@@ -158,6 +172,7 @@ void LinearSystem::MultiplyUndamped(const std::vector<double>& x, std::vector<do
   if (lambda_ != 0) {
     for (std::size_t i = 0; i < x.size(); ++i) (*y)[i] -= lambda_ * ClampedDiag(i) * x[i];
   }
+  Agree(y->data(), static_cast<int>(y->size()));
 }
 
 void LinearSystem::MultiplyH(const std::vector<double>& x, std::vector<double>* y) const {

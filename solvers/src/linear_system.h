@@ -60,6 +60,8 @@ class LinearSystem : public StepSystem {
   void MultiplyUndamped(const std::vector<double>& x, std::vector<double>* y) override;
 
   const std::vector<double>& gradient() const override { return g_; }
+  /// The solver's LinearSolver::AgreeAcrossProcesses (a no-op for a solver in one process).
+  void Agree(double* values, int n) const { solver_->AgreeAcrossProcesses(values, n); }
   const LinearSolveStats& stats() const { return stats_; }
   std::string Description() const { return solver_->Description(); }
 

@@ -19,12 +19,21 @@ Minimizer::Minimizer(const SolverOptions& options, Problem* problem, LinearSyste
       delta_(problem->tangent_dim(), 0.0) {}
 
 void Minimizer::Minimize(double chi2) {
+  system_.Agree(&chi2, 1);
   chi2_ = best_chi2_ = chi2;
   Start();
-  while (!StopRequested() && stop_.MayIterate(SecondsSince(t0_), &s_) && Iterate()) {
+  while (!StopRequested() && stop_.MayIterate(AgreedSeconds(), &s_) && Iterate()) {
   }
   StopRequested();  // a request during the last iteration, where no other rule ended the solve
   Finish();
+}
+
+// The seconds since the start, the same on every process where the solve spans several (each
+// stops at the same iteration under max_seconds).
+double Minimizer::AgreedSeconds() const {
+  double seconds = SecondsSince(t0_);
+  system_.Agree(&seconds, 1);
+  return seconds;
 }
 
 // Assembles the first system and logs iteration 0. The start is saved: Gauss-Newton keeps

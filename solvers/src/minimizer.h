@@ -32,6 +32,7 @@ class Minimizer {
 
  private:
   void Start();
+  double AgreedSeconds() const;
   bool Iterate();
   IterationSummary BeginIteration() const;
   bool HandleFailedSolve(LinearSolverStatus status, IterationSummary& it);

@@ -130,6 +130,12 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   } catch (const Error& e) {
     return Invalid(s, e.what());
   }
+  // Cleared before the system goes, even where the solve throws: the Problem outlives it.
+  struct AgreeWhileSolving {
+    internal::Problem* p;
+    ~AgreeWhileSolving() { p->set_agree(nullptr); }
+  } agree{p};
+  p->set_agree([sys = system.get()](double* v, int n) { sys->Agree(v, n); });
   RecordSettings(options, *strategy, *system, &s);
   s.setup_seconds = SecondsSince(t0);
   internal::Minimizer(options, p, system.get(), strategy.get(), &s, t0).Minimize(chi2);

@@ -303,10 +303,12 @@ double Problem::SumChi2() const {
 double Problem::Chi2() const {
   auto part = [this](int k) { part_status_[k] = LinearizeRange(k, nullptr); };
   Parallel(part);
+  double chi2 = SumChi2();
   for (int st : part_status_) {
-    if (st == 1) return std::numeric_limits<double>::infinity();
+    if (st == 1) chi2 = std::numeric_limits<double>::infinity();
   }
-  return SumChi2();
+  if (agree_) agree_(&chi2, 1);
+  return chi2;
 }
 
 double Problem::Linearize() {
@@ -315,14 +317,17 @@ double Problem::Linearize() {
   auto part = [this, res](int k) { part_status_[k] = LinearizeRange(k, res); };
   Parallel(part);
   bool finite = true;
+  bool failed = false;
   for (int st : part_status_) {
-    if (st == 1) return std::numeric_limits<double>::infinity();
+    failed = failed || st == 1;
     if (st == 2) finite = false;
   }
-  const double chi2 = SumChi2();
-  if (!std::isfinite(chi2)) return chi2;
-  jacobian_finite_ = finite;
-  return chi2;
+  // chi2 and whether the Jacobian is finite, agreed on where the solve spans processes.
+  double agreed[2] = {failed ? std::numeric_limits<double>::infinity() : SumChi2(), finite ? 1.0 : 0.0};
+  if (agree_) agree_(agreed, 2);
+  if (!std::isfinite(agreed[0])) return agreed[0];
+  jacobian_finite_ = agreed[1] != 0;
+  return agreed[0];
 }
 
 void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions) {
@@ -562,7 +567,9 @@ double Problem::ParameterNorm() const {
   double s = 0;
   for (const Var& v : vars_)
     for (int i = 0; i < AmbientDim(v.type); ++i) s += v.params[i] * v.params[i];
-  return std::sqrt(s);
+  s = std::sqrt(s);
+  if (agree_) agree_(&s, 1);
+  return s;
 }
 
 void Problem::Save() {

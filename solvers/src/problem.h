@@ -9,6 +9,7 @@
 // Every entry of H, g and chi2 is summed in the same order whatever the number of threads
 // (H and g column by column in factor order; chi2 factor by factor), so results are
 // bit-identical for any num_threads.
+#include <functional>
 #include <memory>
 #include <set>
 #include <string>
@@ -71,6 +72,9 @@ class Problem : public TrialPoint {
   void Retract(const double* delta) override;
   /// Norm of all free variables' parameters (for the step tolerance).
   double ParameterNorm() const;
+  /// Where the linear solver spans several processes (LinearSolver::AgreeAcrossProcesses):
+  /// Chi2, Linearize and ParameterNorm hand back the value all processes agreed on.
+  void set_agree(std::function<void(double*, int)> agree) { agree_ = std::move(agree); }
   /// Save copies the free variables aside; Restore puts them back (a no-op before any Save).
   void Save();
   void Restore() override;
@@ -152,6 +156,7 @@ class Problem : public TrialPoint {
   int n_ = 0, m_ = 0;
   bool jacobian_finite_ = false;
   bool has_saved_ = false;
+  std::function<void(double*, int)> agree_;
 };
 
 }  // namespace internal

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <ostream>
 #include <sstream>
+#include <streambuf>
+#include <string>
 
 #include "tether/core/error.h"
 #include "tether/core/graph_io.h"
@@ -15,6 +17,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/covariance.h"
+#include "tether/solvers/distributed.h"
 #include "tether/tools/commands.h"
 
 namespace tether {
@@ -228,7 +231,90 @@ int ExitCodeOf(PipelineStatus status) {
   return kExitBadInput;
 }
 
+namespace {
+
+// Under --linear petsc (or petsc-iterative) every process of the MPI job runs the whole
+// command; the first one prints and writes, the others only say what went wrong, prefixed
+// with their place. Without those solvers, one process: {0, 1}.
+bool StartProcesses(const OptimizeCommand& cmd, DistributedProcess* process, std::ostream& err) {
+  const bool distributed = cmd.linear == "petsc" || cmd.linear == "petsc-iterative";
+  if (!distributed) {
+    if (cmd.petsc_options.empty()) return true;
+    err << "tether optimize: --petsc-options needs --linear petsc or petsc-iterative\n";
+    return false;
+  }
+  try {
+    *process = StartDistributed(cmd.petsc_options);
+  } catch (const Error& e) {
+    err << "tether optimize: --linear " << cmd.linear << ": " << e.what() << "\n";
+    return false;
+  }
+  return true;
+}
+
+// What the other processes do not write.
+void WriteOnFirstProcessOnly(PipelineOptions* po) {
+  po->output.clear();
+  po->plot_output.clear();
+  po->covariance_output.clear();
+  po->rejected_output.clear();
+}
+
+class NullBuffer : public std::streambuf {
+ protected:
+  int overflow(int c) override { return c == traits_type::eof() ? 0 : c; }
+};
+
+// Every line `err` receives, prefixed with "[process R] ".
+class PrefixBuffer : public std::streambuf {
+ public:
+  PrefixBuffer(std::ostream& to, int rank) : to_(to), prefix_("[process " + std::to_string(rank) + "] ") {}
+
+ protected:
+  int overflow(int c) override {
+    if (c == traits_type::eof()) return 0;
+    if (at_line_start_) to_ << prefix_;
+    to_.put(static_cast<char>(c));
+    at_line_start_ = c == '\n';
+    return c;
+  }
+
+ private:
+  std::ostream& to_;
+  std::string prefix_;
+  bool at_line_start_ = true;
+};
+
+int RunOptimizeProcess(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err);
+
+}  // namespace
+
 int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
+  DistributedProcess process;
+  if (!StartProcesses(cmd, &process, err)) return kExitUsage;
+  int code = 0;
+  if (process.rank == 0) {
+    code = RunOptimizeProcess(cmd, out, err);
+  } else {
+    OptimizeCommand mine = cmd;
+    WriteOnFirstProcessOnly(&mine.pipeline);
+    NullBuffer null;
+    PrefixBuffer prefixed(err, process.rank);
+    std::ostream quiet(&null), errors(&prefixed);
+    code = RunOptimizeProcess(mine, quiet, errors);
+    errors.flush();
+  }
+  // A process that fails ends the job: the others may be waiting for it in the solve.
+  if (code != kExitOk) {
+    err.flush();
+    AbortDistributed(code);
+  }
+  return code;
+}
+
+namespace {
+
+int RunOptimizeProcess(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err) {
   PipelineOptions po = cmd.pipeline;
   po.other_inputs = cmd.plugins;  // an output may not name a plugin it loads
   PluginLoader loader(DefaultRegistry());
@@ -245,8 +331,6 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
   if (!result.ok()) err << "error: " << result.message << "\n";
   return ExitCodeOf(result.status);
 }
-
-namespace {
 
 class OptimizeCli : public Command {
  public:
@@ -267,9 +351,13 @@ void OptimizeCli::Add(CLI::App& app) {
   sub->add_option("--solver", cmd_.solver, "gn | lm | dogleg | ceres (Ceres' Levenberg-Marquardt)")
       ->capture_default_str();
   sub->add_option("--linear", cmd_.linear,
-                  "auto (block Cholesky on sparse factors, CHOLMOD on dense ones) | block | cholmod | ldlt | qr | a "
-                  "plugin's linear solver (pcg)")
+                  "auto (block Cholesky on sparse factors, CHOLMOD on dense ones) | block | cholmod | ldlt | qr | "
+                  "petsc, petsc-iterative (over the processes of an MPI job: mpirun -np K tether optimize ...; "
+                  "docs/distributed.md) | a plugin's linear solver (pcg)")
       ->capture_default_str();
+  sub->add_option("--petsc-options", cmd_.petsc_options,
+                  "With --linear petsc or petsc-iterative: PETSc's options, as on its command line (\"-ksp_type cg "
+                  "-pc_type bjacobi\", \"-mat_mumps_icntl_14 50\")");
   sub->add_option("--covariance", cmd_.covariance,
                   "After the solve, marginal covariances of these ids (comma-separated) or of all");
   AddPath(sub, "--covariance-out", &po.covariance_output, "Covariance file (default: OUTPUT.cov)")

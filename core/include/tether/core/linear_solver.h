@@ -90,6 +90,16 @@ class LinearSolver {
   /// factorising afresh.
   virtual double factorize_flops() const { return 0; }
   virtual double solve_flops() const { return 0; }
+  /// A solver whose work is spread over several processes (the "petsc" solver under mpirun):
+  /// every process runs the same solve on its own copy of the problem, and this makes `n`
+  /// values that each process computed for itself equal on all of them (the first process's),
+  /// so that all keep or reject the same steps and stop at the same iteration even where their
+  /// arithmetic differs in the last bits. Collective: every process calls it with the same n.
+  /// A solver in one process leaves the values as they are.
+  virtual void AgreeAcrossProcesses(double* values, int n) {
+    (void)values;
+    (void)n;
+  }
 };
 
 using LinearSolverFactory = std::function<std::unique_ptr<LinearSolver>(const LinearSolverOptions&)>;

@@ -42,6 +42,9 @@ struct OptimizeCommand {
   /// Marginal covariances after a successful solve: comma-separated ids, or "all" (every
   /// free variable); empty: none. Parsed into pipeline.covariance and covariance_keys.
   std::string covariance;
+  /// With --linear petsc or petsc-iterative: PETSc's options, as on its command line
+  /// ("-mat_mumps_icntl_14 50"; tether/solvers/distributed.h).
+  std::string petsc_options;
 };
 
 struct PluginsListCommand {
