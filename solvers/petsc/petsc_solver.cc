@@ -31,13 +31,28 @@ namespace tether {
 namespace petsc {
 namespace {
 
+// PETSc's own words for the first error of a failing call ("Unknown KSP type: no_such_method"),
+// kept by the error handler (Start) for Check.
+std::string last_error;
+
+PetscErrorCode KeepError(MPI_Comm, int, const char*, const char*, PetscErrorCode code, PetscErrorType type,
+                         const char* message, void*) {
+  if (type == PETSC_ERROR_INITIAL) last_error = message != nullptr ? message : "";
+  return code;
+}
+
 // Throws tether::Error naming the PETSc call that failed and PETSc's reason.
 void Check(PetscErrorCode code, const char* call) {
   if (code == 0) return;
-  const char* text = nullptr;
-  PetscErrorMessage(code, &text, nullptr);
-  throw Error(std::string("PETSc: ") + call + " failed: " + (text != nullptr ? text : "unknown error") +
-              " (error " + std::to_string(static_cast<int>(code)) + ")");
+  std::string text = last_error;
+  last_error.clear();
+  if (text.empty()) {
+    const char* generic = nullptr;
+    PetscErrorMessage(code, &generic, nullptr);
+    text = generic != nullptr ? generic : "unknown error";
+  }
+  throw Error(std::string("PETSc: ") + call + " failed: " + text + " (error " + std::to_string(static_cast<int>(code)) +
+              ")");
 }
 #define TETHER_PETSC(call) Check((call), #call)
 
@@ -86,7 +101,7 @@ bool Start(const std::string& options, int* rank_out, int* size_out, std::string
       return false;
     }
     // Errors come back as codes, turned into tether::Error with PETSc's message, not printed.
-    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    PetscPushErrorHandler(KeepError, nullptr);
     MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
     MPI_Comm_size(PETSC_COMM_WORLD, &size);
     std::atexit(Finish);
