@@ -6,8 +6,9 @@ cd "$(dirname "$0")/.."
 # An include against the layers (DESIGN.md, "Layout") fails here, before the build; ctest runs
 # the same check again (layers.includes) beside the check of the checker.
 bash scripts/check_layers.sh .
-bash scripts/install_deps.sh
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DTETHER_BUILD_TESTS=ON
+# With the distributed solvers (MPI, PETSc, MUMPS, METIS): their tests run under mpirun.
+bash scripts/install_deps.sh --mpi
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DTETHER_BUILD_TESTS=ON -DTETHER_WITH_MPI=ON
 cmake --build build -j"$(nproc)"
 cd build
 ctest --output-on-failure -j"$(nproc)"

@@ -161,13 +161,25 @@ Eigen::Matrix<double, D, D> NearestRotation(const Eigen::Matrix<double, D, D>& A
 // A is singular.
 class SpdSolver {
  public:
-  explicit SpdSolver(int block) : block_(block) {}
+  /// `linear`: a solver that spans processes (LinearSolverEntry::spans_processes) is used in
+  /// place of the default, so that every process of the job takes part and gets the same X.
+  SpdSolver(int block, const LinearSolverType& linear) : block_(block) {
+    LinearSolverEntry entry;
+    if (internal::LinearSolvers().Get(linear.name(), &entry) && entry.spans_processes &&
+        entry.form == LinearSystemForm::kNormalEquations) {
+      LinearSolverOptions o;
+      o.iterative_tolerance = 1e-12;  // an iterative one: a start as good as the factorisation's
+      chol_ = entry.make(o);
+    }
+    if (!chol_) chol_ = internal::MakeAutoCholesky();
+  }
 
   /// A: the upper triangle in compressed columns, diagonal blocks whole (the solver ignores
   /// their lower part), same pattern at every call.
   Eigen::MatrixXd Solve(const internal::Csc& A, const Eigen::MatrixXd& B, const char* what) {
     Eigen::MatrixXd X(B.rows(), B.cols());
     LinearSolverStatus r = LinearSolverStatus::kFailed;
+    std::string failure;
     try {
       if (!analysed_) {
         chol_->Analyze(internal::View(A), std::vector<int>(A.cols / block_, block_));
@@ -178,12 +190,14 @@ class SpdSolver {
         const Eigen::VectorXd b = B.col(c);
         chol_->Solve(b.data(), X.col(c).data());
       }
-    } catch (const Error&) {
-      r = LinearSolverStatus::kFailed;  // the solver itself failed (out of memory)
+    } catch (const Error& e) {
+      r = LinearSolverStatus::kFailed;  // the solver itself failed (out of memory, a refused option)
+      failure = e.what();
     }
     if (r == LinearSolverStatus::kFailed) {
       throw InvalidArgument(std::string("chordal initialisation: the sparse Cholesky failed on the ") + what +
-                            " system (out of memory?); use --init spanning-tree or --init file");
+                            " system (" + (failure.empty() ? std::string("out of memory?") : failure) +
+                            "); use --init spanning-tree or --init file");
     }
     if (r != LinearSolverStatus::kOk) {
       throw InvalidArgument(std::string("chordal initialisation: the ") + what +
@@ -198,7 +212,7 @@ class SpdSolver {
 
  private:
   int block_;
-  std::unique_ptr<LinearSolver> chol_ = internal::MakeAutoCholesky();
+  std::unique_ptr<LinearSolver> chol_;
   bool analysed_ = false;
 };
 
@@ -210,7 +224,8 @@ class Chordal {
   using Traits = PoseTraits<D>;
   static constexpr int kTangent = D + Traits::kRotationDim;
 
-  Chordal(const FactorGraph& graph, Values* values) : graph_(graph), values_(values) {}
+  Chordal(const FactorGraph& graph, Values* values, const LinearSolverType& linear)
+      : graph_(graph), values_(values), spd_(D, linear) {}
 
   void Run(InitSummary* s) {
     CollectMeasurements();
@@ -433,8 +448,8 @@ class Chordal {
 
   const FactorGraph& graph_;
   Values* values_;
-  SpdSolver spd_{D};  // the rotation and translation systems have the same pattern
-  internal::Csc a_;   // the system being assembled (BuildPattern)
+  SpdSolver spd_;    // the rotation and translation systems have the same pattern
+  internal::Csc a_;  // the system being assembled (BuildPattern)
   std::vector<int> ptr_, rows_;
   std::unordered_map<Key, std::uint32_t> index_;
   std::vector<Key> keys_;
@@ -485,6 +500,11 @@ void PointsFromPoses(const FactorGraph& graph, Values* values, InitSummary* s) {
 }  // namespace
 
 InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method) {
+  return Initialize(graph, values, method, LinearSolverType::kAuto);
+}
+
+InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method,
+                       const LinearSolverType& linear_solver) {
   if (values == nullptr) throw InvalidArgument("Initialize: values is a null pointer; pass the Values to initialise");
   const auto start = std::chrono::steady_clock::now();
   InitSummary s;
@@ -500,8 +520,8 @@ InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod meth
       // Variables without a value get one from the spanning tree first, so that every pose the
       // pose-pose measurements do not reach (linked through points only, say) has one.
       InitializeSpanningTree(graph, &work);
-      Chordal<2>(graph, &work).Run(&s);
-      Chordal<3>(graph, &work).Run(&s);
+      Chordal<2>(graph, &work, linear_solver).Run(&s);
+      Chordal<3>(graph, &work, linear_solver).Run(&s);
       PointsFromPoses(graph, &work, &s);
       break;
   }

@@ -149,8 +149,8 @@ int PartitionVariables(const SparseMatrixView& a, const std::vector<int>& col_va
       std::vector<idx_t> p(nv, 0);
       int status = METIS_OK;
       if (nv >= parts && !adjncy.empty()) {
-        status = METIS_PartGraphKway(&n, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, nullptr, &np,
-                                     nullptr, nullptr, opts, &objval, p.data());
+        status = METIS_PartGraphKway(&n, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, nullptr, &np, nullptr,
+                                     nullptr, opts, &objval, p.data());
       } else {
         for (int v = 0; v < nv; ++v) p[v] = static_cast<idx_t>(static_cast<long>(v) * parts / nv);
       }
@@ -202,9 +202,9 @@ class PetscSolver : public LinearSolver {
   LinearSolverOptions options_;
   bool iterative_;
   int n_ = 0;
-  int bs_ = 1;                    // PETSc's block size: the variables' one size, or 1 where they differ
-  std::vector<int> new_col_;      // PETSc's index of each column of H
-  std::vector<int> old_col_;      // and back
+  int bs_ = 1;                       // PETSc's block size: the variables' one size, or 1 where they differ
+  std::vector<int> new_col_;         // PETSc's index of each column of H
+  std::vector<int> old_col_;         // and back
   int own_begin_ = 0, own_end_ = 0;  // this process's columns in PETSc's numbering
   // The blocks this process sets: block row and column (PETSc's numbering) and, for each of
   // the bs x bs entries (row-major), its position in H's values (-1: zero).
@@ -230,7 +230,8 @@ void PetscSolver::Analyze(const SparseMatrixView& a, const std::vector<int>& blo
       col_var[at++] = static_cast<int>(v);
     }
   }
-  if (at != n_) throw Error("petsc: the block sizes add up to " + std::to_string(at) + ", not H's " + std::to_string(n_));
+  if (at != n_)
+    throw Error("petsc: the block sizes add up to " + std::to_string(at) + ", not H's " + std::to_string(n_));
   bs_ = block_sizes.empty() ? 1 : block_sizes[0];
   for (int d : block_sizes) {
     if (d != bs_) bs_ = 1;

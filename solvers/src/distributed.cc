@@ -23,8 +23,8 @@ DistributedProcess process;
 // The module's table, loaded once; throws Error naming the module and what to do.
 const PetscTable& Table() {
   if (table != nullptr) return *table;
-  const LoadedModule m =
-      LoadModuleBeside(reinterpret_cast<const void*>(&StartDistributed), kModule, "tether_petsc_v1", ModuleScope::kGlobal);
+  const LoadedModule m = LoadModuleBeside(reinterpret_cast<const void*>(&StartDistributed), kModule, "tether_petsc_v1",
+                                          ModuleScope::kGlobal);
   std::string why = m.failure;
   const PetscTable* t = nullptr;
   if (m.entry != nullptr) {
@@ -66,6 +66,7 @@ void RegisterDistributedLinearSolvers(LinearSolverRegistry& r) {
     e.name = iterative ? "petsc-iterative" : "petsc";
     e.form = LinearSystemForm::kNormalEquations;
     e.direct = !iterative;
+    e.spans_processes = true;
     e.make = [iterative](const LinearSolverOptions& o) { return MakePetsc(o, iterative); };
     r.Register(std::move(e));
   }

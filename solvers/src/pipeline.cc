@@ -58,9 +58,10 @@ GraphFile ReadProblem(const PipelineOptions& options, const Registry& registry) 
   return ReadGraphFile(options.input, registry, options.read);
 }
 
-InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name) {
+InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name,
+                              const LinearSolverType& linear_solver) {
   try {
-    return Initialize(graph, values, method);
+    return Initialize(graph, values, method, linear_solver);
   } catch (const Error& e) {
     throw InvalidArgument(name + ": " + e.what());
   }
@@ -222,7 +223,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Registry& regis
   if (!keep) r.file.values = Values();
   t0 = std::chrono::steady_clock::now();
   try {
-    r.init = InitializeProblem(r.file.graph, &values, options.init, options.input);
+    r.init = InitializeProblem(r.file.graph, &values, options.init, options.input, options.solver.linear_solver);
   } catch (const Error& e) {
     return stop(PipelineStatus::kBadInput, e.what());
   }

@@ -9,6 +9,8 @@
 // Positions are compared to 1e-6 m, angles to 1e-6 rad: at the optimum chi2 is flat, so 1e-9
 // in chi2 allows the variables to differ by about sqrt(1e-9) of their spread, and they differ
 // far less (the steps agree to rounding).
+#include "tether/solvers/distributed.h"
+
 #include <gtest/gtest.h>
 #include <mpi.h>
 
@@ -23,7 +25,6 @@
 #include "tether/factors/pose_point.h"
 #include "tether/factors/prior.h"
 #include "tether/frontends/simulation/simulate.h"
-#include "tether/solvers/distributed.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
 
@@ -150,6 +151,19 @@ TEST(Distributed, IterativeReachesTheOptimum) {
   EXPECT_NE(got.summary.FullReport().find("gamg"), std::string::npos) << got.summary.FullReport();
 }
 
+// The chordal start through the distributed solver: every process gets the same start, the
+// one the single-process Cholesky gives (to rounding: 1e-9).
+TEST(Distributed, ChordalStartThroughTheDistributedSolver) {
+  const SimulatedGraph s = Sim(SimWorld::kSphere, 500, 8);
+  Values local = s.initial, spread = s.initial;
+  Initialize(s.graph, &local, InitMethod::kChordal);
+  const InitSummary i = Initialize(s.graph, &spread, InitMethod::kChordal, LinearSolverType("petsc"));
+  EXPECT_EQ(i.poses_set, 499);
+  EXPECT_TRUE(SameOnEveryProcess(spread));
+  EXPECT_LT(LargestDifference(spread, local), 1e-9);
+  EXPECT_GT(LargestDifference(spread, s.initial), 1e-3);  // it did move the poses
+}
+
 // A singular system is reported by every process alike, and none waits for the others:
 // Gauss-Newton (which does not damp) on a pose seen only from a landmark at its own place, whose
 // heading no measurement depends on.
@@ -178,7 +192,8 @@ class DistributedDataset : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(DistributedDataset, SameOptimumAsCholmod) {
   const std::string path = std::string(TETHER_DATASETS_DIR) + "/g2o/" + GetParam();
-  if (!std::ifstream(path).good()) GTEST_SKIP() << "dataset " << path << " absent (../shared/datasets not beside the repository)";
+  if (!std::ifstream(path).good())
+    GTEST_SKIP() << "dataset " << path << " absent (../shared/datasets not beside the repository)";
   const GraphFile f = ReadGraphFile(path, DefaultRegistry());
   ExpectSameAsCholmod(f.graph, ChordalStart(f.graph, f.values));
 }

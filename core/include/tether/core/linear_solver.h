@@ -113,6 +113,9 @@ struct LinearSolverEntry {
   /// for later systems (LinearSolverOptions::max_reuse_iterations), and take the linear
   /// model's decrease from the system instead of forming A x.
   bool direct = false;
+  /// Whether the solver spans the processes of an MPI job ("petsc"): then the chordal start
+  /// solves its systems with it as well, so that every process starts from the same values.
+  bool spans_processes = false;
   LinearSolverFactory make;
 };
 

@@ -20,6 +20,7 @@
 #include "tether/core/enum_names.h"
 #include "tether/core/factor_graph.h"
 #include "tether/core/values.h"
+#include "tether/solvers/solver_options.h"
 
 namespace tether {
 
@@ -44,5 +45,11 @@ struct InitSummary {
 /// `values` untouched) when a variable used by the graph has no value and cannot be reached,
 /// or when a linear system is singular.
 InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method);
+/// As above; where `linear_solver` names a solver that spans the processes of an MPI job
+/// ("petsc", "petsc-iterative"; tether/solvers/distributed.h), the chordal start's rotation
+/// and translation systems are solved by it, every process taking part and getting the same
+/// start. Any other name: as above (the default sparse Cholesky).
+InitSummary Initialize(const FactorGraph& graph, Values* values, InitMethod method,
+                       const LinearSolverType& linear_solver);
 
 }  // namespace tether

@@ -190,7 +190,9 @@ struct PipelineHooks {
 GraphFile ReadProblem(const PipelineOptions& options, const Registry& registry);
 /// Replaces `values` with the initial guess of `method` (Initialize). Throws InvalidArgument
 /// starting "name: " where the graph cannot be initialised; the values are then untouched.
-InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name);
+/// `linear_solver`: the solve's, which the chordal start uses where it spans processes.
+InitSummary InitializeProblem(const FactorGraph& graph, Values* values, InitMethod method, const std::string& name,
+                              const LinearSolverType& linear_solver = LinearSolverType::kAuto);
 /// Optimises `values` over `graph` (Optimize; the summary's status says whether it worked).
 SolverSummary OptimizeProblem(const FactorGraph& graph, Values* values, const SolverOptions& options);
 /// Writes the graph with `values` as g2o to `path` (temporary file renamed). Throws IoError.
