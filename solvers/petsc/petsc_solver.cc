@@ -3,14 +3,17 @@
 // multigrid, GAMG), and the start of MPI and PETSc. Loaded by libtether_solvers at the first
 // use (../src/distributed.cc, ../src/petsc_module.h).
 //
-// Every process holds the whole normal-equation matrix H (each runs the same solve). The
-// variables are split by a METIS k-way partition of their graph (weighted by their tangent
-// sizes), computed on the first process and sent to the others; PETSc numbers them part after
-// part, so that each process owns a contiguous range of block rows, and each process sets only
-// the blocks of its own rows (MatSetValuesBlocked). The pattern is analysed once (Analyze);
-// every Factorize sets the values into the same PETSc matrix, whose unchanged nonzero pattern
-// lets PETSc and MUMPS keep the symbolic factorisation. The step comes back whole to every
-// process (a scatter to all).
+// Two ways to hand H over. Split (Partition was called: more than one process): the variables
+// are split by a METIS k-way partition of their graph (weighted by their tangent sizes),
+// computed on the first process and sent to the others; each process holds its share of H (its
+// own factors') and adds every nonzero block of it into one PETSc matrix, PETSc sending the
+// blocks of rows another process owns to it. Whole (the chordal start's systems, or one
+// process): every process holds the whole H, partitions its block graph the same way and sets
+// only the blocks of its own rows. Either way PETSc numbers the variables part after part, so
+// that each process owns a contiguous range of block rows; the pattern is analysed once
+// (Analyze), and every Factorize puts the values into the same PETSc matrix, whose unchanged
+// nonzero pattern lets PETSc and MUMPS keep the symbolic factorisation. The step comes back
+// whole to every process (a scatter to all).
 #include <metis.h>
 #include <petscksp.h>
 
@@ -114,59 +117,53 @@ bool Start(const std::string& options, int* rank_out, int* size_out, std::string
 
 void Abort(int exit_code) { MPI_Abort(PETSC_COMM_WORLD, exit_code); }
 
-// A METIS k-way partition of the variables' graph (an edge where H has a block), weighted by
+// A METIS k-way partition of the variables' graph (compressed rows, no self-loops), weighted by
 // the variables' tangent sizes, into `parts`: part[v] for each variable, computed on the first
 // process and sent to the others (so that all use one even where METIS's arithmetic differed).
-// Returns METIS's edge cut (0 for one part).
-int PartitionVariables(const SparseMatrixView& a, const std::vector<int>& col_var, const std::vector<int>& block_sizes,
-                       int parts, std::vector<int>* part) {
+// Returns METIS's edge cut (0 for one part, -1 where METIS failed and contiguous ranges of the
+// variables stand in: a partition is only about speed).
+int PartitionVariables(const std::vector<int>& xadj_in, const std::vector<int>& adjacency,
+                       const std::vector<int>& block_sizes, int parts, std::vector<int>* part) {
   const int nv = static_cast<int>(block_sizes.size());
   part->assign(nv, 0);
   int cut = 0;
-  if (parts > 1 && nv > 0) {
-    if (rank == 0) {
-      std::vector<std::vector<idx_t>> adj(nv);
-      for (int c = 0; c < a.cols; ++c) {
-        for (int k = a.colptr[c]; k < a.colptr[c + 1]; ++k) {
-          const int u = col_var[a.rowind[k]], v = col_var[c];
-          if (u == v) continue;
-          adj[u].push_back(v);
-          adj[v].push_back(u);
-        }
-      }
-      std::vector<idx_t> xadj(1, 0), adjncy, vwgt(block_sizes.begin(), block_sizes.end());
-      for (std::vector<idx_t>& l : adj) {
-        std::sort(l.begin(), l.end());
-        l.erase(std::unique(l.begin(), l.end()), l.end());
-        adjncy.insert(adjncy.end(), l.begin(), l.end());
-        xadj.push_back(static_cast<idx_t>(adjncy.size()));
-        std::vector<idx_t>().swap(l);
-      }
-      idx_t n = nv, ncon = 1, np = parts, objval = 0;
-      idx_t opts[METIS_NOPTIONS];
-      METIS_SetDefaultOptions(opts);
-      opts[METIS_OPTION_SEED] = 1;  // the same partition on every run
-      std::vector<idx_t> p(nv, 0);
-      int status = METIS_OK;
-      if (nv >= parts && !adjncy.empty()) {
-        status = METIS_PartGraphKway(&n, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, nullptr, &np, nullptr,
-                                     nullptr, opts, &objval, p.data());
-      } else {
-        for (int v = 0; v < nv; ++v) p[v] = static_cast<idx_t>(static_cast<long>(v) * parts / nv);
-      }
-      if (status != METIS_OK) {
-        // A partition is only about speed: fall back to contiguous ranges of the columns.
-        for (int v = 0; v < nv; ++v) p[v] = static_cast<idx_t>(static_cast<long>(v) * parts / nv);
-        objval = -1;
-      }
-      std::copy(p.begin(), p.end(), part->begin());
-      cut = static_cast<int>(objval);
+  if (parts <= 1 || nv == 0) return 0;
+  if (rank == 0) {
+    std::vector<idx_t> xadj(xadj_in.begin(), xadj_in.end()), adj(adjacency.begin(), adjacency.end());
+    std::vector<idx_t> vwgt(block_sizes.begin(), block_sizes.end()), p(nv, 0);
+    idx_t n = nv, ncon = 1, np = parts, objval = 0;
+    idx_t opts[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(opts);
+    opts[METIS_OPTION_SEED] = 1;  // the same partition on every run
+    int status = METIS_ERROR;
+    if (nv >= parts && !adj.empty()) {
+      status = METIS_PartGraphKway(&n, &ncon, xadj.data(), adj.data(), vwgt.data(), nullptr, nullptr, &np, nullptr,
+                                   nullptr, opts, &objval, p.data());
     }
-    MPI_Bcast(part->data(), nv, MPI_INT, 0, PETSC_COMM_WORLD);
-    MPI_Bcast(&cut, 1, MPI_INT, 0, PETSC_COMM_WORLD);
+    if (status != METIS_OK) {
+      for (int v = 0; v < nv; ++v) p[v] = static_cast<idx_t>(static_cast<long>(v) * parts / nv);
+      objval = -1;
+    }
+    std::copy(p.begin(), p.end(), part->begin());
+    cut = static_cast<int>(objval);
   }
+  MPI_Bcast(part->data(), nv, MPI_INT, 0, PETSC_COMM_WORLD);
+  MPI_Bcast(&cut, 1, MPI_INT, 0, PETSC_COMM_WORLD);
   return cut;
 }
+
+// The job's processes, as the solve sees them (tether/core/linear_solver.h).
+class Processes : public ProcessGroup {
+ public:
+  int rank() const override { return petsc::rank; }
+  int size() const override { return petsc::size; }
+  void Broadcast(double* values, int n) override {
+    if (petsc::size > 1 && n > 0) MPI_Bcast(values, n, MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+  }
+  void Sum(double* values, int n) override {
+    if (petsc::size > 1 && n > 0) MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+  }
+};
 
 class PetscSolver : public LinearSolver {
  public:
@@ -189,18 +186,35 @@ class PetscSolver : public LinearSolver {
   LinearSolverStatus Solve(const double* b, double* x) override;
   std::string Description() const override { return description_; }
   int last_iterations() const override { return last_iterations_; }
-  void AgreeAcrossProcesses(double* values, int n) override {
-    if (size > 1 && n > 0) MPI_Bcast(values, n, MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+  ProcessGroup* processes() override { return &processes_; }
+  // Splits the problem where there is more than one process (the variables' owners by METIS).
+  bool Partition(const std::vector<int>& xadj, const std::vector<int>& adjacency, const std::vector<int>& block_sizes,
+                 std::vector<int>* owner) override {
+    if (size <= 1) return false;
+    edge_cut_ = PartitionVariables(xadj, adjacency, block_sizes, size, &part_);
+    *owner = part_;
+    split_ = true;
+    return true;
   }
 
  private:
   void Number(const std::vector<int>& block_sizes, const std::vector<int>& part);
   void CollectBlocks(const SparseMatrixView& a);
+  // Per block row of this process: how many blocks in its own columns (d) and in others' (o),
+  // over every process's share where the problem is split.
+  void CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o) const;
   void CreateMatrix();
   void CreateSolver();
 
   LinearSolverOptions options_;
   bool iterative_;
+  Processes processes_;
+  // Partition was called: each process holds its share of H (its factors'), whose blocks go to
+  // the processes that own their rows and are added there. Else every process holds the whole
+  // H and sets its own rows only.
+  bool split_ = false;
+  std::vector<int> part_;         // each variable's process
+  std::vector<int> range_begin_;  // each process's first column in PETSc's numbering (+ the end)
   int n_ = 0;
   int bs_ = 1;                       // PETSc's block size: the variables' one size, or 1 where they differ
   std::vector<int> new_col_;         // PETSc's index of each column of H
@@ -236,9 +250,32 @@ void PetscSolver::Analyze(const SparseMatrixView& a, const std::vector<int>& blo
   for (int d : block_sizes) {
     if (d != bs_) bs_ = 1;
   }
-  std::vector<int> part;
-  edge_cut_ = PartitionVariables(a, col_var, block_sizes, size, &part);
-  Number(block_sizes, part);
+  if (!split_) {
+    // Every process holds the whole H: partition its block graph here.
+    const int nv = static_cast<int>(block_sizes.size());
+    std::vector<std::vector<int>> adj(nv);
+    for (int c = 0; c < a.cols; ++c) {
+      for (int k = a.colptr[c]; k < a.colptr[c + 1]; ++k) {
+        const int u = col_var[a.rowind[k]], v = col_var[c];
+        if (u == v) continue;
+        adj[u].push_back(v);
+        adj[v].push_back(u);
+      }
+    }
+    std::vector<int> xadj(1, 0), adjacency;
+    for (std::vector<int>& l : adj) {
+      std::sort(l.begin(), l.end());
+      l.erase(std::unique(l.begin(), l.end()), l.end());
+      adjacency.insert(adjacency.end(), l.begin(), l.end());
+      xadj.push_back(static_cast<int>(adjacency.size()));
+      std::vector<int>().swap(l);
+    }
+    edge_cut_ = PartitionVariables(xadj, adjacency, block_sizes, size, &part_);
+  } else if (part_.size() != block_sizes.size()) {
+    throw Error("petsc: Analyze got " + std::to_string(block_sizes.size()) + " variables, Partition " +
+                std::to_string(part_.size()));
+  }
+  Number(block_sizes, part_);
   CollectBlocks(a);
   CreateMatrix();
   CreateSolver();
@@ -256,21 +293,18 @@ void PetscSolver::Number(const std::vector<int>& block_sizes, const std::vector<
   new_col_.assign(n_, 0);
   old_col_.assign(n_, 0);
   int next = 0;
-  own_begin_ = own_end_ = -1;
   for (int v : order) {
-    if (part[v] == rank && own_begin_ < 0) own_begin_ = next;
     for (int i = 0; i < block_sizes[v]; ++i) {
       new_col_[start[v] + i] = next;
       old_col_[next] = start[v] + i;
       ++next;
     }
-    if (part[v] == rank) own_end_ = next;
   }
-  if (own_begin_ < 0) {  // no variable here: an empty range where the part would begin
-    int before = 0;
-    for (int v = 0; v < nv; ++v) before += part[v] < rank ? block_sizes[v] : 0;
-    own_begin_ = own_end_ = before;
-  }
+  range_begin_.assign(size + 1, 0);
+  for (int v = 0; v < nv; ++v) range_begin_[part[v] + 1] += block_sizes[v];
+  for (int r = 0; r < size; ++r) range_begin_[r + 1] += range_begin_[r];
+  own_begin_ = range_begin_[rank];
+  own_end_ = range_begin_[rank + 1];
 }
 
 // The blocks of this process's rows: the upper triangle for MUMPS's symmetric Cholesky
@@ -289,7 +323,8 @@ void PetscSolver::CollectBlocks(const SparseMatrixView& a) {
     }
     return &block_slot_[static_cast<std::size_t>(it->second) * bs2 + (row % bs_) * bs_ + col % bs_];
   };
-  auto mine = [this](int row) { return row >= own_begin_ && row < own_end_; };
+  // Split: every block of this process's share goes (to its row's owner); else own rows only.
+  auto mine = [this](int row) { return split_ || (row >= own_begin_ && row < own_end_); };
   for (int c = 0; c < a.cols; ++c) {
     for (int k = a.colptr[c]; k < a.colptr[c + 1]; ++k) {
       const int r = a.rowind[k];
@@ -319,16 +354,57 @@ void PetscSolver::CollectBlocks(const SparseMatrixView& a) {
   buffer_.assign(bs2, 0.0);
 }
 
+void PetscSolver::CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o) const {
+  const int first_block = own_begin_ / bs_, blocks = (own_end_ - own_begin_) / bs_;
+  std::vector<long long> rows_cols;        // (row, column) of the blocks of this process's rows
+  std::vector<std::vector<int>> to(size);  // the others' blocks, as row, column pairs
+  for (std::size_t i = 0; i < block_row_.size(); ++i) {
+    const int row = block_row_[i];
+    const int owner =
+        static_cast<int>(std::upper_bound(range_begin_.begin(), range_begin_.end(), row * bs_) - range_begin_.begin()) -
+        1;
+    if (owner == rank) {
+      rows_cols.push_back(static_cast<long long>(row) * (n_ / bs_ + 1) + block_col_[i]);
+    } else {
+      to[owner].push_back(row);
+      to[owner].push_back(block_col_[i]);
+    }
+  }
+  if (split_ && size > 1) {
+    // The blocks the other processes will add into this process's rows join its own.
+    std::vector<int> send_counts(size), recv_counts(size), send_at(size + 1, 0), recv_at(size + 1, 0);
+    for (int r = 0; r < size; ++r) send_counts[r] = static_cast<int>(to[r].size());
+    MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, PETSC_COMM_WORLD);
+    std::vector<int> send;
+    for (int r = 0; r < size; ++r) {
+      send.insert(send.end(), to[r].begin(), to[r].end());
+      std::vector<int>().swap(to[r]);
+      send_at[r + 1] = send_at[r] + send_counts[r];
+      recv_at[r + 1] = recv_at[r] + recv_counts[r];
+    }
+    std::vector<int> recv(static_cast<std::size_t>(recv_at[size]));
+    MPI_Alltoallv(send.data(), send_counts.data(), send_at.data(), MPI_INT, recv.data(), recv_counts.data(),
+                  recv_at.data(), MPI_INT, PETSC_COMM_WORLD);
+    for (std::size_t i = 0; i + 1 < recv.size(); i += 2) {
+      rows_cols.push_back(static_cast<long long>(recv[i]) * (n_ / bs_ + 1) + recv[i + 1]);
+    }
+  }
+  std::sort(rows_cols.begin(), rows_cols.end());
+  rows_cols.erase(std::unique(rows_cols.begin(), rows_cols.end()), rows_cols.end());
+  d->assign(blocks, 0);
+  o->assign(blocks, 0);
+  for (long long rc : rows_cols) {
+    const int row = static_cast<int>(rc / (n_ / bs_ + 1)) - first_block;
+    const int col = static_cast<int>(rc % (n_ / bs_ + 1));
+    const bool inside = col >= first_block && col < first_block + blocks;
+    ++(inside ? *d : *o)[row];
+  }
+}
+
 void PetscSolver::CreateMatrix() {
   const int local = own_end_ - own_begin_;
-  const int first_block = own_begin_ / bs_, blocks = local / bs_;
-  // Blocks per row inside this process's columns (d) and outside them (o).
-  std::vector<PetscInt> d(blocks, 0), o(blocks, 0);
-  for (std::size_t i = 0; i < block_row_.size(); ++i) {
-    const int row = block_row_[i] - first_block;
-    const bool inside = block_col_[i] >= first_block && block_col_[i] < first_block + blocks;
-    ++(inside ? d : o)[row];
-  }
+  std::vector<PetscInt> d, o;
+  CountBlocks(&d, &o);
   TETHER_PETSC(MatCreate(PETSC_COMM_WORLD, &mat_));
   TETHER_PETSC(MatSetSizes(mat_, local, local, n_, n_));
   TETHER_PETSC(MatSetType(mat_, iterative_ ? MATAIJ : MATSBAIJ));
@@ -373,18 +449,26 @@ void PetscSolver::CreateSolver() {
     if (st != nullptr) what += std::string(" (") + st + ")";
   }
   char buf[200];
-  std::snprintf(buf, sizeof buf, " on %d process%s, METIS k-way (edge cut %d), block size %d", size,
-                size == 1 ? "" : "es", edge_cut_, bs_);
+  std::snprintf(buf, sizeof buf, " on %d process%s, METIS k-way (edge cut %d), block size %d%s", size,
+                size == 1 ? "" : "es", edge_cut_, bs_, split_ ? ", factors split by owner" : "");
   description_ = what + buf;
 }
 
 LinearSolverStatus PetscSolver::Factorize(const SparseMatrixView& a) {
   const int bs2 = bs_ * bs_;
+  // Split: every process adds its share (blocks of zeros left out), so the matrix starts empty.
+  if (split_) TETHER_PETSC(MatZeroEntries(mat_));
+  const InsertMode mode = split_ ? ADD_VALUES : INSERT_VALUES;
   for (std::size_t i = 0; i < block_row_.size(); ++i) {
     const int* s = &block_slot_[i * bs2];
-    for (int e = 0; e < bs2; ++e) buffer_[e] = s[e] >= 0 ? a.values[s[e]] : 0.0;
+    bool zero = true;
+    for (int e = 0; e < bs2; ++e) {
+      buffer_[e] = s[e] >= 0 ? a.values[s[e]] : 0.0;
+      zero = zero && buffer_[e] == 0.0;
+    }
+    if (split_ && zero) continue;
     const PetscInt row = block_row_[i], col = block_col_[i];
-    TETHER_PETSC(MatSetValuesBlocked(mat_, 1, &row, 1, &col, buffer_.data(), INSERT_VALUES));
+    TETHER_PETSC(MatSetValuesBlocked(mat_, 1, &row, 1, &col, buffer_.data(), mode));
   }
   TETHER_PETSC(MatAssemblyBegin(mat_, MAT_FINAL_ASSEMBLY));
   TETHER_PETSC(MatAssemblyEnd(mat_, MAT_FINAL_ASSEMBLY));

@@ -23,8 +23,9 @@ double Dot(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
-LinearSystem::LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options)
-    : p_(p), form_(entry.form), exact_(entry.direct) {
+LinearSystem::LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options,
+                           std::unique_ptr<LinearSolver> solver, bool split)
+    : p_(p), form_(entry.form), exact_(entry.direct), solver_(std::move(solver)), split_(split) {
   const int n = p->tangent_dim();
   g_.assign(n, 0.0);
   diag_.assign(n, 0.0);
@@ -41,8 +42,12 @@ LinearSystem::LinearSystem(Problem* p, const LinearSolverEntry& entry, const Lin
     jx_.assign(mat_.rows, 0.0);
   }
   for (std::vector<double>* v : {&r_, &z_, &p_dir_, &hp_}) v->assign(n, 0.0);
-  solver_ = entry.make(options);
+  if (!solver_) solver_ = entry.make(options);
   if (!solver_) throw Error("linear solver '" + entry.name + "' (owner '" + entry.owner + "') made no solver");
+  group_ = solver_->processes();
+  if (split_ && (group_ == nullptr || !normal))
+    throw Error("a split problem needs a solver of the normal equations that spans processes");
+  damps_ = !split_ || group_->rank() == 0;
   solver_->Analyze(View(mat_), p->BlockSizes());
   if (normal && exact_) {
     reuse_ = options.max_reuse_iterations > 0;
@@ -81,12 +86,20 @@ void LinearSystem::Assemble() {
     return;
   }
   p_->AssembleNormal(&mat_, g_.data());
-  Agree(g_.data(), static_cast<int>(g_.size()));
   for (std::size_t i = 0; i < damping_pos_.size(); ++i) {
     undamped_diag_[i] = mat_.values[damping_pos_[i]];
     diag_[i] = undamped_diag_[i];
-    neg_g_[i] = -g_[i];
   }
+  // Where the solve spans processes: g and diag(H) whole and one on every process.
+  Total(g_.data(), static_cast<int>(g_.size()));
+  Total(diag_.data(), static_cast<int>(diag_.size()));
+  for (std::size_t i = 0; i < g_.size(); ++i) neg_g_[i] = -g_[i];
+}
+
+void LinearSystem::Total(double* values, int n) const {
+  if (group_ == nullptr) return;
+  if (split_) group_->Sum(values, n);
+  group_->Broadcast(values, n);
 }
 
 double LinearSystem::ClampedDiag(std::size_t i) const { return std::clamp(diag_[i], 1e-6, 1e32); }
@@ -98,7 +111,8 @@ void LinearSystem::ApplyDamping(double lambda) {
     if (form_ == LinearSystemForm::kJacobian) {
       mat_.values[damping_pos_[i]] = std::sqrt(lambda * d);
     } else {
-      mat_.values[damping_pos_[i]] = undamped_diag_[i] + lambda * d;
+      // Split between processes: the damping goes into the first process's share only.
+      mat_.values[damping_pos_[i]] = damps_ ? undamped_diag_[i] + lambda * d : undamped_diag_[i];
     }
   }
 }
@@ -156,7 +170,7 @@ double LinearSystem::PredictedDecrease(const std::vector<double>& d, double lamb
     MultiplyJtJ(d, &hp_);  // undamped
     decrease = -2 * Dot(g_, d) - Dot(d, hp_);
   } else {
-    MultiplyH(d, &hp_);  // (H + lambda D) d
+    MultiplyWholeH(d, &hp_);  // (H + lambda D) d
     decrease = -2 * Dot(g_, d) - (Dot(d, hp_) - lambda * dDd);
   }
   Agree(&decrease, 1);
@@ -168,11 +182,16 @@ void LinearSystem::MultiplyUndamped(const std::vector<double>& x, std::vector<do
     MultiplyJtJ(x, y);
     return;
   }
-  MultiplyH(x, y);
+  MultiplyWholeH(x, y);
   if (lambda_ != 0) {
     for (std::size_t i = 0; i < x.size(); ++i) (*y)[i] -= lambda_ * ClampedDiag(i) * x[i];
   }
   Agree(y->data(), static_cast<int>(y->size()));
+}
+
+void LinearSystem::MultiplyWholeH(const std::vector<double>& x, std::vector<double>* y) const {
+  MultiplyH(x, y);
+  if (split_) Total(y->data(), static_cast<int>(y->size()));
 }
 
 void LinearSystem::MultiplyH(const std::vector<double>& x, std::vector<double>* y) const {
@@ -231,14 +250,14 @@ bool LinearSystem::Pcg(std::vector<double>* delta, int* iterations) {
   solver_->Solve(neg_g_.data(), x.data());  // x0 = M^-1 b
   const double bMb = Dot(neg_g_, x);
   if (!(bMb > 0) || !std::isfinite(bMb)) return false;
-  MultiplyH(x, &hp_);
+  MultiplyWholeH(x, &hp_);
   // A first look without another solve: the same ratio with diag(H) in place of M. On the
   // public files it is within about 30x of the true one, so far above the gate it spares
   // the solve below (the steps from a rough start).
   double rDr = 0, bDb = 0;
   for (std::size_t i = 0; i < n; ++i) {
     r_[i] = neg_g_[i] - hp_[i];
-    const double d = mat_.values[damping_pos_[i]];
+    const double d = diag_[i] + lambda_ * ClampedDiag(i);  // H + lambda D's diagonal, whole
     rDr += r_[i] * r_[i] / d;
     bDb += neg_g_[i] * neg_g_[i] / d;
   }
@@ -253,7 +272,7 @@ bool LinearSystem::Pcg(std::vector<double>* delta, int* iterations) {
   const double rz0 = rz;
   for (int k = 1; k <= max_reuse_iterations_; ++k) {
     *iterations = k;
-    MultiplyH(p_dir_, &hp_);
+    MultiplyWholeH(p_dir_, &hp_);
     const double curvature = Dot(p_dir_, hp_);
     if (!(curvature > 0) || !std::isfinite(curvature)) return false;
     const double alpha = rz / curvature;

@@ -35,8 +35,11 @@ void ReuseWhileCheaper(double f, double s, double m, bool* reuse, int* max_itera
 class LinearSystem : public StepSystem {
  public:
   /// Builds the structure and lets the solver analyse it. Throws tether::Error where the
-  /// solver cannot handle the problem.
-  LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options);
+  /// solver cannot handle the problem. `solver`: one already made from `entry` (null: made
+  /// here); `split`: it partitioned the problem (LinearSolver::Partition) and `p` holds this
+  /// process's share of the factors, so H and g here are this process's share.
+  LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options,
+               std::unique_ptr<LinearSolver> solver = nullptr, bool split = false);
 
   /// After Problem::Linearize: builds H (or J) and the gradient for the current point.
   void Assemble();
@@ -60,8 +63,10 @@ class LinearSystem : public StepSystem {
   void MultiplyUndamped(const std::vector<double>& x, std::vector<double>* y) override;
 
   const std::vector<double>& gradient() const override { return g_; }
-  /// The solver's LinearSolver::AgreeAcrossProcesses (a no-op for a solver in one process).
-  void Agree(double* values, int n) const { solver_->AgreeAcrossProcesses(values, n); }
+  /// Where the solver spans processes: makes n values one across them (the first process's).
+  void Agree(double* values, int n) const {
+    if (group_ != nullptr) group_->Broadcast(values, n);
+  }
   const LinearSolveStats& stats() const { return stats_; }
   std::string Description() const { return solver_->Description(); }
 
@@ -72,6 +77,11 @@ class LinearSystem : public StepSystem {
   // holds the diagonal blocks whole; their entries below the diagonal are skipped, as CHOLMOD
   // skips them.
   void MultiplyH(const std::vector<double>& x, std::vector<double>* y) const;
+  // H x where H is split between processes: the sum of every process's share (MultiplyH alone
+  // otherwise).
+  void MultiplyWholeH(const std::vector<double>& x, std::vector<double>* y) const;
+  // Where the factors are split: the sum over the processes, made one; else as Agree.
+  void Total(double* values, int n) const;
   // y = J^T J x over the Jacobian's rows (the damping rows left out).
   void MultiplyJtJ(const std::vector<double>& x, std::vector<double>* y);
   bool Pcg(std::vector<double>* delta, int* iterations);
@@ -90,6 +100,9 @@ class LinearSystem : public StepSystem {
   std::vector<double> r_, z_, p_dir_, hp_;  // conjugate-gradient work (no allocation per step)
   std::vector<double> jx_;                  // J x, for MultiplyJtJ
   std::unique_ptr<LinearSolver> solver_;
+  ProcessGroup* group_ = nullptr;  // solver_->processes()
+  bool split_ = false;             // H, g and the diagonal here are this process's share
+  bool damps_ = true;              // this process's share carries the damping (the first's)
   LinearSolveStats stats_;
 };
 

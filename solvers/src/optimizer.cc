@@ -28,20 +28,58 @@ SolverSummary Invalid(SolverSummary s, const std::string& why) {
 }
 
 // The problem of the graph, with the gauge chosen; nullptr (and the summary says why) where
-// the graph is invalid.
+// the graph is invalid. Where `solver` spans processes and splits the problem between them
+// (LinearSolver::Partition), this process's Problem holds only the factors whose first free
+// variable it owns, and *split is set.
 internal::Problem* BuildProblem(const FactorGraph& graph, Values* values, const SolverOptions& options,
-                                std::unique_ptr<internal::Problem>* holder, SolverSummary* s) {
+                                LinearSolver* solver, std::unique_ptr<internal::Problem>* holder, SolverSummary* s,
+                                bool* split) {
   const std::set<Key> fixed = internal::ChooseFixed(graph, *values, s);
+  ProcessGroup* group = solver->processes();
+  std::vector<char> mask;
+  *split = false;
+  std::string failure;
   try {
-    *holder = std::make_unique<internal::Problem>(graph, values, fixed, options.num_threads);
+    if (group != nullptr && group->size() > 1) {
+      const internal::VariableGraph vg = internal::Problem::Variables(graph, *values, fixed);
+      std::vector<int> owner;
+      if (solver->Partition(vg.xadj, vg.adjacency, vg.block_sizes, &owner)) {
+        mask.assign(graph.size(), 0);
+        for (std::size_t f = 0; f < graph.size(); ++f) {
+          // A factor of fixed variables only adds a constant to chi2: the first process's.
+          const int v = vg.first_free[f];
+          mask[f] = (v >= 0 ? owner[v] : 0) == group->rank();
+        }
+        *split = true;
+      }
+    }
+    *holder = std::make_unique<internal::Problem>(graph, values, fixed, options.num_threads, *split ? &mask : nullptr);
   } catch (const Error& e) {
-    *s = Invalid(*s, e.what());
+    failure = e.what();
+  }
+  if (group != nullptr) {
+    // One process's share may fail where another's does not: all give up together.
+    double failed = failure.empty() ? 0.0 : 1.0;
+    group->Sum(&failed, 1);
+    if (failed > 0 && failure.empty()) {
+      failure = "another process of the job could not build its share of the problem (its message says why)";
+    }
+  }
+  if (!failure.empty()) {
+    holder->reset();
+    *s = Invalid(*s, failure);
     return nullptr;
   }
   internal::Problem& p = **holder;
+  p.set_processes(group, *split);
   s->num_variables = p.num_free();
   s->num_fixed = static_cast<int>(values->size()) - p.num_free();
   s->num_residuals = p.num_residuals();
+  if (*split) {
+    double residuals = p.num_residuals();
+    group->Sum(&residuals, 1);
+    s->num_residuals = static_cast<int>(residuals);
+  }
   s->tangent_dim = p.tangent_dim();
   return &p;
 }
@@ -103,9 +141,31 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   s.num_factors = static_cast<int>(graph.size());
   std::string why;
   if (!options.IsValid(&why)) return Invalid(s, "invalid options: " + why);
-  internal::Problem* p = BuildProblem(graph, values, options, holder, &s);
+  // The linear solver first: one that spans processes may split the problem between them.
+  LinearSolverEntry entry;  // a copy: a plugin may remove its solver while this one solves
+  if (!internal::LinearSolvers().Get(options.linear_solver.name(), &entry)) {
+    return Invalid(s, "no linear solver is named '" + options.linear_solver.name() + "'");
+  }
+  std::unique_ptr<LinearSolver> solver;
+  try {
+    solver = entry.make(options.linear);
+  } catch (const Error& e) {
+    return Invalid(s, e.what());
+  }
+  if (!solver) {
+    return Invalid(s, "linear solver '" + entry.name + "' (owner '" + entry.owner + "') made no solver");
+  }
+  bool split = false;
+  internal::Problem* p = BuildProblem(graph, values, options, solver.get(), holder, &s, &split);
+  if (p == nullptr) return s;
+  // The Problem outlives the solver (the holder keeps it for Restore): it forgets the
+  // processes when this solve ends, however it ends.
+  struct ForgetProcesses {
+    internal::Problem* p;
+    ~ForgetProcesses() { p->set_processes(nullptr, false); }
+  } forget{p};
   double chi2 = 0;
-  if (p == nullptr || !LinearizeStart(*p, &s, &chi2)) return s;
+  if (!LinearizeStart(*p, &s, &chi2)) return s;
   // The log grows without reallocating for the first 1024 iterations (none in the loop).
   s.log.reserve(static_cast<std::size_t>(std::min(options.max_iterations, 1023)) + 1);
   // Looked up once, here: a plugin may remove a strategy after IsValid saw it.
@@ -122,20 +182,10 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   if (p->tangent_dim() == 0) return NothingToOptimise(std::move(s), options, *strategy, chi2, t0);
   std::unique_ptr<internal::LinearSystem> system;
   try {
-    LinearSolverEntry entry;  // a copy: a plugin may remove its solver while this one solves
-    if (!internal::LinearSolvers().Get(options.linear_solver.name(), &entry)) {
-      return Invalid(s, "no linear solver is named '" + options.linear_solver.name() + "'");
-    }
-    system = std::make_unique<internal::LinearSystem>(p, entry, options.linear);
+    system = std::make_unique<internal::LinearSystem>(p, entry, options.linear, std::move(solver), split);
   } catch (const Error& e) {
     return Invalid(s, e.what());
   }
-  // Cleared before the system goes, even where the solve throws: the Problem outlives it.
-  struct AgreeWhileSolving {
-    internal::Problem* p;
-    ~AgreeWhileSolving() { p->set_agree(nullptr); }
-  } agree{p};
-  p->set_agree([sys = system.get()](double* v, int n) { sys->Agree(v, n); });
   RecordSettings(options, *strategy, *system, &s);
   s.setup_seconds = SecondsSince(t0);
   internal::Minimizer(options, p, system.get(), strategy.get(), &s, t0).Minimize(chi2);

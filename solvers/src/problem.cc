@@ -121,7 +121,7 @@ std::string Problem::DescribeNonFinite() const {
       size[a] = f.m * e.dim;
       off += size[a];
     }
-    const std::string where = "factor " + std::to_string(fi) + " (" + f.factor->Describe() + ")";
+    const std::string where = "factor " + std::to_string(f.index) + " (" + f.factor->Describe() + ")";
     if (!f.factor->Linearize(params_.data() + f.first, r.data(), jp.data())) return where + " fails to evaluate";
     for (int i = 0; i < f.m; ++i) {
       if (!std::isfinite(r[i])) return where + " has a non-finite error";
@@ -137,25 +137,74 @@ std::string Problem::DescribeNonFinite() const {
   return "";
 }
 
-Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads) {
-  // Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR
-  // permute for fill-in themselves).
-  // Variables no factor uses stay as they are (they would only make H singular).
+namespace {
+
+// Free variables in insertion order; their columns follow that order (CHOLMOD and SPQR permute
+// for fill-in themselves). Variables no factor uses stay as they are (they would only make H
+// singular). Calls add(key) for each, in order.
+template <typename Add>
+void ForEachFreeVariable(const FactorGraph& graph, const Values& values, const std::set<Key>& fixed, Add add) {
   std::unordered_set<Key> used;
   for (const auto& f : graph.factors()) used.insert(f->keys().begin(), f->keys().end());
+  for (Key k : values.keys()) {
+    if (!fixed.count(k) && used.count(k)) add(k);
+  }
+}
+
+}  // namespace
+
+VariableGraph Problem::Variables(const FactorGraph& graph, const Values& values, const std::set<Key>& fixed) {
+  VariableGraph g;
+  std::unordered_map<Key, int> index;
+  ForEachFreeVariable(graph, values, fixed, [&](Key k) {
+    index.emplace(k, static_cast<int>(g.block_sizes.size()));
+    g.block_sizes.push_back(TangentDim(values.TypeOf(k)));
+  });
+  const int nv = static_cast<int>(g.block_sizes.size());
+  std::vector<std::vector<int>> adj(nv);
+  g.first_free.assign(graph.size(), -1);
+  std::vector<int> vars;
+  for (std::size_t fi = 0; fi < graph.size(); ++fi) {
+    vars.clear();
+    for (Key k : graph.at(fi).keys()) {
+      const auto it = index.find(k);
+      if (it != index.end()) vars.push_back(it->second);
+    }
+    if (!vars.empty()) g.first_free[fi] = vars.front();
+    for (std::size_t a = 0; a < vars.size(); ++a) {
+      for (std::size_t b = a + 1; b < vars.size(); ++b) {
+        if (vars[a] == vars[b]) continue;
+        adj[vars[a]].push_back(vars[b]);
+        adj[vars[b]].push_back(vars[a]);
+      }
+    }
+  }
+  g.xadj.assign(1, 0);
+  for (std::vector<int>& l : adj) {
+    std::sort(l.begin(), l.end());
+    l.erase(std::unique(l.begin(), l.end()), l.end());
+    g.adjacency.insert(g.adjacency.end(), l.begin(), l.end());
+    g.xadj.push_back(static_cast<int>(g.adjacency.size()));
+    std::vector<int>().swap(l);
+  }
+  return g;
+}
+
+Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads,
+                 const std::vector<char>* factor_mask) {
   std::unordered_map<Key, int> var_index;
   var_index.reserve(values->size());
-  for (Key k : values->keys()) {
-    if (fixed.count(k) || !used.count(k)) continue;
+  ForEachFreeVariable(graph, *values, fixed, [&](Key k) {
     const VarType t = values->TypeOf(k);
     var_index.emplace(k, static_cast<int>(vars_.size()));
     vars_.push_back(Var{k, t, n_, TangentDim(t), values->Params(k)});
     n_ += TangentDim(t);
-  }
+  });
   factors_.reserve(graph.size());
   factor_jac_.reserve(graph.size() + 1);
   int jac_size = 0;
   for (std::size_t fi = 0; fi < graph.size(); ++fi) {
+    if (factor_mask != nullptr && !(*factor_mask)[fi]) continue;
     const Factor& f = graph.at(fi);
     const std::vector<VarType> types = f.variable_types();
     try {
@@ -177,7 +226,7 @@ Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& 
       entries_.push_back(e);
       params_.push_back(p[k]);
     }
-    factors_.push_back(FactorRef{&f, f.dim(), m_, first, static_cast<int>(f.keys().size())});
+    factors_.push_back(FactorRef{&f, static_cast<int>(fi), f.dim(), m_, first, static_cast<int>(f.keys().size())});
     m_ += f.dim();
   }
   factor_jac_.push_back(jac_size);
@@ -307,8 +356,14 @@ double Problem::Chi2() const {
   for (int st : part_status_) {
     if (st == 1) chi2 = std::numeric_limits<double>::infinity();
   }
-  if (agree_) agree_(&chi2, 1);
+  Total(&chi2, 1);
   return chi2;
+}
+
+void Problem::Total(double* v, int n) const {
+  if (group_ == nullptr) return;
+  if (split_) group_->Sum(v, n);
+  group_->Broadcast(v, n);
 }
 
 double Problem::Linearize() {
@@ -322,12 +377,12 @@ double Problem::Linearize() {
     failed = failed || st == 1;
     if (st == 2) finite = false;
   }
-  // chi2 and whether the Jacobian is finite, agreed on where the solve spans processes.
-  double agreed[2] = {failed ? std::numeric_limits<double>::infinity() : SumChi2(), finite ? 1.0 : 0.0};
-  if (agree_) agree_(agreed, 2);
-  if (!std::isfinite(agreed[0])) return agreed[0];
-  jacobian_finite_ = agreed[1] != 0;
-  return agreed[0];
+  // chi2 and how many Jacobians are not finite, over every process where the solve spans them.
+  double totals[2] = {failed ? std::numeric_limits<double>::infinity() : SumChi2(), finite ? 0.0 : 1.0};
+  Total(totals, 2);
+  if (!std::isfinite(totals[0])) return totals[0];
+  jacobian_finite_ = totals[1] == 0;
+  return totals[0];
 }
 
 void Problem::BuildNormalStructure(Csc* h, std::vector<int>* diagonal_positions) {
@@ -568,7 +623,7 @@ double Problem::ParameterNorm() const {
   for (const Var& v : vars_)
     for (int i = 0; i < AmbientDim(v.type); ++i) s += v.params[i] * v.params[i];
   s = std::sqrt(s);
-  if (agree_) agree_(&s, 1);
+  if (group_ != nullptr) group_->Broadcast(&s, 1);  // every process holds every variable
   return s;
 }
 

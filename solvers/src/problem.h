@@ -9,13 +9,13 @@
 // Every entry of H, g and chi2 is summed in the same order whatever the number of threads
 // (H and g column by column in factor order; chi2 factor by factor), so results are
 // bit-identical for any num_threads.
-#include <functional>
 #include <memory>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "tether/core/factor_graph.h"
+#include "tether/core/linear_solver.h"
 #include "tether/core/values.h"
 #include "tether/solvers/step_strategy.h"
 
@@ -31,10 +31,27 @@ struct Csc {
   std::vector<double> values;
 };
 
+/// The free variables as a Problem of the same graph, values and fixed set orders them, and
+/// their graph: an edge between two variables that some factor shares (each neighbour once, no
+/// self-loops), in compressed rows. What a solver that spans processes partitions
+/// (LinearSolver::Partition) before the Problem is built.
+struct VariableGraph {
+  std::vector<int> block_sizes;  ///< tangent size of each free variable, in column order
+  std::vector<int> xadj, adjacency;
+  /// For each factor of the graph, its first free variable (-1: none).
+  std::vector<int> first_free;
+};
+
 class Problem : public TrialPoint {
  public:
   /// `values` must outlive the Problem and must not gain variables while it lives.
-  Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads = 1);
+  /// `factor_mask` (optional, one entry per factor of `graph`): only the factors marked
+  /// linearise here; the variables and their columns are still those of the whole graph (a
+  /// process's share of a problem split between processes).
+  Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads = 1,
+          const std::vector<char>* factor_mask = nullptr);
+  /// The free variables' graph of `graph` (above).
+  static VariableGraph Variables(const FactorGraph& graph, const Values& values, const std::set<Key>& fixed);
   ~Problem();
 
   int num_threads() const;
@@ -72,9 +89,14 @@ class Problem : public TrialPoint {
   void Retract(const double* delta) override;
   /// Norm of all free variables' parameters (for the step tolerance).
   double ParameterNorm() const;
-  /// Where the linear solver spans several processes (LinearSolver::AgreeAcrossProcesses):
-  /// Chi2, Linearize and ParameterNorm hand back the value all processes agreed on.
-  void set_agree(std::function<void(double*, int)> agree) { agree_ = std::move(agree); }
+  /// Where the linear solver spans processes (LinearSolver::processes()): Chi2, Linearize and
+  /// ParameterNorm hand back the value all processes agree on; with `split` (this process
+  /// linearises only its share of the factors, factor_mask), chi2 is summed over them first.
+  /// nullptr: this process alone.
+  void set_processes(ProcessGroup* group, bool split) {
+    group_ = group;
+    split_ = split;
+  }
   /// Save copies the free variables aside; Restore puts them back (a no-op before any Save).
   void Save();
   void Restore() override;
@@ -95,6 +117,7 @@ class Problem : public TrialPoint {
   };
   struct FactorRef {
     const Factor* factor;
+    int index;  // in the graph (for messages)
     int m;
     int row;    // first residual row
     int first;  // first index into entries_/params_
@@ -156,7 +179,10 @@ class Problem : public TrialPoint {
   int n_ = 0, m_ = 0;
   bool jacobian_finite_ = false;
   bool has_saved_ = false;
-  std::function<void(double*, int)> agree_;
+  ProcessGroup* group_ = nullptr;
+  bool split_ = false;
+  // chi2-like totals: summed over the processes where the factors are split, then made one.
+  void Total(double* v, int n) const;
 };
 
 }  // namespace internal

@@ -67,6 +67,21 @@ struct LinearSolverOptions {
   bool IsValid(std::string* why) const;
 };
 
+/// The processes of an MPI job that one solve spans (LinearSolver::processes()). Every process
+/// runs the same solve; before any decision (keep or reject a step, reuse a factorisation,
+/// stop) the values it rests on are made one across them, so that all take the same path. The
+/// calls are collective: every process makes them in the same order with the same n.
+class ProcessGroup {
+ public:
+  virtual ~ProcessGroup() = default;
+  virtual int rank() const = 0;
+  virtual int size() const = 0;
+  /// Makes n values equal on every process: the first process's.
+  virtual void Broadcast(double* values, int n) = 0;
+  /// Replaces n values on every process by their sum over the processes.
+  virtual void Sum(double* values, int n) = 0;
+};
+
 class LinearSolver {
  public:
   virtual ~LinearSolver() = default;
@@ -90,15 +105,25 @@ class LinearSolver {
   /// factorising afresh.
   virtual double factorize_flops() const { return 0; }
   virtual double solve_flops() const { return 0; }
-  /// A solver whose work is spread over several processes (the "petsc" solver under mpirun):
-  /// every process runs the same solve on its own copy of the problem, and this makes `n`
-  /// values that each process computed for itself equal on all of them (the first process's),
-  /// so that all keep or reject the same steps and stop at the same iteration even where their
-  /// arithmetic differs in the last bits. Collective: every process calls it with the same n.
-  /// A solver in one process leaves the values as they are.
-  virtual void AgreeAcrossProcesses(double* values, int n) {
-    (void)values;
-    (void)n;
+  /// A solver whose work spans the processes of an MPI job (the "petsc" solver under
+  /// mpirun): those processes, through which the solve makes its decisions one (below);
+  /// nullptr for a solver in one process.
+  virtual ProcessGroup* processes() { return nullptr; }
+  /// A solver that spans processes may split the problem between them: given the variables'
+  /// graph (compressed rows over the block columns, each neighbour once, no self-loops) and
+  /// their block sizes, it fills owner[v] with the process that owns variable v and returns
+  /// true. Each process then linearises only the factors whose first free variable it owns,
+  /// and hands Analyze and Factorize its share of H: the sum over the processes is H (the
+  /// damping is in the first process's share), while every process gets the whole step from
+  /// Solve. False (the default): every process hands over the whole H. Called before Analyze,
+  /// collectively.
+  virtual bool Partition(const std::vector<int>& xadj, const std::vector<int>& adjacency,
+                         const std::vector<int>& block_sizes, std::vector<int>* owner) {
+    (void)xadj;
+    (void)adjacency;
+    (void)block_sizes;
+    (void)owner;
+    return false;
   }
 };
 

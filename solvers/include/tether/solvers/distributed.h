@@ -6,12 +6,13 @@
 // use them and how to run them.
 //
 // Every process of the job runs the same program on the same input: each reads the graph,
-// builds the same problem and runs the same Levenberg-Marquardt (or Gauss-Newton, dog-leg)
-// loop; the normal equations are handed to PETSc split by a METIS k-way partition of the
-// variables, each process setting the block rows of the variables it owns, and the step comes
-// back to every process whole. The values each process computes for itself (chi2, the model's
-// decrease, the time) are made equal on all of them (the first process's,
-// LinearSolver::AgreeAcrossProcesses), so that all take the same decisions.
+// keeps all the values and runs the same Levenberg-Marquardt (or Gauss-Newton, dog-leg) loop.
+// With more than one process the variables are split by a METIS k-way partition; each process
+// linearises only the factors whose first free variable it owns and adds its share of H into
+// one PETSc matrix, which MUMPS factorises over all of them; the step comes back to every
+// process whole. chi2, g and diag(H) are summed over the processes, and every value a decision
+// rests on is then made the first process's on all (ProcessGroup, tether/core/linear_solver.h),
+// so that all take the same path.
 //
 //   tether::StartDistributed("");             // MPI and PETSc up; {rank, size}
 //   options.linear_solver = tether::LinearSolverType("petsc");
