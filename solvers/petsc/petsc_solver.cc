@@ -202,7 +202,7 @@ class PetscSolver : public LinearSolver {
   void CollectBlocks(const SparseMatrixView& a);
   // Per block row of this process: how many blocks in its own columns (d) and in others' (o),
   // over every process's share where the problem is split.
-  void CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o) const;
+  void CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o);
   void CreateMatrix();
   void CreateSolver();
 
@@ -217,6 +217,7 @@ class PetscSolver : public LinearSolver {
   std::vector<int> range_begin_;  // each process's first column in PETSc's numbering (+ the end)
   int n_ = 0;
   int bs_ = 1;                       // PETSc's block size: the variables' one size, or 1 where they differ
+  std::vector<int> col_var_;         // the variable of each column of H
   std::vector<int> new_col_;         // PETSc's index of each column of H
   std::vector<int> old_col_;         // and back
   int own_begin_ = 0, own_end_ = 0;  // this process's columns in PETSc's numbering
@@ -225,6 +226,7 @@ class PetscSolver : public LinearSolver {
   std::vector<int> block_row_, block_col_, block_slot_;
   std::vector<double> buffer_;
   int edge_cut_ = 0;
+  long long blocks_sent_ = 0;  // blocks of H all processes send to others per factorisation (split)
   Mat mat_ = nullptr;
   KSP ksp_ = nullptr;
   Vec b_ = nullptr, x_ = nullptr, x_all_ = nullptr;
@@ -236,7 +238,8 @@ class PetscSolver : public LinearSolver {
 
 void PetscSolver::Analyze(const SparseMatrixView& a, const std::vector<int>& block_sizes) {
   n_ = a.cols;
-  std::vector<int> col_var(n_, 0);
+  std::vector<int>& col_var = col_var_;
+  col_var.assign(n_, 0);
   int at = 0;
   for (std::size_t v = 0; v < block_sizes.size(); ++v) {
     for (int i = 0; i < block_sizes[v]; ++i) {
@@ -325,6 +328,19 @@ void PetscSolver::CollectBlocks(const SparseMatrixView& a) {
   };
   // Split: every block of this process's share goes (to its row's owner); else own rows only.
   auto mine = [this](int row) { return split_ || (row >= own_begin_ && row < own_end_); };
+  // Split: the diagonal block of a variable another process owns is zero here unless one of
+  // this process's factors joins it to another variable (a factor of that variable alone, a
+  // prior, belongs to its owner; so does its damping): only those are sent.
+  std::vector<char> joined;
+  if (split_) {
+    joined.assign(n_, 0);
+    for (int c = 0; c < a.cols; ++c) {
+      for (int k = a.colptr[c]; k < a.colptr[c + 1]; ++k) {
+        const int r = a.rowind[k];
+        if (col_var_[r] != col_var_[c]) joined[r] = joined[c] = 1;
+      }
+    }
+  }
   for (int c = 0; c < a.cols; ++c) {
     for (int k = a.colptr[c]; k < a.colptr[c + 1]; ++k) {
       const int r = a.rowind[k];
@@ -332,6 +348,7 @@ void PetscSolver::CollectBlocks(const SparseMatrixView& a) {
       const int nr = new_col_[r], nc = new_col_[c];
       const int lo = std::min(nr, nc), hi = std::max(nr, nc);
       const bool same_block = lo / bs_ == hi / bs_;
+      if (split_ && col_var_[r] == col_var_[c] && !joined[c] && (lo < own_begin_ || lo >= own_end_)) continue;
       if (mine(lo)) *slot(lo, hi) = k;
       if ((iterative_ || same_block) && lo != hi && mine(hi)) *slot(hi, lo) = k;
     }
@@ -354,7 +371,7 @@ void PetscSolver::CollectBlocks(const SparseMatrixView& a) {
   buffer_.assign(bs2, 0.0);
 }
 
-void PetscSolver::CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o) const {
+void PetscSolver::CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o) {
   const int first_block = own_begin_ / bs_, blocks = (own_end_ - own_begin_) / bs_;
   std::vector<long long> rows_cols;        // (row, column) of the blocks of this process's rows
   std::vector<std::vector<int>> to(size);  // the others' blocks, as row, column pairs
@@ -370,7 +387,10 @@ void PetscSolver::CountBlocks(std::vector<PetscInt>* d, std::vector<PetscInt>* o
       to[owner].push_back(block_col_[i]);
     }
   }
+  long long sent = 0;
+  for (const std::vector<int>& t : to) sent += static_cast<long long>(t.size() / 2);
   if (split_ && size > 1) {
+    MPI_Allreduce(&sent, &blocks_sent_, 1, MPI_LONG_LONG, MPI_SUM, PETSC_COMM_WORLD);
     // The blocks the other processes will add into this process's rows join its own.
     std::vector<int> send_counts(size), recv_counts(size), send_at(size + 1, 0), recv_at(size + 1, 0);
     for (int r = 0; r < size; ++r) send_counts[r] = static_cast<int>(to[r].size());
@@ -452,6 +472,11 @@ void PetscSolver::CreateSolver() {
   std::snprintf(buf, sizeof buf, " on %d process%s, METIS k-way (edge cut %d), block size %d%s", size,
                 size == 1 ? "" : "es", edge_cut_, bs_, split_ ? ", factors split by owner" : "");
   description_ = what + buf;
+  if (split_) {
+    std::snprintf(buf, sizeof buf, " (%lld blocks of H, %.2f MB of values, sent between them per factorisation)",
+                  blocks_sent_, static_cast<double>(blocks_sent_) * bs_ * bs_ * sizeof(double) / 1e6);
+    description_ += buf;
+  }
 }
 
 LinearSolverStatus PetscSolver::Factorize(const SparseMatrixView& a) {

@@ -24,8 +24,13 @@ double Dot(const std::vector<double>& a, const std::vector<double>& b) {
 }  // namespace
 
 LinearSystem::LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options,
-                           std::unique_ptr<LinearSolver> solver, bool split)
-    : p_(p), form_(entry.form), exact_(entry.direct), solver_(std::move(solver)), split_(split) {
+                           std::unique_ptr<LinearSolver> solver, bool split, std::vector<char> damped)
+    : p_(p),
+      form_(entry.form),
+      exact_(entry.direct),
+      solver_(std::move(solver)),
+      split_(split),
+      damped_(std::move(damped)) {
   const int n = p->tangent_dim();
   g_.assign(n, 0.0);
   diag_.assign(n, 0.0);
@@ -47,7 +52,7 @@ LinearSystem::LinearSystem(Problem* p, const LinearSolverEntry& entry, const Lin
   group_ = solver_->processes();
   if (split_ && (group_ == nullptr || !normal))
     throw Error("a split problem needs a solver of the normal equations that spans processes");
-  damps_ = !split_ || group_->rank() == 0;
+  if (split_ && damped_.size() != static_cast<std::size_t>(n)) throw Error("a split problem needs its damped columns");
   solver_->Analyze(View(mat_), p->BlockSizes());
   if (normal && exact_) {
     reuse_ = options.max_reuse_iterations > 0;
@@ -111,8 +116,8 @@ void LinearSystem::ApplyDamping(double lambda) {
     if (form_ == LinearSystemForm::kJacobian) {
       mat_.values[damping_pos_[i]] = std::sqrt(lambda * d);
     } else {
-      // Split between processes: the damping goes into the first process's share only.
-      mat_.values[damping_pos_[i]] = damps_ ? undamped_diag_[i] + lambda * d : undamped_diag_[i];
+      // Split between processes: the damping goes into the share of the variable's owner only.
+      mat_.values[damping_pos_[i]] = !split_ || damped_[i] ? undamped_diag_[i] + lambda * d : undamped_diag_[i];
     }
   }
 }

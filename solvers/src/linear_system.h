@@ -38,8 +38,10 @@ class LinearSystem : public StepSystem {
   /// solver cannot handle the problem. `solver`: one already made from `entry` (null: made
   /// here); `split`: it partitioned the problem (LinearSolver::Partition) and `p` holds this
   /// process's share of the factors, so H and g here are this process's share.
+  /// `damped`: where split, which columns this process's share damps (those of the variables
+  /// it owns).
   LinearSystem(Problem* p, const LinearSolverEntry& entry, const LinearSolverOptions& options,
-               std::unique_ptr<LinearSolver> solver = nullptr, bool split = false);
+               std::unique_ptr<LinearSolver> solver = nullptr, bool split = false, std::vector<char> damped = {});
 
   /// After Problem::Linearize: builds H (or J) and the gradient for the current point.
   void Assemble();
@@ -102,7 +104,7 @@ class LinearSystem : public StepSystem {
   std::unique_ptr<LinearSolver> solver_;
   ProcessGroup* group_ = nullptr;  // solver_->processes()
   bool split_ = false;             // H, g and the diagonal here are this process's share
-  bool damps_ = true;              // this process's share carries the damping (the first's)
+  std::vector<char> damped_;       // split: the columns whose damping is in this process's share
   LinearSolveStats stats_;
 };
 

@@ -33,7 +33,7 @@ SolverSummary Invalid(SolverSummary s, const std::string& why) {
 // variable it owns, and *split is set.
 internal::Problem* BuildProblem(const FactorGraph& graph, Values* values, const SolverOptions& options,
                                 LinearSolver* solver, std::unique_ptr<internal::Problem>* holder, SolverSummary* s,
-                                bool* split) {
+                                bool* split, std::vector<char>* damped) {
   const std::set<Key> fixed = internal::ChooseFixed(graph, *values, s);
   ProcessGroup* group = solver->processes();
   std::vector<char> mask;
@@ -49,6 +49,10 @@ internal::Problem* BuildProblem(const FactorGraph& graph, Values* values, const 
           // A factor of fixed variables only adds a constant to chi2: the first process's.
           const int v = vg.first_free[f];
           mask[f] = (v >= 0 ? owner[v] : 0) == group->rank();
+        }
+        // Each variable's damping goes into its owner's share.
+        for (std::size_t v = 0; v < owner.size(); ++v) {
+          damped->insert(damped->end(), static_cast<std::size_t>(vg.block_sizes[v]), owner[v] == group->rank());
         }
         *split = true;
       }
@@ -156,7 +160,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
     return Invalid(s, "linear solver '" + entry.name + "' (owner '" + entry.owner + "') made no solver");
   }
   bool split = false;
-  internal::Problem* p = BuildProblem(graph, values, options, solver.get(), holder, &s, &split);
+  std::vector<char> damped;
+  internal::Problem* p = BuildProblem(graph, values, options, solver.get(), holder, &s, &split, &damped);
   if (p == nullptr) return s;
   // The Problem outlives the solver (the holder keeps it for Restore): it forgets the
   // processes when this solve ends, however it ends.
@@ -182,7 +187,8 @@ SolverSummary Run(const FactorGraph& graph, Values* values, const SolverOptions&
   if (p->tangent_dim() == 0) return NothingToOptimise(std::move(s), options, *strategy, chi2, t0);
   std::unique_ptr<internal::LinearSystem> system;
   try {
-    system = std::make_unique<internal::LinearSystem>(p, entry, options.linear, std::move(solver), split);
+    system =
+        std::make_unique<internal::LinearSystem>(p, entry, options.linear, std::move(solver), split, std::move(damped));
   } catch (const Error& e) {
     return Invalid(s, e.what());
   }

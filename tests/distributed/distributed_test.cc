@@ -68,19 +68,20 @@ struct Solved {
 };
 
 Solved Solve(const FactorGraph& graph, const Values& start, const std::string& linear,
-             const Algorithm& algorithm = Algorithm::kLevenbergMarquardt) {
+             const Algorithm& algorithm = Algorithm::kLevenbergMarquardt, double initial_lambda = 0) {
   Solved s{start, {}};
   SolverOptions o;
   o.algorithm = algorithm;
+  o.lm.initial_lambda = initial_lambda;
   o.linear_solver = LinearSolverType(linear);
   s.summary = Optimize(graph, &s.values, o);
   return s;
 }
 
 // The exact distributed solve against CHOLMOD in this process, from the same start.
-void ExpectSameAsCholmod(const FactorGraph& graph, const Values& start) {
-  const Solved ref = Solve(graph, start, "cholmod");
-  const Solved got = Solve(graph, start, "petsc");
+void ExpectSameAsCholmod(const FactorGraph& graph, const Values& start, double initial_lambda = 0) {
+  const Solved ref = Solve(graph, start, "cholmod", Algorithm::kLevenbergMarquardt, initial_lambda);
+  const Solved got = Solve(graph, start, "petsc", Algorithm::kLevenbergMarquardt, initial_lambda);
   ASSERT_EQ(ref.summary.status, SolverStatus::kConverged) << ref.summary.FullReport();
   EXPECT_EQ(got.summary.status, ref.summary.status) << got.summary.FullReport();
   EXPECT_NEAR(got.summary.final_chi2, ref.summary.final_chi2, 1e-9 * ref.summary.final_chi2);
@@ -140,6 +141,17 @@ TEST(Distributed, SameOptimumAsCholmodOnASphereWorld) {  // block size 6
 TEST(Distributed, SameOptimumAsCholmodWithLandmarks) {  // poses 3, points 2: PETSc's block size 1
   const SimulatedGraph s = Sim(SimWorld::kLandmarks, 300, 5);
   ExpectSameAsCholmod(s.graph, s.initial);
+}
+
+// Damped steps (Levenberg-Marquardt started with damping): the damping of each variable is in
+// its owner's share, and the path is the same as in one process.
+TEST(Distributed, DampedStepsAsInOneProcess) {
+  const SimulatedGraph s = Sim(SimWorld::kManhattan, 1200, 9);
+  const Solved ref = Solve(s.graph, s.initial, "cholmod", Algorithm::kLevenbergMarquardt, 1e-2);
+  int damped = 0;
+  for (const IterationSummary& it : ref.summary.log) damped += it.lambda > 0 ? 1 : 0;
+  ASSERT_GE(damped, 3);
+  ExpectSameAsCholmod(s.graph, s.initial, 1e-2);
 }
 
 TEST(Distributed, IterativeReachesTheOptimum) {

@@ -293,7 +293,7 @@ BenchRun RunBenchOnce(const std::string& file, const BenchConfig& config) {
 
   const Clock::time_point ti = Clock::now();
   try {
-    Initialize(gf.graph, &gf.values, config.init);
+    Initialize(gf.graph, &gf.values, config.init, config.linear);  // the chordal start through petsc where it is that
   } catch (const std::exception& e) {
     r.outcome = BenchOutcome::kBadInput;
     r.status = "bad-input";

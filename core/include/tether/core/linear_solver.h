@@ -113,8 +113,8 @@ class LinearSolver {
   /// graph (compressed rows over the block columns, each neighbour once, no self-loops) and
   /// their block sizes, it fills owner[v] with the process that owns variable v and returns
   /// true. Each process then linearises only the factors whose first free variable it owns,
-  /// and hands Analyze and Factorize its share of H: the sum over the processes is H (the
-  /// damping is in the first process's share), while every process gets the whole step from
+  /// and hands Analyze and Factorize its share of H: the sum over the processes is H (each
+  /// variable's damping is in its owner's share), while every process gets the whole step from
   /// Solve. False (the default): every process hands over the whole H. Called before Analyze,
   /// collectively.
   virtual bool Partition(const std::vector<int>& xadj, const std::vector<int>& adjacency,
