@@ -710,7 +710,10 @@ void BenchCli::Add(CLI::App& app) {
       "bench", "Time solver configurations on graph files, or replays (--replay) (docs/benchmarking.md)");
   sub->add_option("files", cmd_.files, "Graph files (.g2o, TORO .graph, or iSAM landmark text)");
   sub->add_option("--solvers", cmd_.solvers, "Comma-separated: gn, lm, dogleg, ceres")->capture_default_str();
-  sub->add_option("--linear", cmd_.linear, "Comma-separated: auto, block, cholmod, ldlt, qr")->capture_default_str();
+  sub->add_option("--linear", cmd_.linear,
+                  "Comma-separated: auto, block, cholmod, ldlt, qr, petsc, petsc-iterative (built with "
+                  "TETHER_WITH_MPI; one process here, docs/distributed.md)")
+      ->capture_default_str();
   sub->add_option("--init", cmd_.init, "Comma-separated: file, spanning-tree, chordal")->capture_default_str();
   sub->add_option("--threads", cmd_.threads, "Comma-separated thread counts (default: the solver's)");
   sub->add_option("--repeat", cmd_.repeat, "Runs per configuration")->capture_default_str();
