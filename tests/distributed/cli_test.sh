@@ -68,7 +68,17 @@ run "$mpiexec" -np 2 --oversubscribe "$tether" optimize "$work/world.g2o" -o "$w
 grep -q "no_such_method" "$work/stderr" || fail "the error does not name the option's value: $(cat "$work/stderr")"
 [ "$(cat "$work/out.g2o")" = "old result" ] || fail "the old output was changed by a refused option"
 
-# 6. A public file on three processes (skipped where the datasets are absent).
+# 6. Covariances and GNC's rejected closures: computed and written once, by the first process;
+#    the others write nothing anywhere (run in a folder of its own to see it).
+mkdir -p "$work/cwd"
+(cd "$work/cwd" && run "$mpiexec" -np 2 --oversubscribe "$tether" optimize "$work/world.g2o" --linear petsc \
+  --covariance 5 --gnc -o "$work/cov.g2o" -q && echo "$rc" >"$work/rc")
+[ "$(cat "$work/rc")" = 0 ] || fail "covariance + gnc on two processes exited $(cat "$work/rc"): $(cat "$work/stderr")"
+[ -s "$work/cov.g2o.cov" ] || fail "the covariances were not written"
+[ -f "$work/cov.g2o.rejected.g2o" ] || fail "GNC's rejected closures (none here) were not written"
+[ -z "$(ls -A "$work/cwd")" ] || fail "a process wrote into the working folder: $(ls -A "$work/cwd")"
+
+# 7. A public file on three processes (skipped where the datasets are absent).
 if [ -f "$datasets/g2o/intel.g2o" ]; then
   run "$mpiexec" -np 3 --oversubscribe "$tether" optimize "$datasets/g2o/intel.g2o" --linear petsc -q
   [ "$rc" = 0 ] || fail "intel on three processes exited $rc: $(cat "$work/stderr")"

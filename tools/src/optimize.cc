@@ -252,10 +252,13 @@ bool StartProcesses(const OptimizeCommand& cmd, DistributedProcess* process, std
   return true;
 }
 
-// What the other processes do not write.
-void WriteOnFirstProcessOnly(PipelineOptions* po) {
+// What the other processes do not write (nor compute only to write: the covariances).
+void WriteOnFirstProcessOnly(OptimizeCommand* cmd) {
+  cmd->covariance.clear();
+  PipelineOptions* po = &cmd->pipeline;
   po->output.clear();
   po->plot_output.clear();
+  po->covariance = false;
   po->covariance_output.clear();
   po->rejected_output.clear();
 }
@@ -297,7 +300,7 @@ int RunOptimize(const OptimizeCommand& cmd, std::ostream& out, std::ostream& err
     code = RunOptimizeProcess(cmd, out, err);
   } else {
     OptimizeCommand mine = cmd;
-    WriteOnFirstProcessOnly(&mine.pipeline);
+    WriteOnFirstProcessOnly(&mine);
     NullBuffer null;
     PrefixBuffer prefixed(err, process.rank);
     std::ostream quiet(&null), errors(&prefixed);
