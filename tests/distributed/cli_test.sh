@@ -78,7 +78,14 @@ mkdir -p "$work/cwd"
 [ -f "$work/cov.g2o.rejected.g2o" ] || fail "GNC's rejected closures (none here) were not written"
 [ -z "$(ls -A "$work/cwd")" ] || fail "a process wrote into the working folder: $(ls -A "$work/cwd")"
 
-# 7. A public file on three processes (skipped where the datasets are absent).
+# 7. Several processes with a solver of one process: refused (each would solve alone and
+#    write the same outputs), naming the way out.
+run "$mpiexec" -np 2 --oversubscribe "$tether" optimize "$work/world.g2o" -o "$work/out.g2o" --linear cholmod
+[ "$rc" = 2 ] || fail "two processes with --linear cholmod exited $rc, not 2"
+grep -q "add --linear petsc" "$work/stderr" || fail "the refusal does not say what to do: $(cat "$work/stderr")"
+[ "$(cat "$work/out.g2o")" = "old result" ] || fail "the old output was changed by a refused run"
+
+# 8. A public file on three processes (skipped where the datasets are absent).
 if [ -f "$datasets/g2o/intel.g2o" ]; then
   run "$mpiexec" -np 3 --oversubscribe "$tether" optimize "$datasets/g2o/intel.g2o" --linear petsc -q
   [ "$rc" = 0 ] || fail "intel on three processes exited $rc: $(cat "$work/stderr")"

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <ostream>
 #include <sstream>
 #include <streambuf>
@@ -239,6 +240,17 @@ namespace {
 bool StartProcesses(const OptimizeCommand& cmd, DistributedProcess* process, std::ostream& err) {
   const bool distributed = cmd.linear == "petsc" || cmd.linear == "petsc-iterative";
   if (!distributed) {
+    // Started by mpirun (or srun) as one of several processes: each would solve alone and
+    // write the same outputs.
+    for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"}) {
+      const char* v = std::getenv(name);
+      if (v != nullptr && std::atoi(v) > 1) {
+        err << "tether optimize: started as one of " << v << " processes (" << name << ") with --linear " << cmd.linear
+            << ", which solves in one: add --linear petsc to solve across them (docs/distributed.md), "
+            << "or run one process\n";
+        return false;
+      }
+    }
     if (cmd.petsc_options.empty()) return true;
     err << "tether optimize: --petsc-options needs --linear petsc or petsc-iterative\n";
     return false;
