@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "../src/petsc_module.h"
+#include "../src/problem.h"
 #include "tether/core/error.h"
 
 namespace tether {
@@ -265,14 +266,8 @@ void PetscSolver::Analyze(const SparseMatrixView& a, const std::vector<int>& blo
         adj[v].push_back(u);
       }
     }
-    std::vector<int> xadj(1, 0), adjacency;
-    for (std::vector<int>& l : adj) {
-      std::sort(l.begin(), l.end());
-      l.erase(std::unique(l.begin(), l.end()), l.end());
-      adjacency.insert(adjacency.end(), l.begin(), l.end());
-      xadj.push_back(static_cast<int>(adjacency.size()));
-      std::vector<int>().swap(l);
-    }
+    std::vector<int> xadj, adjacency;
+    internal::ToCompressedRows(&adj, &xadj, &adjacency);
     edge_cut_ = PartitionVariables(xadj, adjacency, block_sizes, size, &part_);
   } else if (part_.size() != block_sizes.size()) {
     throw Error("petsc: Analyze got " + std::to_string(block_sizes.size()) + " variables, Partition " +

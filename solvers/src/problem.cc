@@ -179,15 +179,20 @@ VariableGraph Problem::Variables(const FactorGraph& graph, const Values& values,
       }
     }
   }
-  g.xadj.assign(1, 0);
-  for (std::vector<int>& l : adj) {
+  ToCompressedRows(&adj, &g.xadj, &g.adjacency);
+  return g;
+}
+
+void ToCompressedRows(std::vector<std::vector<int>>* lists, std::vector<int>* xadj, std::vector<int>* adjacency) {
+  xadj->assign(1, 0);
+  adjacency->clear();
+  for (std::vector<int>& l : *lists) {
     std::sort(l.begin(), l.end());
     l.erase(std::unique(l.begin(), l.end()), l.end());
-    g.adjacency.insert(g.adjacency.end(), l.begin(), l.end());
-    g.xadj.push_back(static_cast<int>(g.adjacency.size()));
+    adjacency->insert(adjacency->end(), l.begin(), l.end());
+    xadj->push_back(static_cast<int>(adjacency->size()));
     std::vector<int>().swap(l);
   }
-  return g;
 }
 
 Problem::Problem(const FactorGraph& graph, Values* values, const std::set<Key>& fixed, int num_threads,

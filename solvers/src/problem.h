@@ -42,6 +42,10 @@ struct VariableGraph {
   std::vector<int> first_free;
 };
 
+/// Neighbour lists (one per variable) into compressed rows, each list sorted and its repeats
+/// dropped; the lists are emptied on the way.
+void ToCompressedRows(std::vector<std::vector<int>>* lists, std::vector<int>* xadj, std::vector<int>* adjacency);
+
 class Problem : public TrialPoint {
  public:
   /// `values` must outlive the Problem and must not gain variables while it lives.
