@@ -88,13 +88,6 @@ std::vector<char*>* Arguments(const std::string& options) {
 
 bool Start(const std::string& options, int* rank_out, int* size_out, std::string* why) {
   if (!started) {
-    std::istringstream in(options);
-    for (std::string w; in >> w;) {
-      if (w.find('\n') != std::string::npos) {
-        *why = "a PETSc option holds a line break";
-        return false;
-      }
-    }
     std::vector<char*>* argv = Arguments(options);
     int argc = static_cast<int>(argv->size()) - 1;
     char** args = argv->data();
