@@ -7,7 +7,7 @@ std::set<Key> ChooseFixed(const FactorGraph& graph, const Values& values, Solver
   std::set<Key> fixed = graph.fixed();
   if (!fixed.empty()) return fixed;
   for (const auto& f : graph.factors()) {
-    if (f->keys().size() == 1) return fixed;
+    if (f->anchors()) return fixed;
   }
   bool found = false;
   Key best = 0;

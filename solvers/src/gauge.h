@@ -10,7 +10,7 @@
 namespace tether {
 namespace internal {
 
-/// The graph's own fixed set; or, where it fixes nothing and no unary factor (prior) anchors
+/// The graph's own fixed set; or, where it fixes nothing and no factor anchors (a prior, Factor::anchors)
 /// the problem, the lowest-key pose that some factor uses (an unused pose anchors nothing).
 /// In that last case s->gauge_fixed_automatically and s->gauge_key say so.
 std::set<Key> ChooseFixed(const FactorGraph& graph, const Values& values, SolverSummary* s);

@@ -145,7 +145,7 @@ struct IncrementalSmoother::State {
   std::vector<const Factor*> factor_of_slot;  // null for removed factors
   std::unordered_map<Key, int> uses;
   std::set<Key> used_poses;  // poses some factor uses: the lowest is the automatic gauge
-  int unary = 0;             // factors on one variable (priors): no automatic gauge then
+  int unary = 0;             // uses by factors that anchor the graph (priors): no automatic gauge then
   std::set<Key> constants;
   std::vector<int> pending;  // variables to re-linearise
   std::vector<char> is_pending;
@@ -455,7 +455,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     std::size_t index = 0;
     graph_.IndexOf(id, &index);
     for (Key k : graph_.at(index).keys()) {
-      st.Unuse(k, graph_.at(index).keys().size() == 1);
+      st.Unuse(k, graph_.at(index).anchors());
       touched.push_back(k);
     }
     auto slot = st.slot_of.find(id);
@@ -479,7 +479,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
     const Factor* raw = f.get();
     std::vector<int> vars;
     for (Key k : f->keys()) {
-      st.Use(k, f->keys().size() == 1, estimate_.TypeOf(k));
+      st.Use(k, f->anchors(), estimate_.TypeOf(k));
       vars.push_back(st.index_of.at(k));
     }
     added.push_back(raw);
@@ -495,7 +495,7 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   }
   for (Key k : new_factors.fixed()) graph_.Fix(k);
   u.variables_removed += EraseUnused(&touched);
-  if (options_.refine_new_values && !new_values.empty()) {
+  if (options_.refine_new_values && refine_ && !new_values.empty()) {
     // Not the variables held constant (fixed, or the automatic gauge): they stay as given.
     for (Key k : RefineNewValues(added, new_values.keys(), st.Held(graph_), &estimate_)) {
       st.SetTheta(k, estimate_.Params(k));
@@ -575,6 +575,18 @@ SmootherUpdate IncrementalSmoother::Update(FactorGraph new_factors, Values new_v
   return u;
 }
 
+SmootherUpdate IncrementalSmoother::Restart(FactorGraph graph, Values values) {
+  IncrementalSmoother fresh(options_);
+  fresh.refine_ = false;
+  SmootherUpdate u = fresh.Update(std::move(graph), std::move(values));
+  std::swap(graph_, fresh.graph_);
+  std::swap(estimate_, fresh.estimate_);
+  std::swap(state_, fresh.state_);
+  finish_summary_ = SolverSummary{};
+  marginals_.reset();
+  return u;
+}
+
 int IncrementalSmoother::EraseUnused(std::vector<Key>* keys) {
   State& st = *state_;
   std::sort(keys->begin(), keys->end());
@@ -601,7 +613,7 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
     const Factor& f = graph_.at(index);
     st.local.Remove(id, &f);
     for (Key k : f.keys()) {
-      st.Unuse(k, f.keys().size() == 1);
+      st.Unuse(k, f.anchors());
       seeds.push_back(k);
     }
     graph_.Remove(id);
@@ -617,7 +629,7 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
     std::unique_ptr<Factor> f = new_factors.at(i).Clone();
     const Factor* raw = f.get();
     for (Key k : raw->keys()) {
-      st.Use(k, raw->keys().size() == 1, estimate_.TypeOf(k));
+      st.Use(k, raw->anchors(), estimate_.TypeOf(k));
       seeds.push_back(k);
     }
     const FactorId id = graph_.Add(std::move(f));
@@ -629,7 +641,8 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
   for (Key k : new_factors.fixed()) graph_.Fix(k);
   u->variables_removed += EraseUnused(&seeds);
   const std::set<Key> held = st.Held(graph_);
-  if (options_.refine_new_values && !new_values.empty()) RefineNewValues(added, new_values.keys(), held, &estimate_);
+  if (options_.refine_new_values && refine_ && !new_values.empty())
+    RefineNewValues(added, new_values.keys(), held, &estimate_);
   if (graph_.empty()) {
     u->chi2_after = 0;
     return;

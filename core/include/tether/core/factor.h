@@ -52,6 +52,11 @@ class Factor {
     return false;
   }
 
+  /// Whether this factor anchors the graph in the world, as a prior does: where some factor
+  /// anchors it, a solve holds no pose fixed to remove the gauge freedom. The default: a
+  /// factor on one variable. A prior over several variables (MarginalPrior) says so too.
+  virtual bool anchors() const { return keys_.size() == 1; }
+
   const std::vector<Key>& keys() const { return keys_; }
   const SqrtInformation& noise() const { return noise_; }
   void set_noise(const SqrtInformation& n) { noise_ = n; }

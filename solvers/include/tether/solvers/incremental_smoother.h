@@ -195,6 +195,8 @@ struct SmootherUpdate {
   int variables_added = 0;
   /// Variables erased because the update removed their last factor.
   int variables_removed = 0;
+  /// FixedLagSmoother: variables marginalised at the end of this update (older than the lag).
+  int marginalized = 0;
   /// The handles of the new factors, in the order of the update's graph. Pass them in a later
   /// update's factors_to_remove to take the factors out.
   std::vector<FactorId> new_factor_ids;
@@ -243,6 +245,12 @@ class IncrementalSmoother {
   SmootherUpdate Update(FactorGraph new_factors = {}, Values new_values = {},
                         std::vector<FactorId> factors_to_remove = {});
 
+  /// Starts over with `graph` at `values`, taken as given (not refined: they are an estimate
+  /// already), as a new smoother's first update: every earlier factor, variable and handle
+  /// goes, and the new graph's handles are the ones returned. What the fixed-lag smoother does
+  /// after marginalising. Throws as Update does, changing nothing.
+  SmootherUpdate Restart(FactorGraph graph, Values values);
+
   /// The current estimate of every variable.
   const Values& Estimate() const { return estimate_; }
   /// The marginal covariance of `key` at the current estimate, by tether::Marginals over the
@@ -268,6 +276,7 @@ class IncrementalSmoother {
   void UpdateLocal(FactorGraph new_factors, Values new_values, const std::vector<FactorId>& factors_to_remove,
                    SmootherUpdate* u);
   SmootherOptions options_;
+  bool refine_ = true;  // false in Restart's first update: the values are an estimate already
   FactorGraph graph_;
   Values estimate_;
   SolverSummary finish_summary_;
