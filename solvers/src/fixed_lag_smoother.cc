@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,65 @@
 #include "tether/solvers/optimizer.h"
 
 namespace tether {
+
+namespace {
+
+// The tangent directions in which a global rigid motion (a small translation and rotation of
+// the world applied on the left) moves each of `keys` at `values`, stacked (one column per
+// direction of the motion: 3 in 2D, 6 in 3D), and the lowest pose among them. False where a
+// key is of another type (or of both dimensions) or none is a pose.
+bool RigidMotionBasis(const std::vector<Key>& keys, const Values& values, Eigen::MatrixXd* N, Key* first_pose) {
+  bool two_d = false, three_d = false, pose = false;
+  int rows = 0;
+  for (Key k : keys) {
+    const VarType t = values.TypeOf(k);
+    if (t == VarType::kSE2 || t == VarType::kPoint2) {
+      two_d = true;
+    } else if (t == VarType::kSE3 || t == VarType::kPoint3) {
+      three_d = true;
+    } else {
+      return false;
+    }
+    if (IsPose(t) && (!pose || k < *first_pose)) *first_pose = k, pose = true;
+    rows += TangentDim(t);
+  }
+  if (two_d == three_d || !pose) return false;
+  N->setZero(rows, two_d ? 3 : 6);
+  int r = 0;
+  for (Key k : keys) {
+    const VarType t = values.TypeOf(k);
+    const double* p = values.Params(k);
+    if (t == VarType::kSE2) {
+      // t + v + w J t, theta + w; in the tangent: R^T (v + w J t), w.
+      const Eigen::Matrix2d Rt = Eigen::Rotation2Dd(p[2]).toRotationMatrix().transpose();
+      N->block<2, 2>(r, 0) = Rt;
+      N->block<2, 1>(r, 2) = Rt * Eigen::Vector2d(-p[1], p[0]);
+      (*N)(r + 2, 2) = 1;
+    } else if (t == VarType::kPoint2) {
+      N->block<2, 2>(r, 0).setIdentity();
+      N->block<2, 1>(r, 2) = Eigen::Vector2d(-p[1], p[0]);
+    } else {
+      // t + v + w x t, Exp(w) R; in the tangent: R^T (v - [t]x w), R^T w.
+      const Eigen::Vector3d tr(p[0], p[1], p[2]);
+      Eigen::Matrix3d tx;
+      tx << 0, -tr.z(), tr.y(), tr.z(), 0, -tr.x(), -tr.y(), tr.x(), 0;
+      if (t == VarType::kSE3) {
+        const Eigen::Matrix3d Rt =
+            Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized().toRotationMatrix().transpose();
+        N->block<3, 3>(r, 0) = Rt;
+        N->block<3, 3>(r, 3) = -Rt * tx;
+        N->block<3, 3>(r + 3, 3) = Rt;
+      } else {
+        N->block<3, 3>(r, 0).setIdentity();
+        N->block<3, 3>(r, 3) = -tx;
+      }
+    }
+    r += TangentDim(t);
+  }
+  return true;
+}
+
+}  // namespace
 
 FixedLagOptions::FixedLagOptions() {
   converge.algorithm = Algorithm::kGaussNewton;
@@ -172,8 +232,9 @@ bool FixedLagSmoother::Marginalize(const std::vector<Key>& keys, std::string* wh
   const std::unordered_set<Key> leaving(keys.begin(), keys.end());
   // The variables the window's smoother holds (fixed, or the automatic gauge): their step is
   // zero, so the marginalisation is conditioned on them.
-  SolverSummary unused;
-  const std::set<Key> held = internal::ChooseFixed(graph, estimate, &unused);
+  SolverSummary gauge;
+  std::set<Key> held = internal::ChooseFixed(graph, estimate, &gauge);
+  const bool automatic = gauge.gauge_fixed_automatically || (has_moving_gauge_ && held == std::set<Key>{moving_gauge_});
 
   // The factors that leave with the variables, and the separator: the other variables they use.
   std::vector<std::size_t> leaving_factors, staying_factors;
@@ -185,10 +246,12 @@ bool FixedLagSmoother::Marginalize(const std::vector<Key>& keys, std::string* wh
     (leaves ? leaving_factors : staying_factors).push_back(i);
     if (!leaves) continue;
     for (Key k : fk) {
-      if (!leaving.count(k) && !held.count(k) && in_separator.insert(k).second) separator.push_back(k);
+      if (!leaving.count(k) && in_separator.insert(k).second) separator.push_back(k);
     }
   }
   std::sort(separator.begin(), separator.end());
+  separator.erase(std::remove_if(separator.begin(), separator.end(), [&](Key k) { return held.count(k) != 0; }),
+                  separator.end());
 
   // Columns: the leaving variables that are not held, then the separator.
   std::unordered_map<Key, int> column;
@@ -251,6 +314,7 @@ bool FixedLagSmoother::Marginalize(const std::vector<Key>& keys, std::string* wh
   // Directions of the leaving variables that their factors leave undetermined carry nothing
   // to the separator (a pseudo-inverse there).
   std::unique_ptr<MarginalPrior> prior;
+  bool new_gauge = false;
   if (n_s > 0) {
     Eigen::MatrixXd Hs = H.bottomRightCorner(n_s, n_s);
     Eigen::VectorXd gs = g.tail(n_s);
@@ -281,6 +345,28 @@ bool FixedLagSmoother::Marginalize(const std::vector<Key>& keys, std::string* wh
       *why = "the marginal information is not finite";
       return false;
     }
+    // Where the graph measures only relative quantities and its gauge leaves, the gauge moves
+    // on: the global rigid motion is marginalised out of the prior too (what the prior said of
+    // the separator's place in the world, relative to a gauge that is gone), and the lowest pose
+    // of the separator is held where it is. A prior that kept the separator's place would know
+    // it only as well as the whole past determines it, which after many poses drowns in the
+    // rounding of its relative information (a 10 000-pose walk: some 1e-12 of it), and the window
+    // would float.
+    if (automatic && std::any_of(held.begin(), held.end(), [&](Key k) { return leaving.count(k) != 0; })) {
+      Eigen::MatrixXd N;
+      Key first_pose = 0;
+      if (RigidMotionBasis(separator, estimate, &N, &first_pose)) {
+        const Eigen::MatrixXd HN = Hs * N;
+        const Eigen::LDLT<Eigen::MatrixXd> rigid(N.transpose() * HN);
+        if (rigid.info() == Eigen::Success) {
+          gs -= HN * rigid.solve(N.transpose() * gs);
+          Hs -= HN * rigid.solve(HN.transpose());
+          moving_gauge_ = first_pose;
+          has_moving_gauge_ = true;
+          new_gauge = true;
+        }
+      }
+    }
     std::vector<VarType> types;
     std::vector<double> points;
     for (Key k : separator) {
@@ -307,6 +393,7 @@ bool FixedLagSmoother::Marginalize(const std::vector<Key>& keys, std::string* wh
   for (Key k : held) {
     if (!leaving.count(k) && estimate.Has(k)) next.Fix(k);
   }
+  if (new_gauge) next.Fix(moving_gauge_);
   Values values;
   for (Key k : estimate.keys()) {
     if (!leaving.count(k)) values.InsertParams(k, estimate.TypeOf(k), estimate.Params(k));

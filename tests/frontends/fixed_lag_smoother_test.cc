@@ -14,6 +14,7 @@
 #include "testing/simulated.h"
 #include "tether/core/error.h"
 #include "tether/factors/marginal_prior.h"
+#include "tether/factors/prior.h"
 #include "tether/solvers/covariance.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
@@ -43,7 +44,7 @@ void Feed(const SimulatedGraph& sim, int poses, Smoother* smoother,
   std::vector<std::vector<std::size_t>> by_step(sim.initial.size());
   for (std::size_t j = 0; j < sim.graph.size(); ++j) {
     const std::vector<Key>& k = sim.graph.at(j).keys();
-    by_step[std::max(k[0], k[1])].push_back(j);
+    by_step[*std::max_element(k.begin(), k.end())].push_back(j);
   }
   FactorGraph so_far;
   for (int i = 0; i < poses; ++i) {
@@ -53,7 +54,7 @@ void Feed(const SimulatedGraph& sim, int poses, Smoother* smoother,
     FactorGraph f;
     for (std::size_t j : by_step[static_cast<std::size_t>(i)]) {
       const Factor& factor = sim.graph.at(j);
-      if (factor.keys()[0] == k - 1 && factor.keys()[1] == k) {
+      if (factor.keys().size() == 2 && factor.keys()[0] == k - 1 && factor.keys()[1] == k) {
         factor.Predict(0, smoother->Estimate().Params(k - 1), 1, p.data());
       }
       f.Add(factor.Clone());
@@ -74,19 +75,30 @@ Values BatchOptimum(const FactorGraph& graph, const Values& start) {
   return v;
 }
 
-// Largest difference of the poses of `window` from the same poses in `whole`: position
-// (metres) and rotation (radians, the tangent's rotation part).
+// Largest difference of the poses of `window` from the same poses in `whole`, each taken
+// relative to the window's first pose (the fixed-lag smoother's gauge moves on with the window,
+// the batch solve's stays at the first pose): position (metres) and rotation (radians, the
+// tangent's rotation part).
+template <class Pose>
+void RelativeDifference(const Values& window, const Values& whole, double* position, double* rotation) {
+  const Key first = *std::min_element(window.keys().begin(), window.keys().end());
+  const Pose w0 = window.At<Pose>(first).Inverse(), b0 = whole.At<Pose>(first).Inverse();
+  for (Key k : window.keys()) {
+    const auto d = (b0 * whole.At<Pose>(k)).Local(w0 * window.At<Pose>(k));
+    const int translation = d.size() == 3 ? 2 : 3;
+    for (int j = 0; j < d.size(); ++j) {
+      double& m = j < translation ? *position : *rotation;
+      m = std::max(m, std::abs(d[j]));
+    }
+  }
+}
+
 void PoseDifference(const Values& window, const Values& whole, double* position, double* rotation) {
   *position = *rotation = 0;
-  for (Key k : window.keys()) {
-    const VarType t = window.TypeOf(k);
-    std::vector<double> d(static_cast<std::size_t>(TangentDim(t)));
-    LocalParams(t, whole.Params(k), window.Params(k), d.data());
-    const int translation = t == VarType::kSE2 ? 2 : 3;
-    for (int j = 0; j < TangentDim(t); ++j) {
-      double& m = j < translation ? *position : *rotation;
-      m = std::max(m, std::abs(d[static_cast<std::size_t>(j)]));
-    }
+  if (window.Count(VarType::kSE2) > 0) {
+    RelativeDifference<SE2d>(window, whole, position, rotation);
+  } else {
+    RelativeDifference<SE3d>(window, whole, position, rotation);
   }
 }
 
@@ -173,8 +185,13 @@ TEST(FixedLagSmoother, MarginalCovariancesAreThoseOfTheWholeGraph) {
     for (Key k : smoother.Estimate().keys()) {
       all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
     }
-    const Marginals whole(so_far, all);
+    // The window's gauge: the pose it holds (moved on with it), as the whole graph's.
+    ASSERT_EQ(smoother.graph().fixed().size(), 1u);
+    FactorGraph gauged = so_far;
+    gauged.Fix(*smoother.graph().fixed().begin());
+    const Marginals whole(gauged, all);
     for (Key k : smoother.Estimate().keys()) {
+      if (smoother.graph().IsFixed(k)) continue;
       const Eigen::MatrixXd a = smoother.Marginal(k);
       const Eigen::MatrixXd b = whole.Marginal(k);
       EXPECT_LT((a - b).norm(), 1e-7 * b.norm()) << "key " << k << "\n" << a << "\n" << b;
@@ -221,6 +238,31 @@ TEST(FixedLagSmoother, TheWindowStaysBoundedOnALongRun) {
       "[ fixed lag ] 1500 poses, lag 40: window at most %zu poses and %zu factors, %d marginalisations; "
       "estimates at most %.2e m, %.2e rad from the batch optimum\n",
       largest_window, largest_graph, marginalisations, position, rotation);
+}
+
+// Ten thousand poses of relative measurements (closures up to 30 poses back, a lag of 120):
+// the window's place in the world is known to the
+// whole past only as well as some 1e-12 of its relative information, so a prior that kept it
+// would let the window float. The gauge moving on with the window keeps every estimate at the
+// batch optimum.
+TEST(FixedLagSmoother, ALongWalkDoesNotFloat) {
+  const int poses = 10000;
+  const SimulatedGraph sim = ShortLoops(SimWorld::kManhattan, poses, 27, 30);
+  FixedLagOptions o;
+  o.lag = 120;
+  FixedLagSmoother smoother(o);
+  Values all;
+  Feed(sim, poses, &smoother, [&](int, const SmootherUpdate&, const FactorGraph&) {
+    const Values out = smoother.TakeMarginalized();
+    for (Key k : out.keys()) all.InsertParams(k, out.TypeOf(k), out.Params(k));
+  });
+  smoother.Finish();
+  for (Key k : smoother.Estimate().keys())
+    all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
+  const double online = sim.graph.Chi2(all);
+  const Values batch = BatchOptimum(sim.graph, all);
+  const double optimum = sim.graph.Chi2(batch);
+  EXPECT_LT((online - optimum) / optimum, 1e-8) << online << " against " << optimum;
 }
 
 TEST(FixedLagSmoother, HandlesFollowTheirFactorsAndMarginalisedOnesAreRefused) {
@@ -272,30 +314,81 @@ TEST(FixedLagSmoother, HandlesFollowTheirFactorsAndMarginalisedOnesAreRefused) {
   EXPECT_THROW(smoother.Update({}, {}, {}, std::numeric_limits<double>::infinity()), InvalidArgument);
 }
 
-TEST(FixedLagSmoother, TheGaugeMovesIntoTheMarginalPrior) {
+// Relative measurements only: the gauge (the held pose) moves on with the window, to the lowest
+// pose of the separator, and the prior says nothing of the window's place in the world.
+TEST(FixedLagSmoother, WithRelativeMeasurementsTheGaugeMovesOnWithTheWindow) {
   const int poses = 40;
   const SimulatedGraph sim = ShortLoops(SimWorld::kManhattan, poses, 25, 8);
   FixedLagOptions o;
   o.lag = 10;
   FixedLagSmoother smoother(o);
   Feed(sim, poses, &smoother);
-  // No pose is held any more, and exactly one factor anchors the window: the prior.
-  EXPECT_TRUE(smoother.graph().fixed().empty());
+  ASSERT_EQ(smoother.graph().fixed().size(), 1u);
+  const Key gauge = *smoother.graph().fixed().begin();
+  EXPECT_TRUE(smoother.Estimate().Has(gauge));
+  EXPECT_TRUE(smoother.WasMarginalized(gauge - 1));
   int priors = 0;
   for (const auto& f : smoother.graph().factors()) {
-    if (f->anchors()) {
-      ++priors;
-      EXPECT_EQ(f->type_name(), "MarginalPrior");
+    if (f->type_name() != std::string("MarginalPrior")) continue;
+    ++priors;
+    // Its information sees no rigid motion of the world: H N = 0, with N the tangent
+    // directions in which a small translation and rotation of the world move its poses.
+    const auto& prior = static_cast<const MarginalPrior&>(*f);
+    const int n = static_cast<int>(3 * prior.keys().size());
+    Eigen::MatrixXd N(n, 3);
+    const double eps = 1e-7;
+    for (int c = 0; c < 3; ++c) {
+      const SE2d motion(c == 0 ? eps : 0, c == 1 ? eps : 0, c == 2 ? eps : 0);
+      for (std::size_t k = 0; k < prior.keys().size(); ++k) {
+        const SE2d x0 = SE2d::FromParams(prior.point(k));
+        N.block<3, 1>(static_cast<int>(3 * k), c) = x0.Local(motion * x0) / eps;
+      }
     }
+    const Eigen::MatrixXd H = prior.Information();
+    EXPECT_LT((H * N).norm(), 1e-6 * H.norm() * N.norm());
   }
-  EXPECT_EQ(priors, 1);
-  // A user's fixed pose stays held while it is in the window, and leaves with it.
+  EXPECT_GT(priors, 0);
+  // A user's fixed pose stays held while it is in the window.
   FixedLagSmoother held(o);
   Feed(sim, 5, &held);
   FactorGraph fix;
   fix.Fix(Key(4));
   held.Update(std::move(fix));
   EXPECT_TRUE(held.graph().IsFixed(Key(4)));
+}
+
+// A prior on the first pose anchors the graph in the world: no pose is held, the marginal
+// prior carries the anchor, and the window is at the batch optimum in absolute terms.
+TEST(FixedLagSmoother, WithAnAnchorTheMarginalPriorCarriesIt) {
+  const int poses = 120;
+  SimulatedGraph sim = ShortLoops(SimWorld::kManhattan, poses, 26, 15);
+  sim.graph.Add<PriorSE2>(Key(0), sim.initial.At<SE2d>(0), SqrtInformation::Isotropic(3, 0.1));
+  FixedLagOptions o;
+  o.lag = 25;
+  FixedLagSmoother smoother(o);
+  Values gone;
+  Feed(sim, poses, &smoother, [&](int, const SmootherUpdate&, const FactorGraph&) {
+    const Values out = smoother.TakeMarginalized();
+    for (Key k : out.keys()) gone.InsertParams(k, out.TypeOf(k), out.Params(k));
+  });
+  EXPECT_TRUE(smoother.graph().fixed().empty());
+  int anchors = 0;
+  for (const auto& f : smoother.graph().factors()) {
+    if (!f->anchors()) continue;
+    ++anchors;
+    EXPECT_EQ(f->type_name(), std::string("MarginalPrior"));
+  }
+  EXPECT_EQ(anchors, 1);
+  Values window = smoother.Estimate();
+  Optimize(smoother.graph(), &window, SmootherOptions().finish);
+  Values start = gone;
+  for (Key k : window.keys()) start.InsertParams(k, window.TypeOf(k), window.Params(k));
+  const Values batch = BatchOptimum(sim.graph, start);
+  double largest = 0;
+  for (Key k : window.keys()) {
+    largest = std::max(largest, (window.At<SE2d>(k).translation() - batch.At<SE2d>(k).translation()).norm());
+  }
+  EXPECT_LT(largest, 1e-8);
 }
 
 TEST(FixedLagSmoother, InvalidOptionsThrow) {

@@ -57,6 +57,8 @@ const OptionRange kRanges[] = {
     {"replay", "--local-batch-gap", 0, 1},
     {"replay", "--local-batch-correction", 0, 1},
     {"replay", "--local-batch-share", 0, 1},
+    {"replay", "--lag", 0, kBig},
+    {"replay", "--lag-batch", 0, 1e6},
     // ekf-demo
     {"ekf-demo", "--seeds", 1, 1e6},
     {"ekf-demo", "--first-seed", 0, 4294967295.0},

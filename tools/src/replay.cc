@@ -34,12 +34,14 @@ std::string Format(const char* fmt, double v) {
 }
 
 // The initial guess of `key`, added at this step: from the edges of this step to variables
-// added before (the one to `previous` first), through the edge's Predict; else the file's.
+// added before (in the estimate, the pending values, or `done`: those that left a fixed-lag window) (the one to
+// `previous` first), through the edge's Predict; else the file's.
 void InitialGuess(const GraphFile& file, const std::vector<std::size_t>& factors, Key key, Key previous,
-                  const Values& estimate, const Values& pending, double* params) {
+                  const Values& estimate, const Values& pending, const Values* done, double* params) {
   auto known_params = [&](Key k) -> const double* {
     if (estimate.Has(k)) return estimate.Params(k);
     if (pending.Has(k)) return pending.Params(k);
+    if (done->Has(k)) return done->Params(k);
     return nullptr;
   };
   for (int pass = 0; pass < 2; ++pass) {
@@ -112,12 +114,12 @@ void Accumulate(const SmootherUpdate& u, ReplayResult* r) {
 
 // The online chi2 of the graph so far, computed from the smoother's graph and estimate, and
 // the batch optimum of that graph from the same start (neither timed).
-ReplayCheck Check(const IncrementalSmoother& smoother, std::size_t step) {
+ReplayCheck Check(const FactorGraph& graph, const Values& estimate, const SolverOptions& finish, std::size_t step) {
   ReplayCheck c;
   c.step = step;
-  c.online_chi2 = smoother.graph().Chi2(smoother.Estimate());
-  Values batch = smoother.Estimate();
-  const SolverSummary s = Optimize(smoother.graph(), &batch, smoother.options().finish);
+  c.online_chi2 = graph.Chi2(estimate);
+  Values batch = estimate;
+  const SolverSummary s = Optimize(graph, &batch, finish);
   c.batch_chi2 = s.final_chi2;
   c.gap = RelativeChi2Gap(c.online_chi2, c.batch_chi2);
   return c;
@@ -142,6 +144,131 @@ bool BatchOptimum(const GraphFile& file, double* chi2, std::string* why) {
   return true;
 }
 
+// Whether a factor can go into the smoother: always, but a factor that reaches a variable the
+// fixed-lag smoother marginalised cannot.
+bool Reachable(const IncrementalSmoother&, const Factor&) { return true; }
+bool Reachable(const FixedLagSmoother& smoother, const Factor& f) {
+  for (Key k : f.keys()) {
+    if (smoother.WasMarginalized(k)) return false;
+  }
+  return true;
+}
+
+// After each update: the fixed-lag smoother's marginalised variables go into *done (their
+// final estimates), and the largest window is recorded.
+void AfterUpdate(IncrementalSmoother*, ReplayResult*, Values*) {}
+void AfterUpdate(FixedLagSmoother* smoother, ReplayResult* r, Values* done) {
+  const Values out = smoother->TakeMarginalized();
+  for (Key k : out.keys()) done->InsertParams(k, out.TypeOf(k), out.Params(k));
+  r->marginalized = smoother->marginalized();
+  r->largest_window = std::max(r->largest_window, smoother->Estimate().size());
+}
+
+// The replay's status, message and latency statistics where it stops early; false.
+bool Fail(ReplayResult* r, ReplayStatus status, std::string message) {
+  LatencyStatistics(r);
+  *r = Failed(std::move(*r), status, std::move(message));
+  return false;
+}
+
+// Feeds the file's variables and factors into `smoother` step by step (the header's
+// schedule), timing each update, with the checks asked for. False (and r's status) where an
+// update is refused or fails, or a check fails. `done` holds the estimates of the variables
+// that left the smoother (fixed lag), for the initial guesses.
+template <class Smoother>
+bool FeedUpdates(const GraphFile& file, const Schedule& schedule, const ReplayOptions& ro, Smoother* smoother,
+                 ReplayResult* r, const std::function<void(const ReplayCheck&)>& on_check, Values* done = nullptr) {
+  Values none;
+  if (done == nullptr) done = &none;
+  const std::vector<Key>& keys = schedule.keys;
+  FactorGraph pending_factors;
+  Values pending_values;
+  std::vector<double> params(16);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const Key key = keys[i];
+    params.assign(static_cast<std::size_t>(AmbientDim(file.values.TypeOf(key))), 0.0);
+    InitialGuess(file, schedule.by_step[i], key, i > 0 ? keys[i - 1] : key, smoother->Estimate(), pending_values, done,
+                 params.data());
+    pending_values.InsertParams(key, file.values.TypeOf(key), params.data());
+    if (file.graph.IsFixed(key)) pending_factors.Fix(key);
+    for (std::size_t j : schedule.by_step[i]) {
+      if (Reachable(*smoother, file.graph.at(j))) {
+        pending_factors.Add(file.graph.at(j).Clone());
+      } else {
+        ++r->beyond_lag;
+      }
+    }
+    if ((i + 1) % static_cast<std::size_t>(ro.every) != 0 && i + 1 != keys.size()) continue;
+
+    const auto t0 = std::chrono::steady_clock::now();
+    SmootherUpdate u;
+    try {
+      u = smoother->Update(std::move(pending_factors), std::move(pending_values));
+    } catch (const Error& e) {
+      return Fail(r, ReplayStatus::kBadInput, "the update at step " + std::to_string(i) + ": " + e.what());
+    }
+    r->latencies.push_back(SecondsSince(t0));
+    r->update_steps.push_back(i);
+    Accumulate(u, r);
+    pending_factors = FactorGraph();
+    pending_values = Values();
+    AfterUpdate(smoother, r, done);
+    if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
+      return Fail(r, ReplayStatus::kSolveFailed,
+                  "the update at step " + std::to_string(i) + " failed: " + ToString(u.status) + ": " + u.message);
+    }
+    if (ro.check > 0 && r->latencies.size() % static_cast<std::size_t>(ro.check) == 0 && !smoother->graph().empty()) {
+      try {
+        r->checks.push_back(Check(smoother->graph(), smoother->Estimate(), ro.smoother.finish, i));
+      } catch (const Error& e) {
+        return Fail(r, ReplayStatus::kSolveFailed, "the check at step " + std::to_string(i) + ": " + e.what());
+      }
+      r->max_check_gap = std::max(r->max_check_gap, r->checks.back().gap);
+      if (on_check) on_check(r->checks.back());
+    }
+  }
+  LatencyStatistics(r);
+  return true;
+}
+
+// The replay through FixedLagSmoother (ReplayOptions::fixed_lag), after ReplayFile's checks and
+// reading: the final estimate is each variable's last, the window's after Finish().
+ReplayResult ReplayFixedLag(const GraphFile& file, const Schedule& schedule, const ReplayOptions& ro,
+                            OutputFile* output, bool commit, ReplayResult r,
+                            const std::function<void(const ReplayCheck&)>& on_check) {
+  FixedLagOptions fo;
+  fo.lag = ro.lag;
+  fo.batch = ro.lag_batch;
+  fo.smoother = ro.smoother;
+  FixedLagSmoother smoother(fo);
+  Values all;  // the marginalised variables' final estimates, then the window's
+  if (!FeedUpdates(file, schedule, ro, &smoother, &r, on_check, &all)) return r;
+  const auto t_finish = std::chrono::steady_clock::now();
+  try {
+    smoother.Finish();
+  } catch (const Error& e) {
+    return Failed(std::move(r), ReplayStatus::kSolveFailed, std::string("Finish: ") + e.what());
+  }
+  r.finish_seconds = SecondsSince(t_finish);
+  r.peak_rss_mib = PeakRssMib();
+  for (Key k : smoother.Estimate().keys()) {
+    all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
+  }
+  r.final_chi2 = file.graph.Chi2(all);
+  std::string why;
+  if (!BatchOptimum(file, &r.batch_chi2, &why)) return Failed(std::move(r), ReplayStatus::kSolveFailed, why);
+  r.relative_gap = RelativeChi2Gap(r.final_chi2, r.batch_chi2);
+  if (output != nullptr) {
+    try {
+      output->Stage([&](std::ostream& s) { WriteG2o(s, all, file.graph, DefaultRegistry()); });
+      if (commit) output->Commit();
+    } catch (const Error& e) {
+      return Failed(std::move(r), ReplayStatus::kWriteFailed, e.what());
+    }
+  }
+  return r;
+}
+
 }  // namespace
 
 bool ReplayOptions::IsValid(std::string* why) const {
@@ -150,6 +277,10 @@ bool ReplayOptions::IsValid(std::string* why) const {
     reason = "--every must be at least 1";
   } else if (check < 0) {
     reason = "--check must be 0 (never) or more";
+  } else if (fixed_lag && !(lag >= 0 && std::isfinite(lag))) {
+    reason = "--lag must be 0 or more";
+  } else if (fixed_lag && !(lag_batch >= 0 && std::isfinite(lag_batch))) {
+    reason = "--lag-batch must be 0 or more";
   }
   if (why != nullptr) *why = reason;
   return reason.empty();
@@ -198,50 +329,9 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   r.poses = file.values.Count(VarType::kSE2) + file.values.Count(VarType::kSE3);
   r.factors = file.graph.size();
 
+  if (ro.fixed_lag) return ReplayFixedLag(file, schedule, ro, output, own_output != nullptr, std::move(r), on_check);
   IncrementalSmoother smoother(options);
-  FactorGraph pending_factors;
-  Values pending_values;
-  std::vector<double> params(16);
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    const Key key = keys[i];
-    params.assign(static_cast<std::size_t>(AmbientDim(file.values.TypeOf(key))), 0.0);
-    InitialGuess(file, schedule.by_step[i], key, i > 0 ? keys[i - 1] : key, smoother.Estimate(), pending_values,
-                 params.data());
-    pending_values.InsertParams(key, file.values.TypeOf(key), params.data());
-    if (file.graph.IsFixed(key)) pending_factors.Fix(key);
-    for (std::size_t j : schedule.by_step[i]) pending_factors.Add(file.graph.at(j).Clone());
-    if ((i + 1) % static_cast<std::size_t>(ro.every) != 0 && i + 1 != keys.size()) continue;
-
-    const auto t0 = std::chrono::steady_clock::now();
-    SmootherUpdate u;
-    try {
-      u = smoother.Update(std::move(pending_factors), std::move(pending_values));
-    } catch (const Error& e) {
-      LatencyStatistics(&r);
-      return Failed(std::move(r), ReplayStatus::kBadInput, "the update at step " + std::to_string(i) + ": " + e.what());
-    }
-    r.latencies.push_back(SecondsSince(t0));
-    r.update_steps.push_back(i);
-    Accumulate(u, &r);
-    pending_factors = FactorGraph();
-    pending_values = Values();
-    if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
-      LatencyStatistics(&r);
-      return Failed(std::move(r), ReplayStatus::kSolveFailed,
-                    "the update at step " + std::to_string(i) + " failed: " + ToString(u.status) + ": " + u.message);
-    }
-    if (ro.check > 0 && r.latencies.size() % static_cast<std::size_t>(ro.check) == 0 && !smoother.graph().empty()) {
-      try {
-        r.checks.push_back(Check(smoother, i));
-      } catch (const Error& e) {
-        LatencyStatistics(&r);
-        return Failed(std::move(r), ReplayStatus::kSolveFailed,
-                      "the check at step " + std::to_string(i) + ": " + e.what());
-      }
-      r.max_check_gap = std::max(r.max_check_gap, r.checks.back().gap);
-      if (on_check) on_check(r.checks.back());
-    }
-  }
+  if (!FeedUpdates(file, schedule, ro, &smoother, &r, on_check)) return r;
   LatencyStatistics(&r);
 
   const auto t_finish = std::chrono::steady_clock::now();
@@ -275,21 +365,25 @@ namespace {
 // The settings the replay runs with, said before it starts.
 void PrintSettings(const ReplayCommand& cmd, std::ostream& out) {
   const ReplayOptions& o = cmd.options;
+  if (o.fixed_lag) {
+    out << "replay " << cmd.input << ": fixed lag, variables older than " << o.lag
+        << " step(s) marginalised in batches of " << o.lag_batch << " of the lag; ";
+  }
   if (o.smoother.mode == SmootherMode::kLocal) {
-    out << "replay " << cmd.input << ": an update every " << o.every << " step(s), local mode: tolerance "
-        << o.smoother.local_tolerance << ", " << o.smoother.local_hops << " hop(s), regions of at most "
-        << o.smoother.local_max_region << " variables, a batch solve once the edges leave "
-        << o.smoother.local_batch_gap << " of chi2 or after " << o.smoother.local_batch_share
-        << " of the variables in updates, new variables " << (o.smoother.refine_new_values ? "refined" : "as given")
-        << "\n";
+    if (!o.fixed_lag) out << "replay " << cmd.input << ": ";
+    out << "an update every " << o.every << " step(s), local mode: tolerance " << o.smoother.local_tolerance << ", "
+        << o.smoother.local_hops << " hop(s), regions of at most " << o.smoother.local_max_region
+        << " variables, a batch solve once the edges leave " << o.smoother.local_batch_gap << " of chi2 or after "
+        << o.smoother.local_batch_share << " of the variables in updates, new variables "
+        << (o.smoother.refine_new_values ? "refined" : "as given") << "\n";
   } else {
-    out << "replay " << cmd.input << ": an update every " << o.every << " step(s), relinearise threshold "
-        << o.smoother.relinearize_threshold << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio "
-        << o.smoother.iterate_ratio << " (then beyond " << o.smoother.iterate_fraction << " of them) or "
-        << o.smoother.iterate_share << " of the variables too large, new variables "
-        << (o.smoother.refine_new_values ? "refined" : "as given") << ", at most " << o.smoother.rounds_per_update
-        << " round(s) per update, wildfire " << o.smoother.wildfire_threshold << ", factorization "
-        << o.smoother.factorization << "\n";
+    if (!o.fixed_lag) out << "replay " << cmd.input << ": ";
+    out << "an update every " << o.every << " step(s), relinearise threshold " << o.smoother.relinearize_threshold
+        << " or " << o.smoother.relinearize_sigmas << " sigma, iterate ratio " << o.smoother.iterate_ratio
+        << " (then beyond " << o.smoother.iterate_fraction << " of them) or " << o.smoother.iterate_share
+        << " of the variables too large, new variables " << (o.smoother.refine_new_values ? "refined" : "as given")
+        << ", at most " << o.smoother.rounds_per_update << " round(s) per update, wildfire "
+        << o.smoother.wildfire_threshold << ", factorization " << o.smoother.factorization << "\n";
   }
 }
 
@@ -304,6 +398,10 @@ void PrintReplayReport(const ReplayResult& r, const ReplayOptions& o, std::ostre
         << Format("%.1f", local > 0 ? static_cast<double>(r.region_variables) / local : 0.0)
         << " variables on average\n";
   }
+  if (o.fixed_lag) {
+    out << "fixed lag: " << r.marginalized << " variables marginalised, a window of at most " << r.largest_window
+        << " variables, " << r.beyond_lag << " factor(s) left out (they reached beyond the lag)\n";
+  }
   out << "columns refactored: " << r.affected_columns << ", back-substituted: " << r.back_substituted
       << ", variables re-linearised: " << r.relinearized << "\n";
   out << "total [s]: " << Format("%.3f", r.total_seconds()) << " (updates " << Format("%.3f", r.updates_seconds)
@@ -313,7 +411,8 @@ void PrintReplayReport(const ReplayResult& r, const ReplayOptions& o, std::ostre
   out << "update split [s]: linearise " << Format("%.3f", r.linearize_seconds) << ", factorise "
       << Format("%.3f", r.factorize_seconds) << ", solve " << Format("%.3f", r.solve_seconds) << ", other "
       << Format("%.3f", r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds) << "\n";
-  out << "final chi2: " << Format("%.9g", r.final_chi2) << "\n";
+  out << (o.fixed_lag ? "final chi2 (the whole file at each variable's last estimate): " : "final chi2: ")
+      << Format("%.9g", r.final_chi2) << "\n";
   out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
   out << "relative gap to batch: " << Format("%.3e", r.relative_gap) << "\n";
   if (o.check > 0) {
@@ -448,9 +547,25 @@ void ReplayCli::Add(CLI::App& app) {
                   "Back-substitute below a variable only where its step changed by more than this "
                   "(SmootherOptions::wildfire_threshold)")
       ->capture_default_str();
-  AddEnumOption(sub, "--mode", &cmd_.options.smoother.mode,
-                "factor (keep a Cholesky factor of the whole system) or local (solve each update over a region "
-                "around it, with batch solves now and then) (SmootherOptions::mode)");
+  sub->add_option_function<std::string>(
+         "--mode",
+         [this](const std::string& m) {
+           cmd_.options.fixed_lag = m == "fixed-lag";
+           if (!cmd_.options.fixed_lag) FromString(m, &cmd_.options.smoother.mode);
+         },
+         "factor (keep a Cholesky factor of the whole system), local (solve each update over a region around it, "
+         "with batch solves now and then) (SmootherOptions::mode), or fixed-lag (marginalise what is older than "
+         "--lag: FixedLagSmoother, with the factor mode's smoother over the window)")
+      ->type_name("NAME")
+      ->default_str("factor")
+      ->check(CLI::IsMember({"factor", "local", "fixed-lag"}));
+  sub->add_option("--lag", cmd_.options.lag,
+                  "fixed-lag: marginalise the variables added more than this many steps before (FixedLagOptions::lag)")
+      ->capture_default_str();
+  sub->add_option("--lag-batch", cmd_.options.lag_batch,
+                  "fixed-lag: marginalise once the oldest variable is older than lag * (1 + this) "
+                  "(FixedLagOptions::batch)")
+      ->capture_default_str();
   sub->add_option("--local-tolerance", cmd_.options.smoother.local_tolerance,
                   "local: grow the region while an edge variable alone could lower chi2 by more than this share of "
                   "chi2 per variable "

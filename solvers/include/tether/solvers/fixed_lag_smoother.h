@@ -30,8 +30,14 @@
 //
 // Held variables: the graph's fixed set and the automatic gauge (the lowest pose where nothing
 // anchors the graph) are held as in IncrementalSmoother. A held variable that is marginalised
-// is conditioned on (its step is zero), so the prior carries what it fixed; once a prior is in
-// the window it anchors the graph (MarginalPrior::anchors) and no pose is held for the gauge.
+// is conditioned on (its step is zero). Where the graph measures only relative quantities (the
+// automatic gauge), the gauge moves on with the window when its pose leaves: the lowest pose of
+// the separator is held at its estimate and the marginalisation is conditioned on it too, so
+// the window's estimates are relative to it, as the full smoother's are relative to the first
+// pose. (A prior that kept the window's place in the world would know it only as well as the
+// whole past determines it, which after many poses drowns in the rounding of its relative
+// information.) Where something anchors the graph (a prior, a fixed variable), the marginal
+// prior carries that anchor (MarginalPrior::anchors) and no pose is held for the gauge.
 #include <Eigen/Core>
 #include <deque>
 #include <limits>
@@ -122,6 +128,8 @@ class FixedLagSmoother {
   std::size_t updates_ = 0;
   std::map<Key, Key> marginalized_ranges_;  // first -> last of each run of marginalised keys
   std::size_t marginalized_count_ = 0;
+  Key moving_gauge_ = 0;  // the pose this smoother holds for the gauge, where it moved it on
+  bool has_moving_gauge_ = false;
   Values taken_out_;
 };
 

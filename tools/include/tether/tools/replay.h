@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tether/core/output_file.h"
+#include "tether/solvers/fixed_lag_smoother.h"
 #include "tether/solvers/incremental_smoother.h"
 
 namespace tether {
@@ -37,6 +38,15 @@ struct ReplayOptions {
   /// Where set (not owned), the final estimate is staged into it instead of written to
   /// `output`, for the caller to commit together with its other outputs.
   OutputFile* output_file = nullptr;
+  /// Replay through FixedLagSmoother (`--mode fixed-lag`): variables older than `lag` steps
+  /// are marginalised, in batches of lag_batch * lag (FixedLagOptions::lag, ::batch), with
+  /// `smoother` as the window's smoother. A factor that reaches a marginalised variable (a
+  /// loop closure older than the lag) is left out and counted. The final estimate is each
+  /// variable's last: when it left the window, or the window's after Finish(); final_chi2 is
+  /// the whole file's chi2 there (the factors left out included), against the batch optimum.
+  bool fixed_lag = false;
+  double lag = 100;
+  double lag_batch = 0.25;
 
   /// True when the options can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -102,6 +112,10 @@ struct ReplayResult {
   /// batch comparison solve: reading the file, the smoother, its solves (and the --check
   /// solves, where asked for), and whatever the process held before the replay. MiB.
   double peak_rss_mib = 0;
+
+  /// Fixed lag: variables marginalised, factors left out (they reached a marginalised
+  /// variable), and the largest window (variables) after an update.
+  std::size_t marginalized = 0, beyond_lag = 0, largest_window = 0;
 
   double total_seconds() const { return updates_seconds + finish_seconds; }
 };
