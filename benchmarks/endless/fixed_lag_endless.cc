@@ -1,6 +1,6 @@
-// An endless run for the fixed-lag smoother: a robot on a street grid (1 m steps, a turn now
-// and then), simulated step by step with known truth, its odometry and the loop closures to
-// places it passed within the last `span` poses, fed one pose per update into a
+// An endless run for the fixed-lag smoother: a robot on a street grid (1 m steps, turns at the
+// crossings, mostly to the left, so that it often drives round a block), simulated step by step with known truth, its
+// odometry and the loop closures to places it passed within the last `span` poses, fed one pose per update into a
 // FixedLagSmoother. Nothing of the run is kept beyond the window: the world is made as it
 // goes, and the poses that leave the window are scored and dropped. Every `block` poses it
 // prints the mean and largest update time of the block, the resident memory now and at its
@@ -112,9 +112,14 @@ int main(int argc, char** argv) {
       truth[k] = dead[k] = SE2d(0, 0, 0);
       v.Insert(k, SE2d(0, 0, 0));
     } else {
-      // A 1 m step along the street; at a crossing (every 5 m) a turn with probability 0.3.
+      // A 1 m step along the street; at a crossing (every 5 m) a left turn with probability
+      // 0.5, a right one with 0.15: the robot often drives round a block (20 poses) and back
+      // over its own track.
       double turn = 0;
-      if (i % 5 == 0 && u(rng) < 0.3) turn = u(rng) < 0.5 ? M_PI / 2 : -M_PI / 2;
+      if (i % 5 == 0) {
+        const double r = u(rng);
+        turn = r < 0.5 ? M_PI / 2 : r < 0.65 ? -M_PI / 2 : 0.0;
+      }
       const SE2d step(1, 0, turn);
       truth[k] = truth[k - 1] * step;
       const SE2d z = Noisy(step, odo_sigma, rng);

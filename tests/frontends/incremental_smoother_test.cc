@@ -467,6 +467,35 @@ TEST(IncrementalSmoother, AFailedSolveKeepsTheChangesAndRemovingTheCauseRecovers
   EXPECT_EQ(fixed.status, SolverStatus::kConverged) << fixed.message;
 }
 
+// Restart: the graph and values replace everything, the values are taken as given (not refined),
+// the handles start over, and an invalid restart changes nothing.
+TEST(IncrementalSmoother, RestartStartsOverFromTheGivenGraphAndValues) {
+  const int poses = 30;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 15);
+  IncrementalSmoother smoother;
+  Replay(sim, poses, 0.0, 15, &smoother, nullptr);
+  const Values before = smoother.Estimate();
+  FactorGraph graph;
+  for (std::size_t i = 0; i < sim.graph.size(); ++i) graph.Add(sim.graph.at(i).Clone());
+  // An invalid restart (a factor on a key without a value) leaves the smoother as it was.
+  FactorGraph bad = graph;
+  bad.Add<BetweenSE2>(Key(0), Key(999), SE2d(1, 0, 0), SqrtInformation::Isotropic(3, 1));
+  EXPECT_THROW(smoother.Restart(std::move(bad), before), InvalidArgument);
+  EXPECT_TRUE(BitIdentical(smoother.Estimate(), before));
+  // From the optimum, restarting moves nothing (no refinement of the "new" values) and hands
+  // out one handle per factor.
+  double chi2 = 0;
+  const Values optimum = BatchOptimum(sim.graph, sim.initial, &chi2);
+  const SmootherUpdate u = smoother.Restart(graph, optimum);
+  EXPECT_EQ(u.new_factor_ids.size(), sim.graph.size());
+  EXPECT_EQ(smoother.graph().size(), sim.graph.size());
+  EXPECT_LT(MaxDifference(smoother.Estimate(), optimum), 1e-7);
+  EXPECT_NEAR(smoother.graph().Chi2(smoother.Estimate()), chi2, 1e-9 * chi2);
+  // The new handles work.
+  const SmootherUpdate removed = smoother.Update({}, {}, {u.new_factor_ids.back()});
+  EXPECT_EQ(removed.factors_removed, 1);
+}
+
 TEST(IncrementalSmoother, AnEmptySmoother) {
   IncrementalSmoother smoother;
   const SmootherUpdate u = smoother.Update();

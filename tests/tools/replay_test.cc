@@ -215,6 +215,57 @@ TEST_F(ReplayTest, CommandLine) {
   EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
 }
 
+TEST_F(ReplayTest, FixedLagFromTheCommandLine) {
+  auto run = [&](const std::string& extra, int want_exit = 0) {
+    const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " -q " + extra + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    EXPECT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    std::size_t n;
+    while (p != nullptr && (n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+    const int status = p != nullptr ? pclose(p) : -1;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == want_exit) << out;
+    return out;
+  };
+  // "fixed lag: M variables marginalised, a window of at most W variables, F factor(s) left out"
+  auto counts = [](const std::string& out, long* marginalised, long* window, long* left_out) {
+    const auto f = Fields(out);
+    ASSERT_EQ(f.count("fixed lag"), 1u) << out;
+    ASSERT_EQ(
+        std::sscanf(f.at("fixed lag").c_str(), "%ld variables marginalised, a window of at most %ld variables, %ld",
+                    marginalised, window, left_out),
+        3)
+        << out;
+  };
+  // A lag longer than the file: nothing leaves, the result is the batch optimum.
+  const std::string whole = run("--mode fixed-lag --lag 1000");
+  long m = 0, w = 0, left = 0;
+  counts(whole, &m, &w, &left);
+  EXPECT_EQ(m, 0);
+  EXPECT_EQ(w, 200);
+  EXPECT_EQ(left, 0);
+  const auto fw = Fields(whole);
+  const std::string chi2_key = "final chi2 (the whole file at each variable's last estimate)";
+  ASSERT_EQ(fw.count(chi2_key), 1u) << whole;
+  EXPECT_NEAR(std::stod(fw.at(chi2_key)), std::stod(fw.at("batch optimum")), 1e-6 * std::stod(fw.at("batch optimum")));
+  // A lag of 20 poses: the window stays at most 20 * 1.25 + 1, the closures that reach further
+  // back are left out, and every pose's last estimate is written.
+  const std::string out = (dir_ / "fixed_lag.g2o").string();
+  const std::string short_lag = run("--mode fixed-lag --lag 20 -o " + out);
+  counts(short_lag, &m, &w, &left);
+  EXPECT_GT(m, 150);
+  EXPECT_LE(w, 26);
+  EXPECT_GT(left, 0);
+  const GraphFile written = ReadGraphFile(out, DefaultRegistry());
+  EXPECT_EQ(written.values.size(), 200u);
+  EXPECT_EQ(written.graph.size(), factors_);
+  // The options are checked.
+  run("--mode fixed-lag --lag -1", 2);
+  run("--mode fixed-lag --lag-batch -0.5", 2);
+  run("--mode sliding", 2);
+}
+
 TEST_F(ReplayTest, LocalModeFromTheCommandLine) {
   // --mode local and its options reach the smoother: a region limit of 1 variable makes every
   // update with a loop closure a batch solve; the default limit leaves most of them local.
