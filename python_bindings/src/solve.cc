@@ -1,6 +1,7 @@
 // Solving: SolverOptions / SolverSummary, optimize() (GIL released, a Python iteration
 // callback that can stop the solve), marginal covariances, the incremental smoother, the
 // pipeline (read, initialise, optimise, write) and plugins.
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -9,6 +10,7 @@
 #include "tether/factors/builtin.h"
 #include "tether/plugins/plugin_loader.h"
 #include "tether/solvers/covariance.h"
+#include "tether/solvers/fixed_lag_smoother.h"
 #include "tether/solvers/incremental_smoother.h"
 #include "tether/solvers/initialize.h"
 #include "tether/solvers/optimizer.h"
@@ -255,6 +257,7 @@ void BindMarginalsAndSmoother(py::module_& m) {
       .def_readonly("factors_removed", &SmootherUpdate::factors_removed)
       .def_readonly("variables_added", &SmootherUpdate::variables_added)
       .def_readonly("variables_removed", &SmootherUpdate::variables_removed)
+      .def_readonly("marginalized", &SmootherUpdate::marginalized, "FixedLagSmoother: variables marginalised")
       .def_readonly("new_factor_ids", &SmootherUpdate::new_factor_ids, "handles of the added factors")
       .def_readonly("solved", &SmootherUpdate::solved)
       .def_readonly("structure_rebuilt", &SmootherUpdate::structure_rebuilt)
@@ -307,6 +310,65 @@ void BindMarginalsAndSmoother(py::module_& m) {
           "Solves the whole graph to convergence; returns the estimate.")
       .def_property_readonly("finish_summary", Reads(&IncrementalSmoother::finish_summary, "IncrementalSmoother"))
       .def("graph", Reads(&IncrementalSmoother::graph, "IncrementalSmoother"), "A copy of the smoother's graph.");
+
+  py::class_<FixedLagOptions>(m, "FixedLagOptions", "The fixed-lag smoother's settings (docs/smoother.md).")
+      .def(py::init<>())
+      .def_readwrite("lag", &FixedLagOptions::lag, "marginalise what was added more than this long before")
+      .def_readwrite("batch", &FixedLagOptions::batch, "marginalise once the oldest is older than lag * (1 + batch)")
+      .def_readwrite("smoother", &FixedLagOptions::smoother, "the window's smoother")
+      .def_readwrite("converge", &FixedLagOptions::converge, "the window's solve before each marginalisation");
+
+  py::class_<FixedLagSmoother>(m, "FixedLagSmoother",
+                               "The incremental smoother over a window of the latest variables; older ones are "
+                               "marginalised into a prior, so memory and step time stay flat.")
+      .def(py::init<const FixedLagOptions&>(), py::arg("options") = FixedLagOptions())
+      .def(
+          "update",
+          [](FixedLagSmoother& s, const std::optional<FactorGraph>& factors, const std::optional<Values>& values,
+             const std::vector<FactorId>& remove, std::optional<double> time) {
+            FactorGraph f = factors ? *factors : FactorGraph();
+            Values v = values ? *values : Values();
+            const InUse::Scope updating(&s, "FixedLagSmoother", "FixedLagSmoother.update", InUse::Access::kWrite);
+            return Guarded([&] {
+              py::gil_scoped_release release;
+              return s.Update(std::move(f), std::move(v), remove,
+                              time ? *time : std::numeric_limits<double>::quiet_NaN());
+            });
+          },
+          py::arg("new_factors") = py::none(), py::arg("new_values") = py::none(),
+          py::arg("remove") = std::vector<FactorId>(), py::arg("time") = py::none(),
+          "As IncrementalSmoother.update, at `time` (default: the number of earlier updates); then marginalises "
+          "what is older than the lag.")
+      .def("estimate", Reads(&FixedLagSmoother::Estimate, "FixedLagSmoother"), "A copy of the window's estimate.")
+      .def(
+          "marginal",
+          [](const FixedLagSmoother& s, Key k) {
+            InUse::Check(&s, "FixedLagSmoother", InUse::Access::kRead);
+            return Guarded([&] { return s.Marginal(k); });
+          },
+          py::arg("key"), "(tangent, tangent) covariance of a variable in the window.")
+      .def(
+          "take_marginalized",
+          [](FixedLagSmoother& s) {
+            const InUse::Scope taking(&s, "FixedLagSmoother", "FixedLagSmoother.take_marginalized",
+                                      InUse::Access::kWrite);
+            return s.TakeMarginalized();
+          },
+          "The final estimates of the variables marginalised since the last call.")
+      .def("was_marginalized", &FixedLagSmoother::WasMarginalized, py::arg("key"))
+      .def_property_readonly("marginalized", &FixedLagSmoother::marginalized, "variables marginalised so far")
+      .def(
+          "finish",
+          [](FixedLagSmoother& s) {
+            const InUse::Scope finishing(&s, "FixedLagSmoother", "FixedLagSmoother.finish", InUse::Access::kWrite);
+            return Guarded([&] {
+              py::gil_scoped_release release;
+              return Values(s.Finish());
+            });
+          },
+          "Solves the window to convergence; returns its estimate.")
+      .def("graph", Reads(&FixedLagSmoother::graph, "FixedLagSmoother"),
+           "A copy of the window's factors and the marginal prior.");
 }
 
 void BindPipeline(py::module_& m) {

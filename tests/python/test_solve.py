@@ -130,6 +130,60 @@ def test_marginals_are_numpy_arrays():
     np.testing.assert_allclose(j[3:, 3:], c39, rtol=1e-9)
 
 
+def _feed_pose_by_pose(smoother, graph, initial, poses):
+    """Adds pose i with the factors it completes, one update per pose."""
+    by_step = [[] for _ in range(poses)]
+    for k in range(len(graph)):
+        by_step[max(graph[k].keys)].append(graph[k])
+    updates = []
+    for i in range(poses):
+        step = tether.FactorGraph()
+        for f in by_step[i]:
+            if not any(smoother.was_marginalized(key) for key in f.keys):
+                step.add(f)
+        new = tether.Values()
+        new.insert(i, initial.at(i))
+        updates.append(smoother.update(step, new))
+        yield updates[-1]
+
+
+def test_fixed_lag_smoother_keeps_a_window_and_hands_out_what_leaves():
+    graph, initial, _ = tether.simulate("manhattan", poses=120, seed=4)
+    # A lag longer than the run: nothing leaves, the window is the whole graph's optimum.
+    whole = tether.FixedLagSmoother(tether.FixedLagOptions())
+    for u in _feed_pose_by_pose(whole, graph, initial, 120):
+        assert u.marginalized == 0
+    assert whole.marginalized == 0
+    final = whole.finish()
+    batch = initial.copy()
+    tether.optimize(graph, batch)
+    assert graph.chi2(final) == pytest.approx(graph.chi2(batch), rel=1e-6)
+    # A lag of 20: a bounded window, the poses that left handed out once, and a factor that
+    # reaches a marginalised pose refused.
+    o = tether.FixedLagOptions()
+    o.lag = 20
+    o.batch = 0.25
+    smoother = tether.FixedLagSmoother(o)
+    left = {}
+    for u in _feed_pose_by_pose(smoother, graph, initial, 120):
+        assert len(smoother.estimate()) <= 26
+        out = smoother.take_marginalized()
+        for key in out.keys():
+            assert key not in left
+            left[key] = out.at(key)
+    assert smoother.marginalized == len(left) and len(left) + len(smoother.estimate()) == 120
+    assert smoother.was_marginalized(0) and not smoother.was_marginalized(119)
+    assert smoother.marginal(119).shape == (3, 3)
+    late = tether.FactorGraph()
+    late.add(graph[0])  # the odometry 0 -> 1
+    with pytest.raises(tether.InvalidArgument, match="marginalised"):
+        smoother.update(late)
+    bad = tether.FixedLagOptions()
+    bad.lag = -1
+    with pytest.raises(tether.InvalidArgument, match="lag"):
+        tether.FixedLagSmoother(bad)
+
+
 def test_incremental_smoother_matches_the_batch_solve():
     graph, initial, _ = tether.simulate("manhattan", poses=80, seed=9)
     smoother = tether.IncrementalSmoother()
