@@ -250,7 +250,8 @@ void BindMarginalsAndSmoother(py::module_& m) {
       .def_readwrite("compute_chi2", &SmootherOptions::compute_chi2)
       .def_readwrite("update", &SmootherOptions::update)
       .def_readwrite("finish", &SmootherOptions::finish)
-      .def_readwrite("covariance", &SmootherOptions::covariance);
+      .def_readwrite("covariance", &SmootherOptions::covariance)
+      .def_readwrite("marginal_from_factor", &SmootherOptions::marginal_from_factor);
 
   py::class_<SmootherUpdate>(m, "SmootherUpdate", "What one update did.")
       .def_readonly("factors_added", &SmootherUpdate::factors_added)

@@ -197,6 +197,40 @@ void IncrementalCholesky::Touch(int f) {
   for (int v : factors_[f].vars) touched_.push_back(v);
 }
 
+bool IncrementalCholesky::PathMarginal(int v, int max_columns, Eigen::MatrixXd* cov) const {
+  if (v < 0 || v >= static_cast<int>(vars_.size()) || full_ || !touched_.empty()) return false;
+  // v and its ancestors: every row of their columns is one of them, so their block of H^-1 is
+  // (L_PP L_PP^T)^-1 with L_PP the rows and columns of the path alone.
+  std::vector<int> path, offset;
+  int total = 0;
+  for (int j = v; j >= 0; j = Parent(j)) {
+    const Var& c = vars_[j];
+    if (!InSystem(c) || c.L.cols() != c.dim || static_cast<int>(path.size()) == max_columns) return false;
+    path.push_back(j);
+    offset.push_back(total);
+    total += c.dim;
+  }
+  auto at = [&](int var) {
+    const auto it = std::find(path.begin(), path.end(), var);
+    return it == path.end() ? -1 : offset[static_cast<std::size_t>(it - path.begin())];
+  };
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(total, total);
+  for (std::size_t p = 0; p < path.size(); ++p) {
+    const Var& c = vars_[path[p]];
+    L.block(offset[p], offset[p], c.dim, c.dim) = c.L.topRows(c.dim);
+    for (std::size_t i = 0; i < c.rows.size(); ++i) {
+      const int row = at(c.rows[i]);
+      if (row < 0) return false;  // not an ancestor: the factor is not what this assumes
+      L.block(row, offset[p], vars_[c.rows[i]].dim, c.dim) = c.L.block(c.offsets[i], 0, vars_[c.rows[i]].dim, c.dim);
+    }
+  }
+  // H^-1 = L^-T L^-1; v's block is X^T X with X the first dim(v) columns of L^-1.
+  const int d = vars_[v].dim;
+  const Eigen::MatrixXd X = L.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(total, d));
+  *cov = X.transpose() * X;
+  return cov->allFinite();
+}
+
 std::int64_t IncrementalCholesky::FactorEntries() const {
   std::int64_t n = 0;
   for (const Var& v : vars_) n += v.L.size();

@@ -108,6 +108,12 @@ class IncrementalCholesky {
   const std::vector<int>& factors_of(int v) const { return vars_[v].factors; }
   const std::vector<int>& vars_of(int f) const { return factors_[f].vars; }
   const Stats& stats() const { return stats_; }
+  /// The marginal covariance of v from the factor, where v's path to the root of the
+  /// elimination tree (v and its ancestors) has at most max_columns columns, as the newest
+  /// variables' have (the ordering puts them last), and the factor is current (refactored
+  /// since the last change, the last refactor succeeded): v's block of (L_PP L_PP^T)^-1, L_PP
+  /// the path's rows and columns of L. False otherwise.
+  bool PathMarginal(int v, int max_columns, Eigen::MatrixXd* cov) const;
   /// Number of stored scalars of L (diagonal blocks in full, for the record).
   std::int64_t FactorEntries() const;
 

@@ -697,6 +697,11 @@ void IncrementalSmoother::UpdateLocal(FactorGraph new_factors, Values new_values
 }
 
 Eigen::MatrixXd IncrementalSmoother::Marginal(Key key) const {
+  if (options_.marginal_from_factor && options_.mode == SmootherMode::kFactor) {
+    const auto it = state_->index_of.find(key);
+    Eigen::MatrixXd cov;
+    if (it != state_->index_of.end() && state_->engine.PathMarginal(it->second, 32, &cov)) return cov;
+  }
   if (!marginals_) marginals_ = std::make_unique<Marginals>(graph_, estimate_, options_.covariance);
   return marginals_->Marginal(key);
 }

@@ -340,7 +340,9 @@ TEST(IncrementalSmoother, RemovingTheLastFactorOfAVariableErasesIt) {
 TEST(IncrementalSmoother, MarginalIsMarginalsOfTheGraphAndEstimate) {
   const int poses = 60;
   const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 9);
-  IncrementalSmoother smoother;
+  SmootherOptions o;
+  o.marginal_from_factor = false;  // the newest pose's too (the test below has the other way)
+  IncrementalSmoother smoother(o);
   Replay(sim, poses, 0.0, 9, &smoother, nullptr);
   const Marginals m(smoother.graph(), smoother.Estimate());
   for (Key k : {Key(1), Key(30), Key(59)}) {
@@ -351,6 +353,40 @@ TEST(IncrementalSmoother, MarginalIsMarginalsOfTheGraphAndEstimate) {
   }
   EXPECT_THROW(smoother.Marginal(0), InvalidArgument);  // the gauge
   EXPECT_THROW(smoother.Marginal(1000), InvalidArgument);
+}
+
+// The newest pose's marginal from the kept factor is the covariance at the linearisation point:
+// with the linearisation point held at the given values (thresholds never reached, no
+// refinement), it equals Marginals of the graph at those values, not at the estimate; after
+// Finish() (the factor to be rebuilt) it is Marginals at the estimate again.
+TEST(IncrementalSmoother, TheNewestPosesMarginalComesFromTheKeptFactor) {
+  const int poses = 60;
+  const SimulatedGraph sim = SimulateWorld(SimWorld::kManhattan, poses, 16);
+  SmootherOptions o;
+  o.relinearize_threshold = o.relinearize_sigmas = 1e6;
+  o.refine_new_values = false;
+  IncrementalSmoother smoother(o);
+  const auto by_step = FactorsByStep(sim.graph);
+  Values given;
+  for (int i = 0; i < poses; ++i) {
+    const Key k = static_cast<Key>(i);
+    FactorGraph f;
+    Values v;
+    v.InsertParams(k, sim.initial.TypeOf(k), sim.initial.Params(k));
+    given.InsertParams(k, sim.initial.TypeOf(k), sim.initial.Params(k));
+    for (std::size_t j : by_step[k]) f.Add(sim.graph.at(j).Clone());
+    smoother.Update(std::move(f), std::move(v));
+    if (i < 5) continue;
+    const Eigen::MatrixXd fast = smoother.Marginal(k);
+    const Eigen::MatrixXd at_theta = Marginals(smoother.graph(), given).Marginal(k);
+    EXPECT_LT((fast - at_theta).norm(), 1e-9 * at_theta.norm()) << "pose " << i;
+  }
+  // The estimate has moved well away from the given values, and so has its covariance.
+  const Key last = static_cast<Key>(poses - 1);
+  const Eigen::MatrixXd at_estimate = Marginals(smoother.graph(), smoother.Estimate()).Marginal(last);
+  EXPECT_GT((smoother.Marginal(last) - at_estimate).norm(), 1e-3 * at_estimate.norm());
+  smoother.Finish();
+  EXPECT_EQ(smoother.Marginal(last), Marginals(smoother.graph(), smoother.Estimate()).Marginal(last));
 }
 
 TEST(IncrementalSmoother, APoseAfterABatchStartOrFinishRefactorsOnlyTheLastColumns) {

@@ -215,6 +215,26 @@ TEST_F(ReplayTest, CommandLine) {
   EXPECT_NEAR(std::stod(f.at("final chi2")), std::stod(f.at("batch optimum")), 1e-6 * std::stod(f.at("batch optimum")));
 }
 
+TEST_F(ReplayTest, TimesTheNewestMarginalOnRequest) {
+  ReplayOptions o;
+  o.time_marginal = true;
+  const ReplayResult r = ReplayFile(file_, o);
+  ASSERT_EQ(r.status, ReplayStatus::kDone) << r.message;
+  EXPECT_EQ(r.marginals, 199u);  // every pose but the gauge
+  EXPECT_GT(r.marginal_seconds, 0);
+  EXPECT_GE(r.marginal_max_seconds, r.marginal_seconds / 199);
+  std::ostringstream out, err;
+  ReplayCommand cmd;
+  cmd.input = file_;
+  cmd.quiet = true;
+  cmd.options.time_marginal = true;
+  ASSERT_EQ(RunReplay(cmd, out, err), 0) << err.str();
+  EXPECT_EQ(Fields(out.str()).count("marginal of the newest variable [ms]"), 1u) << out.str();
+  // Off by default.
+  const ReplayResult plain = ReplayFile(file_, ReplayOptions());
+  EXPECT_EQ(plain.marginals, 0u);
+}
+
 TEST_F(ReplayTest, FixedLagFromTheCommandLine) {
   auto run = [&](const std::string& extra, int want_exit = 0) {
     const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " -q " + extra + " 2>&1";

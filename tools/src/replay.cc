@@ -213,6 +213,18 @@ bool FeedUpdates(const GraphFile& file, const Schedule& schedule, const ReplayOp
     pending_factors = FactorGraph();
     pending_values = Values();
     AfterUpdate(smoother, r, done);
+    if (ro.time_marginal && smoother->Estimate().Has(key) && !smoother->graph().IsFixed(key)) {
+      const auto tm = std::chrono::steady_clock::now();
+      try {
+        smoother->Marginal(key);
+        const double s = SecondsSince(tm);
+        ++r->marginals;
+        r->marginal_seconds += s;
+        r->marginal_max_seconds = std::max(r->marginal_max_seconds, s);
+      } catch (const Error&) {
+        // The gauge, or a variable no factor uses yet: nothing to time.
+      }
+    }
     if (u.solved && u.status != SolverStatus::kConverged && u.status != SolverStatus::kMaxIterations) {
       return Fail(r, ReplayStatus::kSolveFailed,
                   "the update at step " + std::to_string(i) + " failed: " + ToString(u.status) + ": " + u.message);
@@ -411,6 +423,12 @@ void PrintReplayReport(const ReplayResult& r, const ReplayOptions& o, std::ostre
   out << "update split [s]: linearise " << Format("%.3f", r.linearize_seconds) << ", factorise "
       << Format("%.3f", r.factorize_seconds) << ", solve " << Format("%.3f", r.solve_seconds) << ", other "
       << Format("%.3f", r.updates_seconds - r.linearize_seconds - r.factorize_seconds - r.solve_seconds) << "\n";
+  if (r.marginals > 0) {
+    const double mean = r.marginal_seconds / static_cast<double>(r.marginals);
+    out << "marginal of the newest variable [ms]: mean " << Format("%.3f", 1e3 * mean) << ", max "
+        << Format("%.3f", 1e3 * r.marginal_max_seconds) << " (" << r.marginals << " calls; "
+        << Format("%.3f", r.mean_seconds > 0 ? mean / r.mean_seconds : 0.0) << " of the mean update)\n";
+  }
   out << (o.fixed_lag ? "final chi2 (the whole file at each variable's last estimate): " : "final chi2: ")
       << Format("%.9g", r.final_chi2) << "\n";
   out << "batch optimum: " << Format("%.9g", r.batch_chi2) << "\n";
@@ -504,6 +522,55 @@ class ReplayCli : public Command {
   ReplayCommand cmd_;
 };
 
+// --mode, and the options of the fixed-lag and local modes.
+void AddModeOptions(CLI::App* sub, ReplayOptions* o) {
+  sub->add_option_function<std::string>(
+         "--mode",
+         [o](const std::string& m) {
+           o->fixed_lag = m == "fixed-lag";
+           if (!o->fixed_lag) FromString(m, &o->smoother.mode);
+         },
+         "factor (keep a Cholesky factor of the whole system), local (solve each update over a region around it, "
+         "with batch solves now and then) (SmootherOptions::mode), or fixed-lag (marginalise what is older than "
+         "--lag: FixedLagSmoother, with the factor mode's smoother over the window)")
+      ->type_name("NAME")
+      ->default_str("factor")
+      ->check(CLI::IsMember({"factor", "local", "fixed-lag"}));
+  sub->add_option("--lag", o->lag,
+                  "fixed-lag: marginalise the variables added more than this many steps before (FixedLagOptions::lag)")
+      ->capture_default_str();
+  sub->add_option("--lag-batch", o->lag_batch,
+                  "fixed-lag: marginalise once the oldest variable is older than lag * (1 + this) "
+                  "(FixedLagOptions::batch)")
+      ->capture_default_str();
+  sub->add_option("--local-tolerance", o->smoother.local_tolerance,
+                  "local: grow the region while an edge variable alone could lower chi2 by more than this share of "
+                  "chi2 per variable "
+                  "(SmootherOptions::local_tolerance)")
+      ->capture_default_str();
+  sub->add_option("--local-hops", o->smoother.local_hops,
+                  "local: the first region reaches this many factors from the update's variables "
+                  "(SmootherOptions::local_hops)")
+      ->capture_default_str();
+  sub->add_option("--local-max-region", o->smoother.local_max_region,
+                  "local: solve in batch where a region would grow beyond this many variables "
+                  "(SmootherOptions::local_max_region)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-gap", o->smoother.local_batch_gap,
+                  "local: a batch solve once the edge gains since the last reach this share of chi2 "
+                  "(SmootherOptions::local_batch_gap)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-correction", o->smoother.local_batch_correction,
+                  "local: solve in batch an update whose local solve lowers chi2 by more than this share of it "
+                  "(SmootherOptions::local_batch_correction)")
+      ->capture_default_str();
+  sub->add_option("--local-batch-share", o->smoother.local_batch_share,
+                  "local: a batch solve at the latest once the updates since the last reach this share of the "
+                  "variables "
+                  "(SmootherOptions::local_batch_share)")
+      ->capture_default_str();
+}
+
 void ReplayCli::Add(CLI::App& app) {
   CLI::App* sub = app_ =
       app.add_subcommand("replay", "Feed a graph file into the incremental smoother pose by pose and time each update");
@@ -515,6 +582,12 @@ void ReplayCli::Add(CLI::App& app) {
   AddPath(sub, "-o,--output", &cmd_.options.output, "Write the final estimate (g2o)");
   AddPath(sub, "--plot", &cmd_.plot, "Write an SVG of every update's latency (mean, p99 and max marked)");
   sub->add_flag("-q,--quiet", cmd_.quiet, "Only the summary lines");
+  sub->add_flag("--time-marginal", cmd_.options.time_marginal,
+                "After each update, time Marginal() of the variable that step added (not counted in the update)");
+  sub->add_flag_function(
+      "--no-marginal-from-factor", [this](std::int64_t) { cmd_.options.smoother.marginal_from_factor = false; },
+      "Marginal() through tether::Marginals at the estimate always, not from the kept factor "
+      "(SmootherOptions::marginal_from_factor)");
   sub->add_option("--relinearize-threshold", cmd_.options.smoother.relinearize_threshold,
                   "Re-linearise a variable whose step exceeds this (SmootherOptions::relinearize_threshold)")
       ->capture_default_str();
@@ -547,51 +620,7 @@ void ReplayCli::Add(CLI::App& app) {
                   "Back-substitute below a variable only where its step changed by more than this "
                   "(SmootherOptions::wildfire_threshold)")
       ->capture_default_str();
-  sub->add_option_function<std::string>(
-         "--mode",
-         [this](const std::string& m) {
-           cmd_.options.fixed_lag = m == "fixed-lag";
-           if (!cmd_.options.fixed_lag) FromString(m, &cmd_.options.smoother.mode);
-         },
-         "factor (keep a Cholesky factor of the whole system), local (solve each update over a region around it, "
-         "with batch solves now and then) (SmootherOptions::mode), or fixed-lag (marginalise what is older than "
-         "--lag: FixedLagSmoother, with the factor mode's smoother over the window)")
-      ->type_name("NAME")
-      ->default_str("factor")
-      ->check(CLI::IsMember({"factor", "local", "fixed-lag"}));
-  sub->add_option("--lag", cmd_.options.lag,
-                  "fixed-lag: marginalise the variables added more than this many steps before (FixedLagOptions::lag)")
-      ->capture_default_str();
-  sub->add_option("--lag-batch", cmd_.options.lag_batch,
-                  "fixed-lag: marginalise once the oldest variable is older than lag * (1 + this) "
-                  "(FixedLagOptions::batch)")
-      ->capture_default_str();
-  sub->add_option("--local-tolerance", cmd_.options.smoother.local_tolerance,
-                  "local: grow the region while an edge variable alone could lower chi2 by more than this share of "
-                  "chi2 per variable "
-                  "(SmootherOptions::local_tolerance)")
-      ->capture_default_str();
-  sub->add_option("--local-hops", cmd_.options.smoother.local_hops,
-                  "local: the first region reaches this many factors from the update's variables "
-                  "(SmootherOptions::local_hops)")
-      ->capture_default_str();
-  sub->add_option("--local-max-region", cmd_.options.smoother.local_max_region,
-                  "local: solve in batch where a region would grow beyond this many variables "
-                  "(SmootherOptions::local_max_region)")
-      ->capture_default_str();
-  sub->add_option("--local-batch-gap", cmd_.options.smoother.local_batch_gap,
-                  "local: a batch solve once the edge gains since the last reach this share of chi2 "
-                  "(SmootherOptions::local_batch_gap)")
-      ->capture_default_str();
-  sub->add_option("--local-batch-correction", cmd_.options.smoother.local_batch_correction,
-                  "local: solve in batch an update whose local solve lowers chi2 by more than this share of it "
-                  "(SmootherOptions::local_batch_correction)")
-      ->capture_default_str();
-  sub->add_option("--local-batch-share", cmd_.options.smoother.local_batch_share,
-                  "local: a batch solve at the latest once the updates since the last reach this share of the "
-                  "variables "
-                  "(SmootherOptions::local_batch_share)")
-      ->capture_default_str();
+  AddModeOptions(sub, &cmd_.options);
 }
 
 }  // namespace

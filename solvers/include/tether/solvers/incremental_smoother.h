@@ -183,6 +183,13 @@ struct SmootherOptions {
   SolverOptions finish;
   /// Marginal(key): the method of tether::Marginals (default CHOLMOD, sparse inverse subset).
   CovarianceOptions covariance;
+  /// Marginal(key) of a variable near the root of the kept factor's elimination tree (a path
+  /// of at most 32 columns to it, as the newest poses have) comes from that factor: no
+  /// linearisation, no factorisation. It is then the covariance at the linearisation point,
+  /// which is within the re-linearisation thresholds of the estimate. false: always
+  /// tether::Marginals at the estimate. Default true (benchmarks/RESULTS.md, "The newest pose's
+  /// marginal from the kept factor").
+  bool marginal_from_factor = true;
 
   /// True when every part can be used; otherwise says why (when `why` is not null).
   bool IsValid(std::string* why) const;
@@ -253,10 +260,12 @@ class IncrementalSmoother {
 
   /// The current estimate of every variable.
   const Values& Estimate() const { return estimate_; }
-  /// The marginal covariance of `key` at the current estimate, by tether::Marginals over the
-  /// current graph (the factorisation is kept until the next Update or Finish). Throws as
-  /// Marginals does: InvalidArgument for an unknown, fixed or unused key, RankDeficientError
-  /// for a singular system.
+  /// The marginal covariance of `key`. Where options.marginal_from_factor and the key is near
+  /// the root of the kept factor's elimination tree (the newest pose, usually), from that
+  /// factor: the covariance at the linearisation point. Otherwise at the current estimate, by
+  /// tether::Marginals over the current graph (the factorisation is kept until the next Update
+  /// or Finish). Throws as Marginals does: InvalidArgument for an unknown, fixed or unused key,
+  /// RankDeficientError for a singular system.
   Eigen::MatrixXd Marginal(Key key) const;
   /// Solves to convergence from the current estimate (options.finish) and returns the
   /// estimate, then the batch optimum of the graph. The summary is finish_summary().

@@ -45,6 +45,9 @@ struct ReplayOptions {
   /// variable's last: when it left the window, or the window's after Finish(); final_chi2 is
   /// the whole file's chi2 there (the factors left out included), against the batch optimum.
   bool fixed_lag = false;
+  /// After each update, time Marginal() of the variable that step added (the newest pose;
+  /// not counted in the update's latency): ReplayResult::marginal_*.
+  bool time_marginal = false;
   double lag = 100;
   double lag_batch = 0.25;
 
@@ -116,6 +119,9 @@ struct ReplayResult {
   /// Fixed lag: variables marginalised, factors left out (they reached a marginalised
   /// variable), and the largest window (variables) after an update.
   std::size_t marginalized = 0, beyond_lag = 0, largest_window = 0;
+  /// time_marginal: how many Marginal() calls were timed, their summed and largest time.
+  std::size_t marginals = 0;
+  double marginal_seconds = 0, marginal_max_seconds = 0;
 
   double total_seconds() const { return updates_seconds + finish_seconds; }
 };
