@@ -24,6 +24,11 @@ namespace {
 
 using testing::SimulateWorld;
 
+// Inserts every variable of `from` into *into.
+void Append(const Values& from, Values* into) {
+  for (Key k : from.keys()) into->InsertParams(k, from.TypeOf(k), from.Params(k));
+}
+
 // A simulated world without the loop closures that span more than `max_span` poses.
 SimulatedGraph ShortLoops(SimWorld world, int poses, std::uint64_t seed, Key max_span) {
   SimulatedGraph sim = SimulateWorld(world, poses, seed);
@@ -114,13 +119,12 @@ std::pair<double, double> WindowAgainstBatch(SimWorld world, int poses, Key span
   int checks = 0;
   double largest_position = 0, largest_rotation = 0;
   Feed(sim, poses, &smoother, [&](int i, const SmootherUpdate&, const FactorGraph& so_far) {
-    const Values out = smoother.TakeMarginalized();
-    for (Key k : out.keys()) gone.InsertParams(k, out.TypeOf(k), out.Params(k));
+    Append(smoother.TakeMarginalized(), &gone);
     if ((i + 1) % (poses / 4) != 0) return;
     Values window = smoother.Estimate();
     Optimize(smoother.graph(), &window, SmootherOptions().finish);
     Values start = gone;
-    for (Key k : window.keys()) start.InsertParams(k, window.TypeOf(k), window.Params(k));
+    Append(window, &start);
     const Values batch = BatchOptimum(so_far, start);
     double position = 0, rotation = 0;
     PoseDifference(window, batch, &position, &rotation);
@@ -178,13 +182,10 @@ TEST(FixedLagSmoother, MarginalCovariancesAreThoseOfTheWholeGraph) {
   Values gone;
   int compared = 0;
   Feed(sim, poses, &smoother, [&](int, const SmootherUpdate& u, const FactorGraph& so_far) {
-    const Values out = smoother.TakeMarginalized();
-    for (Key k : out.keys()) gone.InsertParams(k, out.TypeOf(k), out.Params(k));
+    Append(smoother.TakeMarginalized(), &gone);
     if (u.marginalized == 0) return;
     Values all = gone;
-    for (Key k : smoother.Estimate().keys()) {
-      all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
-    }
+    Append(smoother.Estimate(), &all);
     // The window's gauge: the pose it holds (moved on with it), as the whole graph's.
     ASSERT_EQ(smoother.graph().fixed().size(), 1u);
     FactorGraph gauged = so_far;
@@ -215,8 +216,7 @@ TEST(FixedLagSmoother, TheWindowStaysBoundedOnALongRun) {
     largest_window = std::max(largest_window, smoother.Estimate().size());
     largest_graph = std::max(largest_graph, smoother.graph().size());
     marginalisations += u.marginalized > 0;
-    const Values out = smoother.TakeMarginalized();
-    for (Key k : out.keys()) all.InsertParams(k, out.TypeOf(k), out.Params(k));
+    Append(smoother.TakeMarginalized(), &all);
   });
   // At most lag * (1 + batch) + 1 poses before a marginalisation brings it back to lag + 1.
   EXPECT_LE(largest_window, 52u);
@@ -226,8 +226,7 @@ TEST(FixedLagSmoother, TheWindowStaysBoundedOnALongRun) {
   EXPECT_NEAR(marginalisations, (poses - 41) / 11, 2);  // every 11 poses once the window is full
   // Each pose's final estimate (when it left the window, or the window's now) is near the
   // batch optimum of the whole graph.
-  for (Key k : smoother.Estimate().keys())
-    all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
+  Append(smoother.Estimate(), &all);
   ASSERT_EQ(all.size(), static_cast<std::size_t>(poses));
   const Values batch = BatchOptimum(sim.graph, all);
   double position = 0, rotation = 0;
@@ -252,13 +251,10 @@ TEST(FixedLagSmoother, ALongWalkDoesNotFloat) {
   o.lag = 120;
   FixedLagSmoother smoother(o);
   Values all;
-  Feed(sim, poses, &smoother, [&](int, const SmootherUpdate&, const FactorGraph&) {
-    const Values out = smoother.TakeMarginalized();
-    for (Key k : out.keys()) all.InsertParams(k, out.TypeOf(k), out.Params(k));
-  });
+  Feed(sim, poses, &smoother,
+       [&](int, const SmootherUpdate&, const FactorGraph&) { Append(smoother.TakeMarginalized(), &all); });
   smoother.Finish();
-  for (Key k : smoother.Estimate().keys())
-    all.InsertParams(k, smoother.Estimate().TypeOf(k), smoother.Estimate().Params(k));
+  Append(smoother.Estimate(), &all);
   const double online = sim.graph.Chi2(all);
   const Values batch = BatchOptimum(sim.graph, all);
   const double optimum = sim.graph.Chi2(batch);
@@ -367,10 +363,8 @@ TEST(FixedLagSmoother, WithAnAnchorTheMarginalPriorCarriesIt) {
   o.lag = 25;
   FixedLagSmoother smoother(o);
   Values gone;
-  Feed(sim, poses, &smoother, [&](int, const SmootherUpdate&, const FactorGraph&) {
-    const Values out = smoother.TakeMarginalized();
-    for (Key k : out.keys()) gone.InsertParams(k, out.TypeOf(k), out.Params(k));
-  });
+  Feed(sim, poses, &smoother,
+       [&](int, const SmootherUpdate&, const FactorGraph&) { Append(smoother.TakeMarginalized(), &gone); });
   EXPECT_TRUE(smoother.graph().fixed().empty());
   int anchors = 0;
   for (const auto& f : smoother.graph().factors()) {
@@ -382,7 +376,7 @@ TEST(FixedLagSmoother, WithAnAnchorTheMarginalPriorCarriesIt) {
   Values window = smoother.Estimate();
   Optimize(smoother.graph(), &window, SmootherOptions().finish);
   Values start = gone;
-  for (Key k : window.keys()) start.InsertParams(k, window.TypeOf(k), window.Params(k));
+  Append(window, &start);
   const Values batch = BatchOptimum(sim.graph, start);
   double largest = 0;
   for (Key k : window.keys()) {

@@ -48,6 +48,21 @@ class ReplayTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
+  // `tether replay FILE -q ARGS`: its output (stdout and stderr); the exit code is expected to
+  // be want_exit.
+  std::string Run(const std::string& args, int want_exit = 0) const {
+    const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " -q " + args + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    EXPECT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    std::size_t n;
+    while (p != nullptr && (n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+    const int status = p != nullptr ? pclose(p) : -1;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == want_exit) << out;
+    return out;
+  }
+
   fs::path dir_;
   std::string file_;
   std::size_t factors_ = 0;
@@ -236,18 +251,7 @@ TEST_F(ReplayTest, TimesTheNewestMarginalOnRequest) {
 }
 
 TEST_F(ReplayTest, FixedLagFromTheCommandLine) {
-  auto run = [&](const std::string& extra, int want_exit = 0) {
-    const std::string cmd = std::string(TETHER_CLI) + " replay " + file_ + " -q " + extra + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    EXPECT_NE(p, nullptr);
-    std::string out;
-    char buf[4096];
-    std::size_t n;
-    while (p != nullptr && (n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
-    const int status = p != nullptr ? pclose(p) : -1;
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == want_exit) << out;
-    return out;
-  };
+  auto run = [&](const std::string& extra, int want_exit = 0) { return Run(extra, want_exit); };
   // "fixed lag: M variables marginalised, a window of at most W variables, F factor(s) left out"
   auto counts = [](const std::string& out, long* marginalised, long* window, long* left_out) {
     const auto f = Fields(out);
@@ -290,17 +294,7 @@ TEST_F(ReplayTest, LocalModeFromTheCommandLine) {
   // --mode local and its options reach the smoother: a region limit of 1 variable makes every
   // update with a loop closure a batch solve; the default limit leaves most of them local.
   auto run = [&](const std::string& extra, int want_exit = 0) {
-    const std::string cmd =
-        std::string(TETHER_CLI) + " replay " + file_ + " --mode local --check 25 -q " + extra + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    EXPECT_NE(p, nullptr);
-    std::string out;
-    char buf[4096];
-    std::size_t n;
-    while (p != nullptr && (n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
-    const int status = p != nullptr ? pclose(p) : -1;
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == want_exit) << out;
-    return out;
+    return Run("--mode local --check 25 " + extra, want_exit);
   };
   // "local mode: B batch solve(s), L local solve(s) over R variables on average"
   auto counts = [](const std::string& out, int* batch, int* local) {
