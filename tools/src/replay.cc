@@ -344,7 +344,6 @@ ReplayResult ReplayFile(const std::string& path, const ReplayOptions& ro,
   if (ro.fixed_lag) return ReplayFixedLag(file, schedule, ro, output, own_output != nullptr, std::move(r), on_check);
   IncrementalSmoother smoother(options);
   if (!FeedUpdates(file, schedule, ro, &smoother, &r, on_check)) return r;
-  LatencyStatistics(&r);
 
   const auto t_finish = std::chrono::steady_clock::now();
   try {
